@@ -1,0 +1,282 @@
+"""Radiance HDR (RGBE) luminance maps, read and written the way Radiance does.
+
+Conventions (FORMULAS.md §2.4.1; PITFALLS.md):
+
+- Luminance = 179 · (0.265074 R + 0.670115 G + 0.064811 B) after dividing each channel by
+  the product of all ``EXPOSURE=`` values and by ``COLORCORR=`` where present.
+- An RGBE pixel decodes as (mantissa + ½)·2^(exponent − 136) (Radiance ``colr_color``);
+  OpenCV leaves out the ½ and reads about 0.3 % low, so decoding is done here.
+- We write grey pixels R = G = B = L / 179, so Radiance's luminance of the pixel is L
+  (the three weights sum to 1), a ``VIEW=`` line from the projection so that evalglare can
+  use the file, and our metadata on an ``LSADPHOTO=`` header line.
+
+References
+----------
+G. Ward, "Real pixels", *Graphics Gems II* (1991) 80–83. Radiance ``src/common/color.c``
+(setcolr, colr_color, fwritecolrs, freadcolrs) and ``src/common/header.c``.
+"""
+
+import re
+
+import numpy as np
+
+from .._validation import check_file
+from .._version import __version__
+from ..constants import RADIANCE_RGB_LUMINANCE_WEIGHTS, RADIANCE_WHITE_EFFICACY
+from ..errors import UnsupportedFileError
+from ..geometry.pinhole import PinholeProjection
+from ..luminance_map import LuminanceMap
+from ._atomic import atomic_path
+from ._metadata import metadata_fields, metadata_json
+
+_RESOLUTION = re.compile(rb"^-Y (\d+) \+X (\d+)$")
+_MIN_RLE, _MAX_RLE = 8, 0x7FFF
+
+
+# --- RGBE encoding ---------------------------------------------------------------------------
+
+
+def float_to_rgbe(rgb):
+    """Encode float RGB ``(..., 3)`` as RGBE bytes ``(..., 4)`` as Radiance's setcolr does."""
+    rgb = np.asarray(rgb, dtype=np.float64)
+    peak = rgb.max(axis=-1)
+    mantissa, exponent = np.frexp(peak)
+    out = np.zeros(rgb.shape[:-1] + (4,), dtype=np.uint8)
+    ok = peak > 1e-32
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = np.where(ok, mantissa * 256.0 / peak, 0.0)
+    values = np.floor(np.clip(rgb, 0.0, None) * scale[..., None])
+    out[..., :3] = np.where(ok[..., None], np.clip(values, 0, 255), 0).astype(np.uint8)
+    out[..., 3] = np.where(ok, np.clip(exponent + 128, 0, 255), 0).astype(np.uint8)
+    return out
+
+
+def rgbe_to_float(rgbe):
+    """Decode RGBE bytes ``(..., 4)`` to float RGB as Radiance's colr_color does."""
+    rgbe = np.asarray(rgbe)
+    exponent = rgbe[..., 3].astype(np.int32)
+    scale = np.where(exponent > 0, np.ldexp(1.0, exponent - 136), 0.0)
+    return (rgbe[..., :3].astype(np.float64) + 0.5) * scale[..., None]
+
+
+def _encode_scanlines(rgbe):
+    """New-style RLE scanlines made of literal runs only (valid for every Radiance reader)."""
+    rows, cols, _ = rgbe.shape
+    if not _MIN_RLE <= cols <= _MAX_RLE:
+        return rgbe.tobytes()  # flat scanlines, as Radiance writes outside the RLE range
+    starts = np.arange(0, cols, 128)
+    counts = np.minimum(128, cols - starts).astype(np.uint8)
+    # Per component: [count, bytes...] for each chunk. Build the index layout once.
+    comp_len = len(starts) + cols
+    layout = np.empty(comp_len, dtype=np.int64)  # -1 for count bytes, else column index
+    pos = 0
+    count_positions = []
+    for start, count in zip(starts, counts):
+        count_positions.append(pos)
+        layout[pos] = -1
+        layout[pos + 1 : pos + 1 + count] = np.arange(start, start + count)
+        pos += 1 + int(count)
+    is_data = layout >= 0
+    line = np.empty((rows, 4 + 4 * comp_len), dtype=np.uint8)
+    line[:, 0] = 2
+    line[:, 1] = 2
+    line[:, 2] = cols >> 8
+    line[:, 3] = cols & 0xFF
+    for c in range(4):
+        block = line[:, 4 + c * comp_len : 4 + (c + 1) * comp_len]
+        block[:, np.asarray(count_positions)] = counts
+        block[:, is_data] = rgbe[:, layout[is_data], c]
+    return line.tobytes()
+
+
+def _decode_scanline(data, pos, cols, out_row):
+    """Decode one scanline starting at ``data[pos]`` into ``out_row`` (cols, 4); new position."""
+    n = len(data)
+    if (
+        _MIN_RLE <= cols <= _MAX_RLE
+        and pos + 4 <= n
+        and data[pos] == 2
+        and data[pos + 1] == 2
+        and not data[pos + 2] & 0x80
+    ):
+        if (data[pos + 2] << 8 | data[pos + 3]) != cols:
+            raise UnsupportedFileError("scanline length mismatch")
+        pos += 4
+        for c in range(4):
+            col = 0
+            while col < cols:
+                if pos >= n:
+                    raise UnsupportedFileError("file truncated inside a scanline")
+                code = data[pos]
+                pos += 1
+                if code > 128:
+                    run = code - 128
+                    if col + run > cols or pos >= n:
+                        raise UnsupportedFileError("corrupt run length")
+                    out_row[col : col + run, c] = data[pos]
+                    pos += 1
+                else:
+                    if code == 0 or col + code > cols or pos + code > n:
+                        raise UnsupportedFileError("corrupt run length")
+                    out_row[col : col + code, c] = np.frombuffer(data, np.uint8, code, pos)
+                    pos += code
+                col += run if code > 128 else code
+        return pos
+    # Flat pixels, possibly with old-style runs (1,1,1,n repeats the previous pixel).
+    col, shift = 0, 0
+    while col < cols:
+        if pos + 4 > n:
+            raise UnsupportedFileError("file truncated inside a scanline")
+        pixel = data[pos : pos + 4]
+        pos += 4
+        if pixel[0] == 1 and pixel[1] == 1 and pixel[2] == 1:
+            if col == 0:
+                raise UnsupportedFileError("old-style run at the start of a scanline")
+            run = pixel[3] << shift
+            if col + run > cols:
+                raise UnsupportedFileError("corrupt old-style run")
+            out_row[col : col + run] = out_row[col - 1]
+            col += run
+            shift += 8
+        else:
+            out_row[col] = np.frombuffer(pixel, np.uint8)
+            col += 1
+            shift = 0
+    return pos
+
+
+# --- header ----------------------------------------------------------------------------------
+
+
+def parse_view(text):
+    """Parse Radiance view options (``-vtv -vh 60 …``) into a dict; the type under ``"type"``."""
+    options = {"type": "v"}
+    tokens = text.split()
+    i = 0
+    counts = {"vp": 3, "vd": 3, "vu": 3}
+    while i < len(tokens):
+        token = tokens[i]
+        if token.startswith("-vt") and len(token) == 4:
+            options["type"] = token[3]
+            i += 1
+        elif token.startswith("-v") and token[1:] in ("vp", "vd", "vu", "vh", "vv", "vs", "vl", "vo", "va"):
+            key = token[1:]
+            k = counts.get(key, 1)
+            try:
+                values = [float(t) for t in tokens[i + 1 : i + 1 + k]]
+            except ValueError:
+                raise UnsupportedFileError(f"bad view option {token} in {text!r}") from None
+            if len(values) != k:
+                raise UnsupportedFileError(f"bad view option {token} in {text!r}")
+            options[key] = values if k > 1 else values[0]
+            i += 1 + k
+        else:
+            i += 1
+    return options
+
+
+def _read_header(data, path):
+    if not data.startswith(b"#?"):
+        raise UnsupportedFileError(f"{path}: not a Radiance picture (no '#?' magic line)")
+    end = data.find(b"\n\n")
+    if end < 0:
+        raise UnsupportedFileError(f"{path}: header has no end")
+    lines = data[:end].split(b"\n")
+    rest = end + 2
+    eol = data.find(b"\n", rest)
+    if eol < 0:
+        raise UnsupportedFileError(f"{path}: no resolution line")
+    match = _RESOLUTION.match(data[rest:eol].strip())
+    if not match:
+        raise UnsupportedFileError(
+            f"{path}: unsupported resolution line {data[rest:eol][:40]!r} (only -Y N +X M)"
+        )
+    rows, cols = int(match.group(1)), int(match.group(2))
+    header = {"exposure": 1.0, "colorcorr": np.ones(3), "view": None, "format": None, "lsadphoto": None}
+    for raw in lines[1:]:
+        line = raw.decode("latin-1").strip()
+        key, _, value = line.partition("=")
+        key = key.strip().upper()
+        try:
+            if key == "EXPOSURE":
+                header["exposure"] *= float(value)
+            elif key == "COLORCORR":
+                header["colorcorr"] = header["colorcorr"] * np.array([float(v) for v in value.split()[:3]])
+            elif key == "VIEW":
+                header["view"] = value if header["view"] is None else header["view"] + " " + value
+            elif key == "FORMAT":
+                header["format"] = value.strip()
+            elif key == "LSADPHOTO":
+                header["lsadphoto"] = value
+        except ValueError:
+            raise UnsupportedFileError(f"{path}: bad header line {line[:60]!r}") from None
+    if header["format"] not in (None, "32-bit_rle_rgbe"):
+        raise UnsupportedFileError(f"{path}: unsupported pixel format {header['format']!r}")
+    if header["exposure"] <= 0 or np.any(header["colorcorr"] <= 0):
+        raise UnsupportedFileError(f"{path}: non-positive EXPOSURE or COLORCORR")
+    return header, rows, cols, eol + 1
+
+
+def read_hdr_rgb(path):
+    """Read a Radiance picture: float64 RGB ``(rows, cols, 3)`` with EXPOSURE and COLORCORR
+    divided out, and the parsed header."""
+    path = check_file(path, "HDR file")
+    data = path.read_bytes()
+    header, rows, cols, pos = _read_header(data, path)
+    rgbe = np.zeros((rows, cols, 4), dtype=np.uint8)
+    try:
+        for row in range(rows):
+            pos = _decode_scanline(data, pos, cols, rgbe[row])
+    except UnsupportedFileError as exc:
+        raise UnsupportedFileError(f"{path}: {exc}") from None
+    rgb = rgbe_to_float(rgbe) / header["exposure"] / header["colorcorr"]
+    return rgb, header
+
+
+def read_hdr(path):
+    """Read a Radiance HDR picture as a :class:`LuminanceMap` [cd·m⁻²] (179 lm/W convention).
+
+    Files written by :func:`write_hdr` come back with their metadata; for other files a
+    ``-vtv`` VIEW= line gives a :class:`PinholeProjection`, and other view types are kept
+    in the provenance (``radiance_view``) until the geometry stage reads them.
+    """
+    rgb, header = read_hdr_rgb(path)
+    weights = np.asarray(RADIANCE_RGB_LUMINANCE_WEIGHTS)
+    luminance = (RADIANCE_WHITE_EFFICACY * (rgb @ weights)).astype(np.float32)
+    rows, cols = luminance.shape
+    if header["lsadphoto"] is not None:
+        fields = metadata_fields(header["lsadphoto"], path)
+    else:
+        fields = {"provenance": {"source": str(path), "radiance_view": header["view"]}}
+        if header["view"] is not None:
+            view = parse_view(header["view"])
+            if view["type"] == "v":
+                fields["projection"] = PinholeProjection.from_radiance_view(view, cols, rows)
+    return LuminanceMap(luminance, **fields)
+
+
+def write_hdr(lmap, path):
+    """Write ``lmap`` as a Radiance picture (atomic), readable by evalglare and pvalue.
+
+    Pixels are grey with R = G = B = L/179; unknown (NaN) pixels are written as 0, which is
+    what evalglare does with invalid pixels. ``EXPOSURE`` is not written (1). The
+    ``VIEW=`` line comes from the projection where it has a Radiance equivalent.
+    """
+    luminance = np.nan_to_num(np.asarray(lmap.luminance, np.float64), nan=0.0)
+    value = luminance / RADIANCE_WHITE_EFFICACY
+    rgbe = float_to_rgbe(np.repeat(value[..., None], 3, axis=-1))
+    rows, cols = luminance.shape
+    lines = ["#?RADIANCE", f"SOFTWARE=lsadphoto {__version__}"]
+    if lmap.projection is not None and hasattr(lmap.projection, "radiance_view"):
+        lines.append(f"VIEW= {lmap.projection.radiance_view()}")
+    lines.append(f"LSADPHOTO={metadata_json(lmap)}")
+    lines.append("FORMAT=32-bit_rle_rgbe")
+    head = ("\n".join(lines) + f"\n\n-Y {rows} +X {cols}\n").encode("latin-1", "replace")
+    with atomic_path(path) as temp:
+        with open(temp, "wb") as fh:
+            fh.write(head)
+            fh.write(_encode_scanlines(rgbe))
+
+
+
+__all__ = ["read_hdr", "write_hdr", "read_hdr_rgb", "float_to_rgbe", "rgbe_to_float", "parse_view"]

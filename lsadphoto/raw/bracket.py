@@ -1,0 +1,231 @@
+"""Merging an exposure bracket into one relative radiance map.
+
+Each frame's normalised camera value v is divided by its exposure factor e = t·S/N², so every
+frame estimates the same x = v/e. Saturated values and values below a few read-noise
+standard deviations are left out per channel; the rest are combined with inverse-variance
+weights from a shot + read noise model, evaluated at a first estimate of x (so that the
+weights do not depend on each frame's own noise, which would bias the mean).
+
+References
+----------
+Granados, Ajdin, Wand, Theobalt, Seidel & Lensch, "Optimal HDR reconstruction with linear
+digital cameras", CVPR 2010 (inverse-variance weights from a shot + read noise model).
+Hasinoff, Durand & Freeman, "Noise-optimal capture for high dynamic range photography",
+CVPR 2010. EMVA 1288 Release 4.0 (linear camera noise model).
+"""
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._validation import check_positive
+from ..constants import SATURATION_FRACTION
+from ..errors import BadInputError, MisalignmentWarning
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """Linear sensor noise model (EMVA 1288) at ISO 100.
+
+    Parameters
+    ----------
+    full_well : float
+        Electrons that reach the white level at ISO 100 [e⁻]; at ISO S the white level
+        holds full_well·100/S electrons.
+    read_noise : float
+        Read noise at the sensor input [e⁻ rms].
+
+    The variance of a normalised value v at ISO S is v/g + (r/g)² with g = full_well·100/S.
+    """
+
+    full_well: float = 30000.0
+    read_noise: float = 3.0
+
+    def gain(self, iso):
+        """Electrons per unit normalised value at ISO ``iso`` [e⁻]."""
+        return self.full_well * 100.0 / iso
+
+    def variance(self, value, iso):
+        """Variance of normalised value(s) ``value`` at ISO ``iso`` [–]."""
+        g = self.gain(iso)
+        return np.maximum(value, 0.0) / g + (self.read_noise / g) ** 2
+
+
+@dataclass
+class MergedImage:
+    """Relative radiance x = v/e per camera channel with its variance.
+
+    Attributes
+    ----------
+    radiance : ndarray, float32, (rows, cols, 3)
+        Exposure-normalised camera RGB [N²·s⁻¹ per unit ISO]; NaN where every frame was
+        saturated.
+    variance : ndarray, float32, (rows, cols, 3)
+        Variance of ``radiance`` from the noise model.
+    saturated : ndarray, bool, (rows, cols, 3)
+        Channels saturated in every frame.
+    frames_used : ndarray, uint8, (rows, cols)
+        Number of frames that contributed to the green channel.
+    shifts : list of (float, float)
+        Measured shift of each frame against the reference frame [px of the sensor].
+    """
+
+    radiance: np.ndarray
+    variance: np.ndarray
+    saturated: np.ndarray
+    frames_used: np.ndarray
+    shifts: list
+
+
+def measure_shift(reference, moving, low, high, *, max_size=512):
+    """Translation (rows, cols) [px] of ``moving`` against ``reference`` by phase correlation.
+
+    Both images (exposure-normalised, one channel) are clipped to [low, high], the range
+    where both frames hold valid values: beyond it both saturate or vanish alike, so the
+    clipped images differ only by noise and the shift. Computed on log values of a copy at
+    most ``max_size`` px, to a tenth of its pixel.
+
+    References
+    ----------
+    Guizar-Sicairos, Thurman & Fienup, "Efficient subpixel image registration algorithms",
+    Opt. Lett. 33 (2008) 156 (scikit-image's ``phase_cross_correlation``).
+    """
+    from skimage.registration import phase_cross_correlation
+    from skimage.transform import downscale_local_mean
+
+    step = max(1, int(np.ceil(max(reference.shape) / max_size)))
+
+    def prep(x):
+        y = np.log(np.clip(np.nan_to_num(x, nan=low), low, high))
+        if step > 1:
+            rows, cols = (y.shape[0] // step) * step, (y.shape[1] // step) * step
+            y = downscale_local_mean(y[:rows, :cols], (step, step))
+        return y - y.mean()
+
+    ref, mov = prep(reference), prep(moving)
+    if not ref.any() or not mov.any():
+        return (0.0, 0.0)
+    shift, _, _ = phase_cross_correlation(ref, mov, upsample_factor=10)
+    return (float(-shift[0] * step), float(-shift[1] * step))
+
+
+def merge_bracket(frames, exposures, isos, *, noise=NoiseModel(), near_black_sigma=3.0, binning=1,
+                  check_alignment=True, saturation_level=SATURATION_FRACTION):
+    """Merge normalised frames of one view into relative radiance.
+
+    Parameters
+    ----------
+    frames : sequence of (rgb, saturated)
+        Normalised camera RGB ``(rows, cols, 3)`` and its saturation mask, as from
+        :func:`~lsadphoto.raw.decode_raw`.
+    exposures : sequence of float
+        Exposure factor e = t·S/N² of each frame [s].
+    isos : sequence of float
+        ISO speed of each frame (for the noise model).
+    noise : NoiseModel
+    near_black_sigma : float
+        Values below this many read-noise standard deviations are left out, unless no
+        frame has more signal.
+    binning : int
+        Sensor pixels per output pixel (for the noise of binned pixels and shift units).
+    check_alignment : bool
+        Measure each frame's shift against the reference and warn above one pixel.
+    saturation_level : float
+        Normalised value where frames saturate (bounds the range used for alignment).
+
+    Returns
+    -------
+    MergedImage
+    """
+    if len(frames) == 0:
+        raise BadInputError("no frames to merge")
+    if not len(frames) == len(exposures) == len(isos):
+        raise BadInputError("frames, exposures and ISO values differ in number")
+    shape = frames[0][0].shape
+    for i, (rgb, sat) in enumerate(frames):
+        if rgb.shape != shape or sat.shape != shape:
+            raise BadInputError(f"bracket frame {i + 1} is {rgb.shape[:2]} but frame 1 is {shape[:2]}")
+        if not np.all(np.isfinite(rgb)):
+            raise BadInputError(f"bracket frame {i + 1} contains NaN or infinite values")
+    exposures = [check_positive(e, "exposure") for e in exposures]
+    isos = [check_positive(s, "ISO") for s in isos]
+
+    order = np.argsort(exposures)[::-1]  # longest first
+    rgb = [frames[i][0] for i in order]
+    sat = [frames[i][1] for i in order]
+    e = np.array([exposures[i] for i in order])
+    s = np.array([isos[i] for i in order])
+    # Binning averages `binning²` CFA values per output value (the green channel averages
+    # two, red and blue one per 2 × 2 cell); the model uses the conservative single value.
+    read_sd = np.array([noise.read_noise / noise.gain(iso) for iso in s])
+
+    valid = []
+    for k in range(len(rgb)):
+        valid.append(~sat[k] & (rgb[k] > near_black_sigma * read_sd[k]))
+    any_unsat = np.zeros(shape, bool)
+    for k in range(len(rgb)):
+        any_unsat |= ~sat[k]
+    # First estimate: pooled x = Σ v / Σ e over usable frames (the estimate for pure shot
+    # noise); where no frame is usable, the longest unsaturated frame.
+    num = np.zeros(shape, np.float64)
+    den = np.zeros(shape, np.float64)
+    for k in range(len(rgb)):
+        num += np.where(valid[k], rgb[k], 0.0)
+        den += np.where(valid[k], e[k], 0.0)
+    fallback = np.full(shape, np.nan)
+    for k in reversed(range(len(rgb))):  # shortest first, so the longest wins
+        fallback = np.where(~sat[k], rgb[k] / e[k], fallback)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        first = np.where(den > 0, num / den, fallback)
+    # Second pass: inverse-variance weights evaluated at the first estimate.
+    wsum = np.zeros(shape, np.float64)
+    xsum = np.zeros(shape, np.float64)
+    for k in range(len(rgb)):
+        var_x = noise.variance(first * e[k], s[k]) / e[k] ** 2
+        w = np.where(valid[k], 1.0 / var_x, 0.0)
+        wsum += w
+        xsum += w * rgb[k] / e[k]
+    none_valid = wsum == 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        radiance = np.where(none_valid, fallback, xsum / wsum)
+        variance = np.where(none_valid, np.nan, 1.0 / wsum)
+    # Where only the fallback was used, its variance is that of the longest unsaturated frame.
+    for k in reversed(range(len(rgb))):
+        use = none_valid & ~sat[k]
+        variance = np.where(use, noise.variance(first * e[k], s[k]) / e[k] ** 2, variance)
+        none_valid = none_valid & ~use
+    saturated = ~any_unsat
+    radiance[saturated] = np.nan
+    variance[saturated] = np.nan
+    frames_used = sum(v[..., 1].astype(np.uint8) for v in valid)
+
+    shifts = [(0.0, 0.0)] * len(frames)
+    if check_alignment and len(frames) > 1:
+        ref = int(np.argmax([v[..., 1].sum() for v in valid]))
+        for k in range(len(rgb)):
+            low = max(near_black_sigma * read_sd[k] / e[k], near_black_sigma * read_sd[ref] / e[ref])
+            high = min(saturation_level / e[k], saturation_level / e[ref])
+            if k == ref or low >= high:
+                continue
+            # Pixels saturated in either frame read as saturated in both, so that the dilated
+            # masks of demosaicing do not show up as moved edges.
+            either = sat[ref][..., 1] | sat[k][..., 1]
+            dr, dc = measure_shift(np.where(either, high, rgb[ref][..., 1] / e[ref]),
+                                   np.where(either, high, rgb[k][..., 1] / e[k]), low, high)
+            shift = (dr * binning, dc * binning)
+            shifts[order[k]] = shift
+            if np.hypot(*shift) > 1.0:
+                warnings.warn(
+                    f"bracket frame {order[k] + 1} is shifted by ({shift[0]:.1f}, {shift[1]:.1f}) px "
+                    "against the reference frame; the merged map will be blurred (use a tripod)",
+                    MisalignmentWarning,
+                    stacklevel=2,
+                )
+    return MergedImage(
+        radiance=radiance.astype(np.float32),
+        variance=variance.astype(np.float32),
+        saturated=saturated,
+        frames_used=frames_used,
+        shifts=shifts,
+    )
