@@ -89,7 +89,8 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
     exposures, isos = _exposures(images, need_absolute)
     merged = merge_bracket(
         [(im.rgb, im.saturated) for im in images], exposures, isos, noise=profile.noise,
-        binning=first.binning, check_alignment=check_alignment,
+        binning=first.binning, averaged=(1, 2, 1) if demosaic == "superpixel" else (1, 1, 1),
+        check_alignment=check_alignment,
     )
     gain = vignetting_gain(profile.vignetting, first.sensor_shape, first.shape, binning=first.binning)
     radiance = merged.radiance / gain[..., None]

@@ -11,6 +11,7 @@ PITFALLS.md), focal length and focal-plane resolution.
 """
 
 import os
+from fractions import Fraction
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -100,8 +101,10 @@ class SyntheticCamera:
         return np.tile(cell, (self.height // 2 + 1, self.width // 2 + 1))[: self.height, : self.width]
 
 
-def _rational(value, denominator=10000):
-    return [int(round(value * denominator)), denominator]
+def _rational(value, max_denominator=10000):
+    """TIFF (S)RATIONAL of ``value``: the nearest fraction (1/16000 s stays exact)."""
+    fraction = Fraction(float(value)).limit_denominator(max_denominator)
+    return [fraction.numerator, fraction.denominator]
 
 
 def write_dng(path, raw, camera, *, exposure_time, f_number, iso, extra_tags=()):
@@ -134,7 +137,7 @@ def write_dng(path, raw, camera, *, exposure_time, f_number, iso, extra_tags=())
     neutral = neutral / neutral.max()
     tags.set(Tag.AsShotNeutral, [_rational(v) for v in neutral])
     if exposure_time is not None:
-        tags.set(Tag.ExposureTime, [_rational(exposure_time, 1000000)])
+        tags.set(Tag.ExposureTime, [_rational(exposure_time, 10**7)])
     if f_number is not None:
         tags.set(Tag.FNumber, [_rational(f_number, 100)])
     if iso is not None:

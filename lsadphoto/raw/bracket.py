@@ -103,15 +103,28 @@ def measure_shift(reference, moving, low, high, *, max_size=512):
             y = downscale_local_mean(y[:rows, :cols], (step, step))
         return y - y.mean()
 
+    from scipy.ndimage import shift as shift_image
+
     ref, mov = prep(reference), prep(moving)
     if not ref.any() or not mov.any():
         return (0.0, 0.0)
     shift, _, _ = phase_cross_correlation(ref, mov, upsample_factor=10)
+    # A shift is only real if applying it explains the difference between the frames: an
+    # image without structure along one direction (a ramp, a blank wall) leaves that
+    # component undetermined. Compare residuals away from the borders.
+    margin = int(np.ceil(np.abs(shift).max())) + 2
+    if 2 * margin >= min(ref.shape):
+        return (0.0, 0.0)
+    inner = (slice(margin, -margin), slice(margin, -margin))
+    before = np.mean((ref - mov)[inner] ** 2)
+    after = np.mean((ref - shift_image(mov, shift, order=1, mode="nearest"))[inner] ** 2)
+    if not after < 0.5 * before:
+        return (0.0, 0.0)
     return (float(-shift[0] * step), float(-shift[1] * step))
 
 
 def merge_bracket(frames, exposures, isos, *, noise=NoiseModel(), near_black_sigma=3.0, binning=1,
-                  check_alignment=True, saturation_level=SATURATION_FRACTION):
+                  averaged=(1, 1, 1), check_alignment=True, saturation_level=SATURATION_FRACTION):
     """Merge normalised frames of one view into relative radiance.
 
     Parameters
@@ -128,7 +141,11 @@ def merge_bracket(frames, exposures, isos, *, noise=NoiseModel(), near_black_sig
         Values below this many read-noise standard deviations are left out, unless no
         frame has more signal.
     binning : int
-        Sensor pixels per output pixel (for the noise of binned pixels and shift units).
+        Sensor pixels per output pixel (shifts are reported in sensor pixels).
+    averaged : (int, int, int)
+        CFA values averaged into each output value per channel (superpixel: 1, 2, 1); the
+        noise variance of the channel is divided by it. Interpolated values of LibRaw's
+        methods are counted as single values, which overstates their noise a little.
     check_alignment : bool
         Measure each frame's shift against the reference and warn above one pixel.
     saturation_level : float
@@ -156,9 +173,8 @@ def merge_bracket(frames, exposures, isos, *, noise=NoiseModel(), near_black_sig
     sat = [frames[i][1] for i in order]
     e = np.array([exposures[i] for i in order])
     s = np.array([isos[i] for i in order])
-    # Binning averages `binning²` CFA values per output value (the green channel averages
-    # two, red and blue one per 2 × 2 cell); the model uses the conservative single value.
     read_sd = np.array([noise.read_noise / noise.gain(iso) for iso in s])
+    per_channel = 1.0 / np.asarray(averaged, dtype=np.float64)
 
     valid = []
     for k in range(len(rgb)):
@@ -182,7 +198,7 @@ def merge_bracket(frames, exposures, isos, *, noise=NoiseModel(), near_black_sig
     wsum = np.zeros(shape, np.float64)
     xsum = np.zeros(shape, np.float64)
     for k in range(len(rgb)):
-        var_x = noise.variance(first * e[k], s[k]) / e[k] ** 2
+        var_x = noise.variance(first * e[k], s[k]) * per_channel / e[k] ** 2
         w = np.where(valid[k], 1.0 / var_x, 0.0)
         wsum += w
         xsum += w * rgb[k] / e[k]
@@ -193,7 +209,7 @@ def merge_bracket(frames, exposures, isos, *, noise=NoiseModel(), near_black_sig
     # Where only the fallback was used, its variance is that of the longest unsaturated frame.
     for k in reversed(range(len(rgb))):
         use = none_valid & ~sat[k]
-        variance = np.where(use, noise.variance(first * e[k], s[k]) / e[k] ** 2, variance)
+        variance = np.where(use, noise.variance(first * e[k], s[k]) * per_channel / e[k] ** 2, variance)
         none_valid = none_valid & ~use
     saturated = ~any_unsat
     radiance[saturated] = np.nan

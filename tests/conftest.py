@@ -1,0 +1,75 @@
+"""Shared fixtures: a synthetic camera, its DNGs, and the real-data folder."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lsadphoto.calibrate import CameraProfile
+from lsadphoto.datasets import SyntheticCamera, interior_scene, write_dng
+
+#: ../shared/realdata beside the repository (absent in a user's fresh clone).
+REALDATA = Path(__file__).resolve().parents[2] / "shared" / "realdata"
+
+
+def realdata(relative):
+    """Path of a real-data file, or skip the test with a reason."""
+    path = REALDATA / relative
+    if not path.exists():
+        pytest.skip(f"real data {relative} not available (../shared/realdata is absent)")
+    return path
+
+
+@pytest.fixture
+def camera():
+    return SyntheticCamera(width=256, height=192)
+
+
+@pytest.fixture
+def profile_for():
+    def make(camera, **kwargs):
+        return CameraProfile(
+            id="synthetic-test",
+            sensor_width=camera.sensor_width,
+            sensor_height=camera.sensor_height,
+            width=camera.width,
+            height=camera.height,
+            focal_length=camera.focal_length,
+            calibration_constant=camera.calibration_constant,
+            **kwargs,
+        )
+
+    return make
+
+
+@pytest.fixture
+def shoot(tmp_path):
+    """Write a DNG of a luminance map through a camera; returns its path."""
+    counter = iter(range(10_000))
+
+    def make(camera, luminance, *, exposure_time=1 / 125, f_number=4.0, iso=100, noise=False, seed=0,
+             chromaticity=None, **dng):
+        kwargs = {} if chromaticity is None else {"chromaticity": chromaticity}
+        raw = camera.expose(luminance, exposure_time=exposure_time, f_number=f_number, iso=iso, noise=noise,
+                            rng=np.random.default_rng(seed), **kwargs)
+        path = tmp_path / f"shot{next(counter)}.dng"
+        write_dng(path, raw, camera, exposure_time=exposure_time, f_number=f_number, iso=iso, **dng)
+        return path
+
+    return make
+
+
+def binned_truth(luminance, factor=2):
+    rows, cols = (luminance.shape[0] // factor) * factor, (luminance.shape[1] // factor) * factor
+    return luminance[:rows, :cols].reshape(rows // factor, factor, cols // factor, factor).mean(axis=(1, 3))
+
+
+def smooth_mask(truth, radius=4, tolerance=0.01):
+    """Pixels whose (2·radius+1)² neighbourhood varies by at most ``tolerance`` (relative)."""
+    from scipy.ndimage import maximum_filter, minimum_filter
+
+    size = 2 * radius + 1
+    return maximum_filter(truth, size) <= (1 + tolerance) * minimum_filter(truth, size)
+
+
+__all__ = ["realdata", "binned_truth", "smooth_mask", "interior_scene"]
