@@ -262,6 +262,10 @@ def decode_raw(path, *, demosaic="superpixel", saturation_fraction=SATURATION_FR
             libraw_scale = 65535.0 / (float(raw.white_level) - black.min())
             rgb_span = np.array([whites[0] - black[0], whites[1] - black[1], whites[2] - black[2]])
             rgb = out.astype(np.float32) * np.float32(1.0 / libraw_scale) / rgb_span.astype(np.float32)
+            if black_map_used:
+                # LibRaw divided by (white − channel black); the DNG normalisation divides
+                # by (white − black of the pixel).
+                rgb *= ((white_px - black[colours]) / span).astype(np.float32)[..., None]
             radius = _FOOTPRINT[demosaic]
             if demosaic == "linear":
                 saturated = np.stack(
