@@ -50,7 +50,9 @@ def shoot(tmp_path):
     def make(camera, luminance, *, exposure_time=1 / 125, f_number=4.0, iso=100, noise=False, seed=0,
              chromaticity=None, **dng):
         kwargs = {} if chromaticity is None else {"chromaticity": chromaticity}
-        raw = camera.expose(luminance, exposure_time=exposure_time, f_number=f_number, iso=iso, noise=noise,
+        # exposure_time=None: expose at 1/125 s but leave the tag out of the DNG.
+        raw = camera.expose(luminance, exposure_time=exposure_time or 1 / 125, f_number=f_number, iso=iso,
+                            noise=noise,
                             rng=np.random.default_rng(seed), **kwargs)
         path = tmp_path / f"shot{next(counter)}.dng"
         write_dng(path, raw, camera, exposure_time=exposure_time, f_number=f_number, iso=iso, **dng)

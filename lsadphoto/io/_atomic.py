@@ -6,6 +6,12 @@ import tempfile
 from pathlib import Path
 
 
+def _umask():
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 @contextlib.contextmanager
 def atomic_outputs(*paths):
     """Yield temporary paths for ``paths``; rename them all into place only on success.
@@ -23,6 +29,7 @@ def atomic_outputs(*paths):
                 prefix=f".{target.stem}.", suffix=f".tmp{target.suffix}", dir=target.parent
             )
             os.close(fd)
+            os.chmod(name, 0o666 & ~_umask())  # mkstemp makes 0600; give the usual mode
             temps.append(Path(name))
         yield temps
         for temp, target in zip(temps, targets):

@@ -46,7 +46,7 @@ def write_false_colour_png(lmap, path, *, luminance_range=None, title=None, colo
     fig = Figure(figsize=(width, height), dpi=dpi)
     ax = fig.add_axes((0.03, 0.06, 0.78, 0.84))
     cmap = matplotlib.colormaps[colormap].with_extremes(bad="0.5")
-    shown = np.where(luminance > 0, luminance, low)
+    shown = np.where(np.isnan(luminance) | (luminance > 0), luminance, low)  # NaN stays grey
     image = ax.imshow(
         np.ma.masked_invalid(shown), cmap=cmap, norm=colors.LogNorm(vmin=low, vmax=high), interpolation="nearest"
     )

@@ -71,11 +71,11 @@ def _encode_scanlines(rgbe):
     layout = np.empty(comp_len, dtype=np.int64)  # -1 for count bytes, else column index
     pos = 0
     count_positions = []
-    for start, count in zip(starts, counts):
+    for start, count in zip(starts.tolist(), counts.tolist()):
         count_positions.append(pos)
         layout[pos] = -1
         layout[pos + 1 : pos + 1 + count] = np.arange(start, start + count)
-        pos += 1 + int(count)
+        pos += 1 + count
     is_data = layout >= 0
     line = np.empty((rows, 4 + 4 * comp_len), dtype=np.uint8)
     line[:, 0] = 2

@@ -220,68 +220,76 @@ def decode_raw(path, *, demosaic="superpixel", saturation_fraction=SATURATION_FR
     path = check_file(path, "RAW file")
     check_choice(demosaic, "demosaic method", DEMOSAIC_METHODS)
     saturation_fraction = check_positive(saturation_fraction, "saturation_fraction")
-    with _open(path) as raw:
-        pattern = _cfa_info(raw, path)
-        image, colours = _copy_raw(raw, path)
-        black, whites = _levels(raw)
-        black_px, black_map_used = _black_per_pixel(path, raw, colours, black, dark_frame)
-        white_px = whites[colours]
-        span = white_px - black_px
-        if np.any(span <= 0):
-            raise UnsupportedFileError(f"{path}: white level {whites.min():g} is not above black level")
-        signal = image.astype(np.float64) - black_px
-        sat_cfa = signal >= saturation_fraction * span
-        cell = colours[:2, :2]
-        if demosaic == "superpixel":
-            norm = (signal / span).astype(np.float32)
-            rgb, saturated = _superpixel(norm, sat_cfa, cell)
-            binning = 2
+    try:
+        with _open(path) as raw:
+            return _decode(path, raw, demosaic, saturation_fraction, dark_frame)
+    except rawpy.LibRawError as exc:
+        raise UnsupportedFileError(f"{path}: RAW data is corrupt or truncated ({type(exc).__name__})") from None
+
+
+def _decode(path, raw, demosaic, saturation_fraction, dark_frame):
+    """Body of :func:`decode_raw` on an open file (copies everything out of LibRaw)."""
+    pattern = _cfa_info(raw, path)
+    image, colours = _copy_raw(raw, path)
+    black, whites = _levels(raw)
+    black_px, black_map_used = _black_per_pixel(path, raw, colours, black, dark_frame)
+    white_px = whites[colours]
+    span = white_px - black_px
+    if np.any(span <= 0):
+        raise UnsupportedFileError(f"{path}: white level {whites.min():g} is not above black level")
+    signal = image.astype(np.float64) - black_px
+    sat_cfa = signal >= saturation_fraction * span
+    cell = colours[:2, :2]
+    if demosaic == "superpixel":
+        norm = (signal / span).astype(np.float32)
+        rgb, saturated = _superpixel(norm, sat_cfa, cell)
+        binning = 2
+    else:
+        if black_map_used:
+            # Fold the map's deviation from LibRaw's per-channel black into the data so
+            # that LibRaw's uniform subtraction removes the map.
+            shifted = image.astype(np.float64) - (black_px - black[colours])
+            raw.raw_image_visible[...] = np.clip(np.rint(shifted), 0, 65535).astype(np.uint16)
+        try:
+            out = raw.postprocess(
+                demosaic_algorithm=_LIBRAW_ALGORITHM[demosaic],
+                output_color=rawpy.ColorSpace.raw,
+                gamma=(1, 1),
+                no_auto_bright=True,
+                output_bps=16,
+                user_wb=[1.0, 1.0, 1.0, 1.0],
+                user_flip=0,
+                adjust_maximum_thr=0.0,
+                highlight_mode=rawpy.HighlightMode.Clip,
+            )
+        except (rawpy.LibRawError, MemoryError) as exc:
+            raise UnsupportedFileError(f"{path}: LibRaw could not demosaic ({type(exc).__name__})") from None
+        # LibRaw scales (raw − black_c) by 65535 / (maximum − min black) (checked
+        # against native CFA sites in tests/test_decode.py); undo that, then normalise
+        # per channel as the DNG specification does.
+        libraw_scale = 65535.0 / (float(raw.white_level) - black.min())
+        rgb_span = np.array([whites[0] - black[0], whites[1] - black[1], whites[2] - black[2]])
+        rgb = out.astype(np.float32) * np.float32(1.0 / libraw_scale) / rgb_span.astype(np.float32)
+        if black_map_used:
+            # LibRaw divided by (white − channel black); the DNG normalisation divides
+            # by (white − black of the pixel).
+            rgb *= ((white_px - black[colours]) / span).astype(np.float32)[..., None]
+        radius = _FOOTPRINT[demosaic]
+        if demosaic == "linear":
+            saturated = np.stack(
+                [_dilate(sat_cfa & (np.where(colours == 3, 1, colours) == c), radius) for c in range(3)],
+                axis=-1,
+            )
         else:
-            if black_map_used:
-                # Fold the map's deviation from LibRaw's per-channel black into the data so
-                # that LibRaw's uniform subtraction removes the map.
-                shifted = image.astype(np.float64) - (black_px - black[colours])
-                raw.raw_image_visible[...] = np.clip(np.rint(shifted), 0, 65535).astype(np.uint16)
-            try:
-                out = raw.postprocess(
-                    demosaic_algorithm=_LIBRAW_ALGORITHM[demosaic],
-                    output_color=rawpy.ColorSpace.raw,
-                    gamma=(1, 1),
-                    no_auto_bright=True,
-                    output_bps=16,
-                    user_wb=[1.0, 1.0, 1.0, 1.0],
-                    user_flip=0,
-                    adjust_maximum_thr=0.0,
-                    highlight_mode=rawpy.HighlightMode.Clip,
-                )
-            except (rawpy.LibRawError, MemoryError) as exc:
-                raise UnsupportedFileError(f"{path}: LibRaw could not demosaic ({type(exc).__name__})") from None
-            # LibRaw scales (raw − black_c) by 65535 / (maximum − min black) (checked
-            # against native CFA sites in tests/test_decode.py); undo that, then normalise
-            # per channel as the DNG specification does.
-            libraw_scale = 65535.0 / (float(raw.white_level) - black.min())
-            rgb_span = np.array([whites[0] - black[0], whites[1] - black[1], whites[2] - black[2]])
-            rgb = out.astype(np.float32) * np.float32(1.0 / libraw_scale) / rgb_span.astype(np.float32)
-            if black_map_used:
-                # LibRaw divided by (white − channel black); the DNG normalisation divides
-                # by (white − black of the pixel).
-                rgb *= ((white_px - black[colours]) / span).astype(np.float32)[..., None]
-            radius = _FOOTPRINT[demosaic]
-            if demosaic == "linear":
-                saturated = np.stack(
-                    [_dilate(sat_cfa & (np.where(colours == 3, 1, colours) == c), radius) for c in range(3)],
-                    axis=-1,
-                )
-            else:
-                any_sat = _dilate(sat_cfa, radius)
-                saturated = np.repeat(any_sat[..., None], 3, axis=-1)
-            binning = 1
-        colour = CameraColour(
-            rgb_xyz_matrix=np.array(raw.rgb_xyz_matrix[:3, :3], dtype=np.float64),
-            color_matrix=np.array(raw.color_matrix[:3, :3], dtype=np.float64),
-            daylight_whitebalance=np.array(raw.daylight_whitebalance[:3], dtype=np.float64),
-        )
-        metadata = read_exposure_metadata(path, raw)
+            any_sat = _dilate(sat_cfa, radius)
+            saturated = np.repeat(any_sat[..., None], 3, axis=-1)
+        binning = 1
+    colour = CameraColour(
+        rgb_xyz_matrix=np.array(raw.rgb_xyz_matrix[:3, :3], dtype=np.float64),
+        color_matrix=np.array(raw.color_matrix[:3, :3], dtype=np.float64),
+        daylight_whitebalance=np.array(raw.daylight_whitebalance[:3], dtype=np.float64),
+    )
+    metadata = read_exposure_metadata(path, raw)
     if Path(path).suffix.lower() == ".dng":
         colour.dng = read_dng_tags(path)
     return RawImage(
