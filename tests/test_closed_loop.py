@@ -43,7 +43,12 @@ def test_noise_free_error_within_one_percent(camera, shoot, profile_for, demosai
     assert not result.summary["calibrated"]
 
 
-def test_spot_factor_within_half_percent_with_noise(camera, shoot, profile_for):
+def test_spot_factor_within_half_percent_with_noise(shoot, profile_for):
+    from lsadphoto.datasets import SyntheticCamera
+
+    # A 50 mm lens on 1024 px puts ≈ 300 binned pixels in the 1° cone: the noise of their
+    # mean (≈ 0.1 %) leaves room to test the 0.5 % requirement at ISO 400.
+    camera = SyntheticCamera(width=1024, height=768, focal_length=50.0)
     truth = interior_scene((camera.height, camera.width))
     path = shoot(camera, truth, noise=True, iso=400, seed=3, exposure_time=1 / 1000)
     # The grey target (60 cd/m²) at rows 0.52–0.72, cols centred: aim at its centre.
