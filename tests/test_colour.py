@@ -65,3 +65,27 @@ def test_real_dng_colour_routes_agree():
     ok = y_tags > 0.01
     # Agreement on the image, not only on the weights: within 0.5 % (float32 in LibRaw).
     assert np.median(np.abs(y_libraw[ok] / y_tags[ok] - 1)) < 0.005
+
+
+def test_forward_matrix_route(camera, shoot):
+    """A DNG with ForwardMatrix1: camera → XYZ = FM · diag(1/AsShotNeutral) (DNG 1.6 §6).
+
+    The FM written is inv(ColorMatrix) · diag(neutral) (no chromatic adaptation), so the
+    route must reproduce inv(ColorMatrix) itself.
+    """
+    from pidng.dng import Tag
+
+    from lsadphoto.datasets.synthetic import D65_XY, _rational
+
+    cm = np.asarray(camera.color_matrix)
+    white = np.array([D65_XY[0] / D65_XY[1], 1.0, (1 - sum(D65_XY)) / D65_XY[1]])
+    neutral = cm @ white
+    neutral /= neutral.max()
+    forward = np.linalg.inv(cm) @ np.diag(neutral)
+    path = shoot(camera, np.full((camera.height, camera.width), 10.0),
+                 extra_tags=[(Tag.ForwardMatrix1, [_rational(v, 10**6) for v in forward.ravel()])])
+    image = decode_raw(path)
+    assert image.colour.dng["forward_matrix"][0] is not None
+    matrix, used = camera_to_xyz_matrix(image.colour, method="dng-tags")
+    # AsShotNeutral is stored to 1e-4 as rationals, the FM to 1e-6: agreement to 2e-4.
+    np.testing.assert_allclose(matrix[1], np.linalg.inv(cm)[1], rtol=2e-4, atol=2e-5)
