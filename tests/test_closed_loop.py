@@ -115,3 +115,21 @@ def test_coloured_targets_recover_luminance(camera, shoot, profile_for):
     # The camera model is exactly linear through the DNG ColorMatrix, so only quantisation
     # remains (blue primary: a few hundred ADU in R → ≤ 0.3 %).
     assert error.max() < 0.005
+
+
+def test_bracket_noise_weights_match_scatter(camera, shoot, profile_for):
+    """Two noisy frames 2 stops apart: the merged uncertainty predicts the scatter, and it is
+    smaller than that of the better frame alone (inverse-variance weighting pays)."""
+    truth = np.full((camera.height, camera.width), 30.0)
+    paths = [shoot(camera, truth, noise=True, iso=800, exposure_time=t, seed=40 + i)
+             for i, t in enumerate((1 / 500, 1 / 2000))]
+    merged = _run(paths, profile=profile_for(camera)).map
+    single = _run(paths[:1], profile=profile_for(camera)).map
+
+    def noise_part(lmap):
+        return np.sqrt(lmap.uncertainty.astype(float) ** 2 - (lmap.calibration_uncertainty * lmap.luminance) ** 2)
+
+    z = (merged.luminance - 30.0) / noise_part(merged)
+    # 24 576 pixels: unit spread within ±10 % (as the single-frame test).
+    assert 0.9 < np.std(z) < 1.1
+    assert np.std(merged.luminance) < np.std(single.luminance)

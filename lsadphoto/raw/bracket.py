@@ -24,6 +24,11 @@ from ..constants import SATURATION_FRACTION
 from ..errors import BadInputError, MisalignmentWarning
 
 
+#: Fraction of the saturation level above which a frame's expected value counts as too
+#: close to the clip to be used in a merge (see :func:`merge_bracket`).
+NEAR_SATURATION = 0.9
+
+
 @dataclass(frozen=True)
 class NoiseModel:
     """Linear sensor noise model (EMVA 1288) at ISO 100.
@@ -194,12 +199,15 @@ def merge_bracket(frames, exposures, isos, *, noise=NoiseModel(), near_black_sig
         fallback = np.where(~sat[k], rgb[k] / e[k], fallback)
     with np.errstate(invalid="ignore", divide="ignore"):
         first = np.where(den > 0, num / den, fallback)
-    # Second pass: inverse-variance weights evaluated at the first estimate.
+    # Second pass: inverse-variance weights evaluated at the first estimate. A frame whose
+    # expected value (first estimate × e) lies near saturation is left out too: keeping
+    # only its draws that happened to stay below the clip would bias the mean low.
     wsum = np.zeros(shape, np.float64)
     xsum = np.zeros(shape, np.float64)
     for k in range(len(rgb)):
         var_x = noise.variance(first * e[k], s[k]) * per_channel / e[k] ** 2
-        w = np.where(valid[k], 1.0 / var_x, 0.0)
+        near_clip = first * e[k] > NEAR_SATURATION * saturation_level
+        w = np.where(valid[k] & ~near_clip, 1.0 / var_x, 0.0)
         wsum += w
         xsum += w * rgb[k] / e[k]
     none_valid = wsum == 0
