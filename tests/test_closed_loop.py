@@ -133,3 +133,19 @@ def test_bracket_noise_weights_match_scatter(camera, shoot, profile_for):
     # 24 576 pixels: unit spread within ±10 % (as the single-frame test).
     assert 0.9 < np.std(z) < 1.1
     assert np.std(merged.luminance) < np.std(single.luminance)
+
+
+def test_all_black_and_fully_saturated_frames(camera, shoot, profile_for):
+    from lsadphoto.errors import BadInputError
+
+    shape = (camera.height, camera.width)
+    dark = luminance_from_raw([shoot(camera, np.zeros(shape))], profile=profile_for(camera))
+    # No light: every pixel is 0 cd/m² (noise-free), known, with a finite uncertainty.
+    assert np.all(dark.map.luminance == 0) and np.all(np.isfinite(dark.map.uncertainty))
+    assert dark.summary["saturated_fraction"] == 0
+    with pytest.raises(BadInputError, match="sees no light"):
+        luminance_from_raw([shoot(camera, np.zeros(shape))], profile=profile_for(camera),
+                           spots=[SpotReading(96, 128, 10.0)])
+    with pytest.warns(SaturationWarning, match="100.00 %"):
+        white = luminance_from_raw([shoot(camera, np.full(shape, 1e9))], profile=profile_for(camera))
+    assert np.all(np.isnan(white.map.luminance)) and white.summary["saturated_fraction"] == 1.0
