@@ -110,15 +110,16 @@ class PinholeProjection(Projection):
 
         Radiance maps pixel ``i`` to ``x = (i + ½)/X − ½ + vs``, rows counted from the
         bottom; equating with this model gives ``vs = ½ − (cx + ½)/W`` and
-        ``vl = (cy + ½)/H − ½``.
+        ``vl = (cy + ½)/H − ½``. Numbers are written with 17 significant digits, so that
+        the round trip through Radiance's ``atof`` is exact.
         """
         vh = math.degrees(2.0 * math.atan(self.width / (2.0 * self.fx)))
         vv = math.degrees(2.0 * math.atan(self.height / (2.0 * self.fy)))
         vs = 0.5 - (self.cx + 0.5) / self.width
         vl = (self.cy + 0.5) / self.height - 0.5
         return (
-            f"-vtv -vp 0 0 0 -vd 0 1 0 -vu 0 0 1 -vh {vh:.9g} -vv {vv:.9g} "
-            f"-vs {vs:.9g} -vl {vl:.9g}"
+            f"-vtv -vp 0 0 0 -vd 0 1 0 -vu 0 0 1 -vh {vh:.17g} -vv {vv:.17g} "
+            f"-vs {vs:.17g} -vl {vl:.17g}"
         )
 
     @classmethod

@@ -41,6 +41,8 @@ def write_exr(lmap, path):
         METADATA_ATTRIBUTE: metadata_json(lmap),
         "lsadphoto.unit": "cd/m2",
         "lsadphoto.calibrated": "yes" if lmap.calibrated else "uncalibrated",
+        # EXR float attributes are 32-bit: a convenience copy; the JSON holds the exact value.
+        "lsadphoto.calibration_factor": lmap.calibration_factor,
     }
     with atomic_path(path) as temp:
         OpenEXR.File(header, channels).write(str(temp))

@@ -29,7 +29,7 @@ from ..luminance_map import LuminanceMap
 from ._atomic import atomic_path
 from ._metadata import metadata_fields, metadata_json
 
-_RESOLUTION = re.compile(rb"^-Y (\d+) \+X (\d+)$")
+_RESOLUTION = re.compile(rb"^-Y\s+(\d+)\s+\+X\s+(\d+)$")  # Radiance 6 pads the numbers
 _MIN_RLE, _MAX_RLE = 8, 0x7FFF
 
 
