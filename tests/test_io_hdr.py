@@ -106,18 +106,6 @@ def radiance_picture(radiance, rgb, *filters):
     return data
 
 
-def unpad_resolution(data):
-    """Collapse the padding Radiance 6 puts in the resolution line (``-Y        5 +X      300``).
-
-    ``read_hdr`` accepts only single spaces there (package bug, shown by
-    :func:`test_reads_radiance_padded_resolution_line`); the pixel-decoding tests below use
-    this so that they test the decoding whatever the state of that bug.
-    """
-    start = data.index(b"\n\n") + 2
-    eol = data.index(b"\n", start)
-    return data[:start] + b" ".join(data[start:eol].split()) + data[eol:]
-
-
 def scanline_bytes(data):
     start = data.index(b"\n\n") + 2
     return data[data.index(b"\n", start) + 1 :]
@@ -298,7 +286,7 @@ def test_read_radiance_written_pictures(tmp_path, radiance, cols, name):
     filters, exposure, factor = FILTERS[name]
     rows = 6
     scene = _scene(rows, cols)
-    data = unpad_resolution(radiance_picture(radiance, scene, *filters))
+    data = radiance_picture(radiance, scene, *filters)
     path = tmp_path / f"{name}.hdr"
     path.write_bytes(data)
     pixels = scanline_bytes(data)
@@ -333,7 +321,7 @@ def test_pvalue_brightness_differs_only_by_the_weight_set(tmp_path, radiance):
     179·Σ|Δw_i|·rgb_i (≤ 3.5e-4 relative); on grey pixels not at all."""
     rows, cols = 6, 300
     path = tmp_path / "colour.hdr"
-    path.write_bytes(unpad_resolution(radiance_picture(radiance, _scene(rows, cols))))
+    path.write_bytes(radiance_picture(radiance, _scene(rows, cols)))
     rgb = pvalue_rgb(radiance, path, rows, cols)
     theirs = pvalue_luminance(radiance, path, rows, cols)
     np.testing.assert_allclose(theirs, 179.0 * rgb @ W_RADIANCE6, rtol=SAME_BYTES_RTOL, atol=0)
@@ -374,7 +362,7 @@ def test_foreign_vtv_view_gives_projection(tmp_path, radiance):
     rows, cols = 6, 300
     data = radiance_picture(radiance, _scene(rows, cols))
     source = tmp_path / "plain.hdr"
-    source.write_bytes(unpad_resolution(data))
+    source.write_bytes(data)
     view = "-vtv -vp 0 0 0 -vd 0 1 0 -vu 0 0 1 -vh 70 -vv 3 -vs 0.1 -vl -0.2"
     path = tmp_path / "view.hdr"
     path.write_bytes(radiance("getinfo", "-a", f"VIEW= {view}", stdin=source.read_bytes()))
