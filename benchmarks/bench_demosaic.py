@@ -1,6 +1,7 @@
 """Speed and accuracy of the demosaic methods on a synthetic 24-megapixel DNG (docs/performance.md).
 
-Run: ``.venv/bin/python benchmarks/bench_demosaic.py [--size 6000x4000] [--repeat 3]``.
+Run: ``.venv/bin/python benchmarks/bench_demosaic.py [--size 6000x4000] [--repeat 3]``;
+``--profile METHOD`` prints a pyinstrument profile of one end-to-end call instead.
 
 For each method (superpixel, linear, ahd, dcb) it times, best and worst of ``--repeat`` runs
 (``time.perf_counter``):
@@ -24,6 +25,7 @@ a ``tempfile.TemporaryDirectory``.
 
 import argparse
 import gc
+import os
 import platform
 import sys
 import tempfile
@@ -134,6 +136,23 @@ def shoot(folder, cam, scene, name, *, t, n, iso, noise):
     return path, float(saturated.mean()), float(np.median(cfa_signal)), float(cfa_signal[~saturated].max())
 
 
+def profile_end_to_end(size, method):
+    """pyinstrument profile of one end-to-end call (the bench extra installs pyinstrument)."""
+    from pyinstrument import Profiler
+
+    cam = SyntheticCamera(width=size[0], height=size[1])
+    scene = interior_scene((cam.height, cam.width))
+    with tempfile.TemporaryDirectory(prefix="lsad-bench-") as tmp:
+        path, *_ = shoot(Path(tmp), cam, scene, "clean", t=1 / 125, n=4.0, iso=100, noise=False)
+        del scene
+        luminance_from_raw([path], profile=profile_for(cam), demosaic=method)  # warm-up
+        profiler = Profiler(interval=0.002)
+        profiler.start()
+        luminance_from_raw([path], profile=profile_for(cam), demosaic=method)
+        profiler.stop()
+    print(profiler.output_text(unicode=True, color=False))
+
+
 def pct(x, digits=3):
     return f"{100 * x:.{digits}f} %"
 
@@ -144,11 +163,16 @@ def main(argv=None):
     parser.add_argument("--repeat", type=int, default=3, help="timed runs per measurement (default 3)")
     parser.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of " + ",".join(METHODS))
     parser.add_argument("--no-noise", action="store_true", help="skip the noisy (ISO 400) accuracy run")
+    parser.add_argument("--profile", choices=METHODS, metavar="METHOD",
+                        help="instead of the tables, print a pyinstrument profile of one end-to-end call "
+                             "(after a warm-up call) with this method")
     args = parser.parse_args(argv)
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     if set(methods) - set(METHODS) or args.repeat < 1:
         parser.error("unknown method or --repeat below 1")
     warnings.simplefilter("ignore")
+    if args.profile:
+        return profile_end_to_end(args.size, args.profile)
 
     width, height = args.size
     cam = SyntheticCamera(width=width, height=height)
@@ -162,7 +186,7 @@ def main(argv=None):
     print(f"# Demosaic benchmark: {width}×{height} = {megapixels:.1f} MP synthetic DNG, best of {args.repeat}\n")
     print(f"python {platform.python_version()}, numpy {np.__version__}, rawpy {rawpy.__version__} "
           f"(LibRaw {'.'.join(map(str, rawpy.libraw_version))}), {platform.machine()}, "
-          f"{len(__import__('os').sched_getaffinity(0))} CPU cores\n")
+          f"{len(os.sched_getaffinity(0))} CPU cores\n")
 
     with tempfile.TemporaryDirectory(prefix="lsad-bench-") as tmp:
         folder = Path(tmp)

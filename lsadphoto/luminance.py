@@ -92,15 +92,18 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         binning=first.binning, averaged=(1, 2, 1) if demosaic == "superpixel" else (1, 1, 1),
         check_alignment=check_alignment,
     )
-    gain = vignetting_gain(profile.vignetting, first.sensor_shape, first.shape, binning=first.binning)
-    radiance = merged.radiance / gain[..., None]
-    variance = merged.variance / (gain**2)[..., None]
     matrix, colour_used = camera_to_xyz_matrix(first.colour, method=colour_method,
                                                profile_matrix=profile.camera_to_xyz)
     weights = matrix[1]
-    relative = radiance.astype(np.float64) @ weights
-    relative_var = variance.astype(np.float64) @ (weights**2)
-    saturated = merged.saturated.any(axis=-1)
+    relative = merged.radiance @ weights.astype(np.float32)
+    relative_var = merged.variance @ (weights**2).astype(np.float32)
+    if profile.vignetting.kind != "none":
+        # The gain is the same for the three camera channels, so dividing Y by it is the
+        # same as dividing linear camera RGB (and cheaper).
+        gain = vignetting_gain(profile.vignetting, first.sensor_shape, first.shape, binning=first.binning)
+        relative /= gain
+        relative_var /= gain * gain
+    saturated = merged.saturated[..., 0] | merged.saturated[..., 1] | merged.saturated[..., 2]
     relative[saturated] = np.nan
     meta = first.metadata
     projection = None
@@ -126,11 +129,11 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         factor = profile.calibration_constant
         u_factor = profile.calibration_constant_uncertainty or DEFAULT_CALIBRATION_CONSTANT_UNCERTAINTY
         calibrated, spot_records, method = False, [], "exposure-equation"
-    luminance = np.clip(factor * relative, 0.0, None)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        u_rel_noise = np.sqrt(np.clip(relative_var, 0, None)) / np.abs(relative)
-    uncertainty = luminance * np.sqrt(u_factor**2 + np.where(np.isfinite(u_rel_noise), u_rel_noise, 0) ** 2)
-    uncertainty = np.where(relative > 0, uncertainty, factor * np.sqrt(np.clip(relative_var, 0, None)))
+    # Negative values (noise around black) are no luminance: they become 0, keeping their
+    # noise in the uncertainty. u² = (L·u_k)² + k²·var(Y).
+    positive = np.maximum(relative, np.float32(0))
+    luminance = np.float32(factor) * positive
+    uncertainty = np.float32(factor) * np.sqrt((positive * np.float32(u_factor)) ** 2 + relative_var)
     saturated_fraction = float(saturated.mean())
     if saturated_fraction > 0:
         warnings.warn(
@@ -162,8 +165,8 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         "lsadphoto_version": __version__,
     }
     lmap = LuminanceMap(
-        luminance=luminance.astype(np.float32),
-        uncertainty=uncertainty.astype(np.float32),
+        luminance=luminance,
+        uncertainty=uncertainty,
         projection=projection,
         calibration_factor=factor,
         calibration_uncertainty=u_factor,

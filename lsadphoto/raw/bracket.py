@@ -176,50 +176,61 @@ def merge_bracket(frames, exposures, isos, *, noise=NoiseModel(), near_black_sig
     order = np.argsort(exposures)[::-1]  # longest first
     rgb = [frames[i][0] for i in order]
     sat = [frames[i][1] for i in order]
-    e = np.array([exposures[i] for i in order])
-    s = np.array([isos[i] for i in order])
-    read_sd = np.array([noise.read_noise / noise.gain(iso) for iso in s])
-    per_channel = 1.0 / np.asarray(averaged, dtype=np.float64)
+    e = [float(exposures[i]) for i in order]
+    s = [float(isos[i]) for i in order]
+    read_sd = [noise.read_noise / noise.gain(iso) for iso in s]
+    per_channel = (1.0 / np.asarray(averaged, dtype=np.float64)).astype(np.float32)
 
-    valid = []
-    for k in range(len(rgb)):
-        valid.append(~sat[k] & (rgb[k] > near_black_sigma * read_sd[k]))
-    any_unsat = np.zeros(shape, bool)
-    for k in range(len(rgb)):
-        any_unsat |= ~sat[k]
-    # First estimate: pooled x = Σ v / Σ e over usable frames (the estimate for pure shot
-    # noise); where no frame is usable, the longest unsaturated frame.
-    num = np.zeros(shape, np.float64)
-    den = np.zeros(shape, np.float64)
-    for k in range(len(rgb)):
-        num += np.where(valid[k], rgb[k], 0.0)
-        den += np.where(valid[k], e[k], 0.0)
-    fallback = np.full(shape, np.nan)
-    for k in reversed(range(len(rgb))):  # shortest first, so the longest wins
-        fallback = np.where(~sat[k], rgb[k] / e[k], fallback)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        first = np.where(den > 0, num / den, fallback)
-    # Second pass: inverse-variance weights evaluated at the first estimate. A frame whose
-    # expected value (first estimate × e) lies near saturation is left out too: keeping
-    # only its draws that happened to stay below the clip would bias the mean low.
-    wsum = np.zeros(shape, np.float64)
-    xsum = np.zeros(shape, np.float64)
-    for k in range(len(rgb)):
-        var_x = noise.variance(first * e[k], s[k]) * per_channel / e[k] ** 2
-        near_clip = first * e[k] > NEAR_SATURATION * saturation_level
-        w = np.where(valid[k] & ~near_clip, 1.0 / var_x, 0.0)
-        wsum += w
-        xsum += w * rgb[k] / e[k]
-    none_valid = wsum == 0
-    with np.errstate(invalid="ignore", divide="ignore"):
-        radiance = np.where(none_valid, fallback, xsum / wsum)
-        variance = np.where(none_valid, np.nan, 1.0 / wsum)
-    # Where only the fallback was used, its variance is that of the longest unsaturated frame.
-    for k in reversed(range(len(rgb))):
-        use = none_valid & ~sat[k]
-        variance = np.where(use, noise.variance(first * e[k], s[k]) * per_channel / e[k] ** 2, variance)
-        none_valid = none_valid & ~use
-    saturated = ~any_unsat
+    def variance_x(value, k):
+        """Variance of x = v/e for expected normalised value(s) ``value`` in frame k."""
+        return noise.variance(value, s[k]).astype(np.float32) * (per_channel / np.float32(e[k] ** 2))
+
+    valid = [~sat[k] & (rgb[k] > np.float32(near_black_sigma * read_sd[k])) for k in range(len(rgb))]
+    if len(rgb) == 1:
+        # One frame: x = v/e, its variance from the noise model at the measured value.
+        radiance = rgb[0] / np.float32(e[0])
+        variance = variance_x(rgb[0], 0)
+        saturated = sat[0]
+    else:
+        # First estimate: pooled x = Σ v / Σ e over usable frames (the estimate for pure
+        # shot noise); where no frame is usable, the longest unsaturated frame.
+        num = np.zeros(shape, np.float32)
+        den = np.zeros(shape, np.float32)
+        fallback = np.full(shape, np.nan, np.float32)
+        for k in range(len(rgb)):
+            num += np.where(valid[k], rgb[k], np.float32(0))
+            den += np.where(valid[k], np.float32(e[k]), np.float32(0))
+            take = np.isnan(fallback) & ~sat[k]
+            fallback[take] = rgb[k][take] / np.float32(e[k])
+        with np.errstate(invalid="ignore", divide="ignore"):
+            first = np.where(den > 0, num / den, fallback)
+        # Second pass: inverse-variance weights evaluated at the first estimate. A frame
+        # whose expected value (first estimate × e) lies near saturation is left out too:
+        # keeping only its draws that happened to stay below the clip would bias the mean.
+        wsum = np.zeros(shape, np.float32)
+        xsum = np.zeros(shape, np.float32)
+        for k in range(len(rgb)):
+            expected = first * np.float32(e[k])
+            usable = valid[k] & ~(expected > np.float32(NEAR_SATURATION * saturation_level))
+            with np.errstate(invalid="ignore", divide="ignore"):
+                w = np.where(usable, 1.0 / variance_x(expected, k), np.float32(0))
+            wsum += w
+            xsum += w * (rgb[k] / np.float32(e[k]))
+        none_valid = wsum == 0
+        with np.errstate(invalid="ignore", divide="ignore"):
+            radiance = np.where(none_valid, fallback, xsum / wsum)
+            variance = 1.0 / wsum
+        # Where only the fallback was used, its variance is that of the longest
+        # unsaturated frame (the frame the fallback took its value from).
+        for k in range(len(rgb)):
+            if not none_valid.any():
+                break
+            use = none_valid & ~sat[k]
+            variance[use] = variance_x(np.where(use, first * np.float32(e[k]), 0), k)[use]
+            none_valid &= ~use
+        saturated = sat[0].copy()
+        for k in range(1, len(rgb)):
+            saturated &= sat[k]
     radiance[saturated] = np.nan
     variance[saturated] = np.nan
     frames_used = sum(v[..., 1].astype(np.uint8) for v in valid)

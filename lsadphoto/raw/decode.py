@@ -131,17 +131,14 @@ def _levels(raw):
     return black, whites
 
 
-def _black_per_pixel(path, raw, colours, black, dark_frame):
-    """Per-pixel black level [ADU] and whether it is a true map (not per-channel values)."""
+def _black_map(path, shape, dark_frame):
+    """Per-pixel black level [ADU] where one replaces the per-channel values, else None."""
     if dark_frame is not None:
         dark = np.asarray(dark_frame, dtype=np.float64)
-        if dark.shape != colours.shape:
-            raise BadInputError(f"dark frame is {dark.shape} but {path} is {colours.shape}")
-        return dark, True
-    dng_map = dng_black_map(read_dng_tags(path), colours.shape)
-    if dng_map is not None:
-        return dng_map, True
-    return black[colours], False
+        if dark.shape != shape:
+            raise BadInputError(f"dark frame is {dark.shape} but {path} is {shape}")
+        return dark
+    return dng_black_map(read_dng_tags(path), shape)
 
 
 def read_dark_frame(paths):
@@ -158,24 +155,6 @@ def read_dark_frame(paths):
     if not frames:
         raise BadInputError("no dark frames given")
     return np.mean(frames, axis=0)
-
-
-def _superpixel(norm, sat, colours):
-    """2 × 2 binning without interpolation: R, mean of the two G, B of each CFA cell."""
-    rows, cols = (norm.shape[0] // 2) * 2, (norm.shape[1] // 2) * 2
-    out = np.zeros((rows // 2, cols // 2, 3), dtype=np.float32)
-    out_sat = np.zeros((rows // 2, cols // 2, 3), dtype=bool)
-    counts = np.zeros(3)
-    for dr in (0, 1):
-        for dc in (0, 1):
-            channel = colours[dr, dc]
-            channel = 1 if channel == 3 else channel
-            block = norm[dr:rows:2, dc:cols:2]
-            out[..., channel] += block
-            out_sat[..., channel] |= sat[dr:rows:2, dc:cols:2]
-            counts[channel] += 1
-    out /= counts.astype(np.float32)
-    return out, out_sat
 
 
 def _dilate(mask, radius):
@@ -228,27 +207,45 @@ def decode_raw(path, *, demosaic="superpixel", saturation_fraction=SATURATION_FR
 
 
 def _decode(path, raw, demosaic, saturation_fraction, dark_frame):
-    """Body of :func:`decode_raw` on an open file (copies everything out of LibRaw)."""
+    """Body of :func:`decode_raw` on an open file (copies everything out of LibRaw).
+
+    Work is done plane by plane of the 2 × 2 CFA cell, where black and white levels are
+    constants, unless a black-level map is in use.
+    """
     pattern = _cfa_info(raw, path)
     image, colours = _copy_raw(raw, path)
     black, whites = _levels(raw)
-    black_px, black_map_used = _black_per_pixel(path, raw, colours, black, dark_frame)
-    white_px = whites[colours]
-    span = white_px - black_px
-    if np.any(span <= 0):
-        raise UnsupportedFileError(f"{path}: white level {whites.min():g} is not above black level")
-    signal = image.astype(np.float64) - black_px
-    sat_cfa = signal >= saturation_fraction * span
+    black_map = _black_map(path, colours.shape, dark_frame)
     cell = colours[:2, :2]
+    planes = [(dr, dc, int(cell[dr, dc])) for dr in (0, 1) for dc in (0, 1)]
+    if np.any(whites <= black) or (black_map is not None and np.any(whites[colours] <= black_map)):
+        raise UnsupportedFileError(f"{path}: white level {whites.min():g} is not above black level")
+
+    def plane_black(dr, dc, c, rows=None, cols=None):
+        if black_map is None:
+            return np.float32(black[c])
+        return black_map[dr:rows:2, dc:cols:2].astype(np.float32)
+
+    sat_cfa = np.empty(image.shape, bool)
+    for dr, dc, c in planes:
+        b = plane_black(dr, dc, c)
+        sat_cfa[dr::2, dc::2] = image[dr::2, dc::2] >= b + np.float32(saturation_fraction) * (whites[c] - b)
     if demosaic == "superpixel":
-        norm = (signal / span).astype(np.float32)
-        rgb, saturated = _superpixel(norm, sat_cfa, cell)
+        rows, cols = (image.shape[0] // 2) * 2, (image.shape[1] // 2) * 2
+        rgb = np.zeros((rows // 2, cols // 2, 3), np.float32)
+        saturated = np.zeros((rows // 2, cols // 2, 3), bool)
+        for dr, dc, c in planes:
+            channel = 1 if c == 3 else c
+            b = plane_black(dr, dc, c, rows, cols)
+            share = np.float32(0.5 if channel == 1 else 1.0)  # two greens per cell
+            rgb[..., channel] += (image[dr:rows:2, dc:cols:2] - b) * (share / (np.float32(whites[c]) - b))
+            saturated[..., channel] |= sat_cfa[dr:rows:2, dc:cols:2]
         binning = 2
     else:
-        if black_map_used:
+        if black_map is not None:
             # Fold the map's deviation from LibRaw's per-channel black into the data so
             # that LibRaw's uniform subtraction removes the map.
-            shifted = image.astype(np.float64) - (black_px - black[colours])
+            shifted = image.astype(np.float64) - (black_map - black[colours])
             raw.raw_image_visible[...] = np.clip(np.rint(shifted), 0, 65535).astype(np.uint16)
         try:
             out = raw.postprocess(
@@ -266,23 +263,26 @@ def _decode(path, raw, demosaic, saturation_fraction, dark_frame):
             raise UnsupportedFileError(f"{path}: LibRaw could not demosaic ({type(exc).__name__})") from None
         # LibRaw scales (raw − black_c) by 65535 / (maximum − min black) (checked
         # against native CFA sites in tests/test_decode.py); undo that, then normalise
-        # per channel as the DNG specification does.
-        libraw_scale = 65535.0 / (float(raw.white_level) - black.min())
-        rgb_span = np.array([whites[0] - black[0], whites[1] - black[1], whites[2] - black[2]])
-        rgb = out.astype(np.float32) * np.float32(1.0 / libraw_scale) / rgb_span.astype(np.float32)
-        if black_map_used:
+        # per channel as the DNG specification does — one multiplication per value.
+        libraw_unit = (float(raw.white_level) - black.min()) / 65535.0
+        scale = np.array([libraw_unit / (whites[c] - black[c]) for c in range(3)], np.float32)
+        rgb = np.multiply(out, scale, dtype=np.float32)
+        if black_map is not None:
             # LibRaw divided by (white − channel black); the DNG normalisation divides
             # by (white − black of the pixel).
-            rgb *= ((white_px - black[colours]) / span).astype(np.float32)[..., None]
+            white_px = whites[colours]
+            rgb *= ((white_px - black[colours]) / (white_px - black_map)).astype(np.float32)[..., None]
         radius = _FOOTPRINT[demosaic]
         if demosaic == "linear":
-            saturated = np.stack(
-                [_dilate(sat_cfa & (np.where(colours == 3, 1, colours) == c), radius) for c in range(3)],
-                axis=-1,
-            )
+            saturated = np.zeros(image.shape + (3,), bool)
+            for c in range(3):
+                mask = np.zeros(image.shape, bool)
+                for dr, dc, cc in planes:
+                    if (1 if cc == 3 else cc) == c:
+                        mask[dr::2, dc::2] = sat_cfa[dr::2, dc::2]
+                saturated[..., c] = _dilate(mask, radius)
         else:
-            any_sat = _dilate(sat_cfa, radius)
-            saturated = np.repeat(any_sat[..., None], 3, axis=-1)
+            saturated = np.repeat(_dilate(sat_cfa, radius)[..., None], 3, axis=-1)
         binning = 1
     colour = CameraColour(
         rgb_xyz_matrix=np.array(raw.rgb_xyz_matrix[:3, :3], dtype=np.float64),
@@ -300,7 +300,7 @@ def _decode(path, raw, demosaic, saturation_fraction, dark_frame):
         sensor_shape=image.shape,
         black_level=black,
         white_level=whites,
-        black_map_used=black_map_used,
+        black_map_used=black_map is not None,
         cfa_pattern=pattern,
         metadata=metadata,
         colour=colour,
