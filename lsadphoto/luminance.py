@@ -96,7 +96,7 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
                                                profile_matrix=profile.camera_to_xyz)
     weights = matrix[1]
     relative = merged.radiance @ weights.astype(np.float32)
-    relative_var = merged.variance @ (weights**2).astype(np.float32)
+    relative_var = merged.variance_of(weights)
     if profile.vignetting.kind != "none":
         # The gain is the same for the three camera channels, so dividing Y by it is the
         # same as dividing linear camera RGB (and cheaper).
@@ -105,6 +105,7 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         relative_var /= gain * gain
     saturated = merged.saturated[..., 0] | merged.saturated[..., 1] | merged.saturated[..., 2]
     relative[saturated] = np.nan
+    relative_var[saturated] = np.nan
     meta = first.metadata
     projection = None
     try:

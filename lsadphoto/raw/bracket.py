@@ -66,21 +66,32 @@ class MergedImage:
     radiance : ndarray, float32, (rows, cols, 3)
         Exposure-normalised camera RGB [N²·s⁻¹ per unit ISO]; NaN where every frame was
         saturated.
-    variance : ndarray, float32, (rows, cols, 3)
-        Variance of ``radiance`` from the noise model.
     saturated : ndarray, bool, (rows, cols, 3)
         Channels saturated in every frame.
-    frames_used : ndarray, uint8, (rows, cols)
-        Number of frames that contributed to the green channel.
     shifts : list of (float, float)
         Measured shift of each frame against the reference frame [px of the sensor].
+
+    The variance of any linear combination of the channels (e.g. luminance Y) comes from
+    :meth:`variance_of`. A merged bracket stores per-channel variances; a single frame
+    stores the noise model's linear form a_c·v_c + b_c, which is cheaper to combine.
     """
 
     radiance: np.ndarray
-    variance: np.ndarray
     saturated: np.ndarray
-    frames_used: np.ndarray
     shifts: list
+    channel_variance: np.ndarray | None = None
+    linear_noise: tuple | None = None  # (v, a, b) of a single frame
+
+    def variance_of(self, weights):
+        """Variance [–] of ``radiance @ weights`` per pixel (float32, (rows, cols))."""
+        w2 = np.asarray(weights, dtype=np.float64) ** 2
+        if self.channel_variance is not None:
+            return self.channel_variance @ w2.astype(np.float32)
+        value, a, b = self.linear_noise
+        # Shot noise of values below black (read noise around 0) is 0, not negative.
+        shot = np.maximum(value @ (w2 * a).astype(np.float32), np.float32(0))
+        shot += np.float32(np.dot(w2, b))
+        return shot
 
 
 def measure_shift(reference, moving, low, high, *, max_size=512):
@@ -182,58 +193,66 @@ def merge_bracket(frames, exposures, isos, *, noise=NoiseModel(), near_black_sig
     per_channel = (1.0 / np.asarray(averaged, dtype=np.float64)).astype(np.float32)
 
     def variance_x(value, k):
-        """Variance of x = v/e for expected normalised value(s) ``value`` in frame k."""
-        return noise.variance(value, s[k]).astype(np.float32) * (per_channel / np.float32(e[k] ** 2))
+        """Variance of x = v/e for expected normalised value(s) ``value`` in frame k
+        (NoiseModel.variance, computed in place in float32 for speed)."""
+        g = noise.gain(s[k])
+        out = np.maximum(value, np.float32(0), dtype=np.float32)
+        out *= (per_channel / np.float32(g * e[k] ** 2)).astype(np.float32)
+        out += (per_channel * np.float32(read_sd[k] ** 2 / e[k] ** 2)).astype(np.float32)
+        return out
 
-    valid = [~sat[k] & (rgb[k] > np.float32(near_black_sigma * read_sd[k])) for k in range(len(rgb))]
     if len(rgb) == 1:
-        # One frame: x = v/e, its variance from the noise model at the measured value.
+        # One frame: x = v/e, its variance from the noise model at the measured value:
+        # var(x_c) = a_c·v_c + b_c.
         radiance = rgb[0] / np.float32(e[0])
-        variance = variance_x(rgb[0], 0)
-        saturated = sat[0]
-    else:
-        # First estimate: pooled x = Σ v / Σ e over usable frames (the estimate for pure
-        # shot noise); where no frame is usable, the longest unsaturated frame.
-        num = np.zeros(shape, np.float32)
-        den = np.zeros(shape, np.float32)
-        fallback = np.full(shape, np.nan, np.float32)
-        for k in range(len(rgb)):
-            num += np.where(valid[k], rgb[k], np.float32(0))
-            den += np.where(valid[k], np.float32(e[k]), np.float32(0))
-            take = np.isnan(fallback) & ~sat[k]
-            fallback[take] = rgb[k][take] / np.float32(e[k])
+        radiance[sat[0]] = np.nan
+        g = noise.gain(s[0])
+        a = per_channel / (g * e[0] ** 2)
+        b = per_channel * read_sd[0] ** 2 / e[0] ** 2
+        return MergedImage(radiance=radiance, saturated=sat[0], shifts=[(0.0, 0.0)],
+                           linear_noise=(rgb[0], a, b))
+    valid = [~sat[k] & (rgb[k] > np.float32(near_black_sigma * read_sd[k])) for k in range(len(rgb))]
+    # First estimate: pooled x = Σ v / Σ e over usable frames (the estimate for pure
+    # shot noise); where no frame is usable, the longest unsaturated frame.
+    num = np.zeros(shape, np.float32)
+    den = np.zeros(shape, np.float32)
+    fallback = np.full(shape, np.nan, np.float32)
+    for k in range(len(rgb)):
+        num += np.where(valid[k], rgb[k], np.float32(0))
+        den += np.where(valid[k], np.float32(e[k]), np.float32(0))
+        take = np.isnan(fallback) & ~sat[k]
+        fallback[take] = rgb[k][take] / np.float32(e[k])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        first = np.where(den > 0, num / den, fallback)
+    # Second pass: inverse-variance weights evaluated at the first estimate. A frame
+    # whose expected value (first estimate × e) lies near saturation is left out too:
+    # keeping only its draws that happened to stay below the clip would bias the mean.
+    wsum = np.zeros(shape, np.float32)
+    xsum = np.zeros(shape, np.float32)
+    for k in range(len(rgb)):
+        expected = first * np.float32(e[k])
+        usable = valid[k] & ~(expected > np.float32(NEAR_SATURATION * saturation_level))
         with np.errstate(invalid="ignore", divide="ignore"):
-            first = np.where(den > 0, num / den, fallback)
-        # Second pass: inverse-variance weights evaluated at the first estimate. A frame
-        # whose expected value (first estimate × e) lies near saturation is left out too:
-        # keeping only its draws that happened to stay below the clip would bias the mean.
-        wsum = np.zeros(shape, np.float32)
-        xsum = np.zeros(shape, np.float32)
-        for k in range(len(rgb)):
-            expected = first * np.float32(e[k])
-            usable = valid[k] & ~(expected > np.float32(NEAR_SATURATION * saturation_level))
-            with np.errstate(invalid="ignore", divide="ignore"):
-                w = np.where(usable, 1.0 / variance_x(expected, k), np.float32(0))
-            wsum += w
-            xsum += w * (rgb[k] / np.float32(e[k]))
-        none_valid = wsum == 0
-        with np.errstate(invalid="ignore", divide="ignore"):
-            radiance = np.where(none_valid, fallback, xsum / wsum)
-            variance = 1.0 / wsum
-        # Where only the fallback was used, its variance is that of the longest
-        # unsaturated frame (the frame the fallback took its value from).
-        for k in range(len(rgb)):
-            if not none_valid.any():
-                break
-            use = none_valid & ~sat[k]
-            variance[use] = variance_x(np.where(use, first * np.float32(e[k]), 0), k)[use]
-            none_valid &= ~use
-        saturated = sat[0].copy()
-        for k in range(1, len(rgb)):
-            saturated &= sat[k]
+            w = np.where(usable, 1.0 / variance_x(expected, k), np.float32(0))
+        wsum += w
+        xsum += w * (rgb[k] / np.float32(e[k]))
+    none_valid = wsum == 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        radiance = np.where(none_valid, fallback, xsum / wsum)
+        variance = 1.0 / wsum
+    # Where only the fallback was used, its variance is that of the longest
+    # unsaturated frame (the frame the fallback took its value from).
+    for k in range(len(rgb)):
+        if not none_valid.any():
+            break
+        use = none_valid & ~sat[k]
+        variance[use] = variance_x(np.where(use, first * np.float32(e[k]), 0), k)[use]
+        none_valid &= ~use
+    saturated = sat[0].copy()
+    for k in range(1, len(rgb)):
+        saturated &= sat[k]
     radiance[saturated] = np.nan
     variance[saturated] = np.nan
-    frames_used = sum(v[..., 1].astype(np.uint8) for v in valid)
 
     shifts = [(0.0, 0.0)] * len(frames)
     if check_alignment and len(frames) > 1:
@@ -258,9 +277,8 @@ def merge_bracket(frames, exposures, isos, *, noise=NoiseModel(), near_black_sig
                     stacklevel=2,
                 )
     return MergedImage(
-        radiance=radiance.astype(np.float32),
-        variance=variance.astype(np.float32),
+        radiance=radiance,
+        channel_variance=variance,
         saturated=saturated,
-        frames_used=frames_used,
         shifts=shifts,
     )
