@@ -81,6 +81,7 @@ def test_fourteen_bit_extremes(camera, tmp_path):
     left, right = image.rgb[:, : image.shape[1] // 2], image.rgb[:, image.shape[1] // 2 :]
     # 0 ADU is 512 below black: −512/15871 of the range; the white level is saturated.
     np.testing.assert_allclose(left, -512 / (16383 - 512), rtol=1e-6)
+    np.testing.assert_allclose(right, 1.0, rtol=1e-6)  # the white level is 1 by definition
     assert image.saturated[:, image.shape[1] // 2 :].all() and not image.saturated[:, : image.shape[1] // 2].any()
 
 
