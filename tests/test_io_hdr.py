@@ -395,9 +395,22 @@ def test_real_rendering_matches_pvalue(desk, radiance):
     expected = 179.0 * reference @ W_PACKAGE
     np.testing.assert_allclose(lmap.luminance, expected, rtol=SAME_BYTES_RTOL, atol=0)
     assert header["exposure"] == pytest.approx(0.1343958, rel=1e-12)
-    # -vta is not a pinhole: no projection, the view kept for the geometry stage.
-    assert lmap.projection is None
-    assert "-vta" in lmap.provenance["radiance_view"]
+    # -vta gives the ideal equidistant fisheye; its pixel directions must be Radiance's.
+    view = lmap.provenance["radiance_view"]
+    assert "-vta" in view and lmap.projection.kind == "equidistant"
+    pick_rows = np.array([500, 0, 250, 999, 700])
+    pick_cols = np.array([500, 500, 250, 500, 120])
+    positions = "".join(f"{c} {rows - 1 - r}\n" for r, c in zip(pick_rows, pick_cols)).encode()
+    out = radiance("vwrays", "-i", "-fd", "-x", cols, "-y", rows, "-pa", 0, *view.split(), stdin=positions)
+    rays = np.frombuffer(out, np.float64).reshape(len(pick_rows), 6)
+    d = lmap.projection.directions(pick_rows, pick_cols)
+    v, up = np.array(parse_view(view)["vd"]), np.array(parse_view(view).get("vu", [0, 0, 1]))
+    v /= np.linalg.norm(v)
+    right = np.cross(v, up)
+    right /= np.linalg.norm(right)
+    world = d[:, :1] * right + d[:, 2:] * v - d[:, 1:2] * np.cross(right, v)
+    # Both evaluate the same closed form in doubles from the same header numbers.
+    np.testing.assert_allclose(rays[:, 3:], world, atol=1e-9)
     # Peak: README says ≈ 7e7 "after EXPOSURE is divided out", but that is the value with
     # the exposure still applied (pvalue without -o); divided out it is ≈ 5.2e8 cd/m².
     peak = float(np.max(lmap.luminance))
@@ -529,3 +542,14 @@ def test_parse_view_options():
         parse_view("-vtv -vh wide")
     with pytest.raises(UnsupportedFileError):
         parse_view("-vtv -vp 1 2")
+
+
+def test_fisheye_projection_round_trips_and_equisolid_has_no_view(tmp_path):
+    from lsadphoto.geometry import IdealFisheyeProjection
+
+    for kind, has_view in (("equidistant", True), ("equisolid", False)):
+        projection = IdealFisheyeProjection(kind, 31.5, 31.5, 32.0, 180.0, 64, 64)
+        path = tmp_path / f"{kind}.hdr"
+        write_hdr(LuminanceMap(np.ones((64, 64)), projection=projection), path)
+        assert (b"VIEW=" in path.read_bytes()) == has_view  # Radiance has no equisolid view type
+        assert read_hdr(path).projection == projection

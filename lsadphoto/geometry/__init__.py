@@ -1,12 +1,20 @@
 """Camera geometry: pixel directions and solid angles.
 
-This stage so far holds the rectilinear pinhole model that the luminance stage needs for
-spot-meter cones and Radiance VIEW= lines; the full set of calibrated models (distortion,
-fisheye, Radiance view types) plugs into the same :class:`~lsadphoto.geometry.base.Projection`
-interface.
+This stage holds the rectilinear pinhole model that the luminance stage needs for spot-meter
+cones and Radiance VIEW= lines, and the ideal fisheye mappings (equidistant ``-vta``,
+orthographic ``-vth``, equisolid, stereographic); calibrated models with distortion plug into
+the same :class:`~lsadphoto.geometry.base.Projection` interface.
 """
 
+from ._spherical import quad_solid_angle
 from .base import Projection, projection_from_dict
+from .fisheye import IdealFisheyeProjection
 from .pinhole import PinholeProjection
 
-__all__ = ["Projection", "PinholeProjection", "projection_from_dict"]
+__all__ = [
+    "IdealFisheyeProjection",
+    "PinholeProjection",
+    "Projection",
+    "projection_from_dict",
+    "quad_solid_angle",
+]

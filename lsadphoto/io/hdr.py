@@ -23,7 +23,8 @@ import numpy as np
 from .._validation import check_file
 from .._version import __version__
 from ..constants import RADIANCE_RGB_LUMINANCE_WEIGHTS, RADIANCE_WHITE_EFFICACY
-from ..errors import UnsupportedFileError
+from ..errors import BadInputError, UnsupportedFileError
+from ..geometry.fisheye import IdealFisheyeProjection
 from ..geometry.pinhole import PinholeProjection
 from ..luminance_map import LuminanceMap
 from ._atomic import atomic_path
@@ -237,8 +238,9 @@ def read_hdr(path):
     """Read a Radiance HDR picture as a :class:`LuminanceMap` [cd·m⁻²] (179 lm/W convention).
 
     Files written by :func:`write_hdr` come back with their metadata; for other files a
-    ``-vtv`` VIEW= line gives a :class:`PinholeProjection`, and other view types are kept
-    in the provenance (``radiance_view``) until the geometry stage reads them.
+    ``-vtv`` VIEW= line gives a :class:`PinholeProjection`, ``-vta`` and ``-vth`` an
+    :class:`IdealFisheyeProjection` (image circle cut at 180°); other view types are kept
+    in the provenance (``radiance_view``) without a projection.
     """
     rgb, header = read_hdr_rgb(path)
     weights = np.asarray(RADIANCE_RGB_LUMINANCE_WEIGHTS)
@@ -250,8 +252,13 @@ def read_hdr(path):
         fields = {"provenance": {"source": str(path), "radiance_view": header["view"]}}
         if header["view"] is not None:
             view = parse_view(header["view"])
-            if view["type"] == "v":
-                fields["projection"] = PinholeProjection.from_radiance_view(view, cols, rows)
+            try:
+                if view["type"] == "v":
+                    fields["projection"] = PinholeProjection.from_radiance_view(view, cols, rows)
+                elif view["type"] in ("a", "h"):
+                    fields["projection"] = IdealFisheyeProjection.from_radiance_view(view, cols, rows)
+            except BadInputError as exc:
+                raise UnsupportedFileError(f"{path}: unusable VIEW= line ({exc})") from None
     return LuminanceMap(luminance, **fields)
 
 
@@ -268,7 +275,10 @@ def write_hdr(lmap, path):
     rows, cols = luminance.shape
     lines = ["#?RADIANCE", f"SOFTWARE=lsadphoto {__version__}"]
     if lmap.projection is not None and hasattr(lmap.projection, "radiance_view"):
-        lines.append(f"VIEW= {lmap.projection.radiance_view()}")
+        try:
+            lines.append(f"VIEW= {lmap.projection.radiance_view()}")
+        except BadInputError:
+            pass  # no Radiance view type for this projection (e.g. equisolid): no VIEW= line
     lines.append(f"LSADPHOTO={metadata_json(lmap)}")
     lines.append("FORMAT=32-bit_rle_rgbe")
     head = ("\n".join(lines) + f"\n\n-Y {rows} +X {cols}\n").encode("latin-1", "replace")
