@@ -3,18 +3,24 @@
 This stage holds the rectilinear pinhole model that the luminance stage needs for spot-meter
 cones and Radiance VIEW= lines, and the ideal fisheye mappings (equidistant ``-vta``,
 orthographic ``-vth``, equisolid, stereographic); calibrated models with distortion plug into
-the same :class:`~lsadphoto.geometry.base.Projection` interface.
+the same :class:`~lsadphoto.geometry.base.Projection` interface. :class:`ObserverFrame` gives
+the visual angles σ, τ and :func:`position_index` the position index of evalglare, Guth or
+Kim et al.
 """
 
 from ._spherical import quad_solid_angle
 from .base import Projection, projection_from_dict
 from .fisheye import IdealFisheyeProjection
+from .observer import ObserverFrame
 from .pinhole import PinholeProjection
+from .position_index import position_index
 
 __all__ = [
     "IdealFisheyeProjection",
+    "ObserverFrame",
     "PinholeProjection",
     "Projection",
     "projection_from_dict",
+    "position_index",
     "quad_solid_angle",
 ]
