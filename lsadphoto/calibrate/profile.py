@@ -7,7 +7,11 @@ Schema (all sections optional except ``id``; lengths in mm, sizes in px)::
     camera = "…"
     lens = "…"
     [sensor]      width_mm, height_mm, width_px, height_px
-    [lens_model]  focal_length_mm          # nominal rectilinear model (pinhole)
+    [lens_model]  model = "pinhole"        # nominal rectilinear model from focal_length_mm
+                  focal_length_mm
+    [lens_model]  model = "opencv-pinhole" | "opencv-fisheye" | "fisheye-ideal" | …
+                  parameters of that projection (see lsadphoto.geometry), in px of the
+                  full [sensor] width_px × height_px
     [vignetting]  model = "none" | "polynomial" | "flat-field"
                   coefficients = [a1, a2, a3]   # V = 1 + Σ a_k r^(2k), r over half-diagonal
                   map = "file.npy"              # flat-field gain, relative to the profile
@@ -18,7 +22,8 @@ Schema (all sections optional except ``id``; lengths in mm, sizes in px)::
     [noise]       full_well_electrons, read_noise_electrons   # at ISO 100
     [provenance]  free-form strings
 
-The full geometric models (distortion, fisheye) extend ``[lens_model]`` in the geometry stage.
+A calibrated ``[lens_model]`` is tied to the sensor size in pixels: images of another size
+are refused (or use ``binning`` for superpixel maps).
 """
 
 import tomllib
@@ -30,6 +35,7 @@ import tomli_w
 
 from .._validation import check_file
 from ..errors import BadInputError
+from ..geometry.base import Projection, projection_from_dict
 from ..geometry.pinhole import PinholeProjection
 from ..raw.bracket import NoiseModel
 from ..io._atomic import atomic_text
@@ -50,6 +56,7 @@ class CameraProfile:
     width: int | None = None
     height: int | None = None
     focal_length: float | None = None
+    lens_projection: Projection | None = None
     vignetting: VignettingModel = field(default_factory=VignettingModel)
     camera_to_xyz: np.ndarray | None = None
     calibration_constant: float | None = None
@@ -64,8 +71,15 @@ class CameraProfile:
         The focal length [mm] comes from the profile, else from the file's metadata; the
         sensor size from the profile, else from the file's focal-plane resolution [px/mm].
         """
-        f = self.focal_length or focal_length
         rows, cols = sensor_shape
+        if self.lens_projection is not None:
+            if tuple(self.lens_projection.shape) != (rows, cols):
+                raise BadInputError(
+                    f"camera profile {self.id!r} models a {self.lens_projection.shape[1]}×"
+                    f"{self.lens_projection.shape[0]} px image, not {cols}×{rows}"
+                )
+            return self.lens_projection.binned(binning) if binning > 1 else self.lens_projection
+        f = self.focal_length or focal_length
         if self.sensor_width and self.sensor_height:
             width_mm = self.sensor_width * cols / (self.width or cols)
             height_mm = self.sensor_height * rows / (self.height or rows)
@@ -89,10 +103,15 @@ class CameraProfile:
         for key in ("camera", "lens"):
             if getattr(self, key):
                 out[key] = getattr(self, key)
-        if self.sensor_width:
-            out["sensor"] = {"width_mm": self.sensor_width, "height_mm": self.sensor_height,
-                             "width_px": self.width, "height_px": self.height}
-        if self.focal_length:
+        sensor = {"width_mm": self.sensor_width, "height_mm": self.sensor_height,
+                  "width_px": self.width, "height_px": self.height}
+        sensor = {k: v for k, v in sensor.items() if v is not None}
+        if sensor:
+            out["sensor"] = sensor
+        if self.lens_projection is not None:
+            model = self.lens_projection.to_dict()
+            out["lens_model"] = {k: v for k, v in model.items() if k not in ("width", "height")}
+        elif self.focal_length:
             out["lens_model"] = {"model": "pinhole", "focal_length_mm": self.focal_length}
         out["vignetting"] = self.vignetting.to_dict()
         if self.camera_to_xyz is not None:
@@ -147,6 +166,18 @@ def load_profile(path):
             raise BadInputError(f"{map_path}: not a numpy .npy gain map ({exc})") from None
     elif kind not in ("none", "polynomial"):
         raise BadInputError(f"{path}: unknown vignetting model {kind!r}; valid: none, polynomial, flat-field")
+    lens_projection = None
+    model = lens_model.get("model", "pinhole")
+    if model != "pinhole":
+        if not (sensor.get("width_px") and sensor.get("height_px")):
+            raise BadInputError(f"{path}: lens_model {model!r} needs sensor.width_px and sensor.height_px")
+        params = {k: v for k, v in lens_model.items() if k != "model"}
+        try:
+            lens_projection = projection_from_dict(
+                {"model": model, **params, "width": sensor["width_px"], "height": sensor["height_px"]}
+            )
+        except (TypeError, ValueError) as exc:
+            raise BadInputError(f"{path}: bad lens_model {model!r} ({exc})") from None
     matrix = data.get("colour", {}).get("camera_to_xyz")
     if matrix is not None:
         matrix = np.asarray(matrix, dtype=float)
@@ -163,6 +194,7 @@ def load_profile(path):
         width=sensor.get("width_px"),
         height=sensor.get("height_px"),
         focal_length=_number(lens_model, "focal_length_mm", "lens_model.focal_length_mm"),
+        lens_projection=lens_projection,
         vignetting=vignetting,
         camera_to_xyz=matrix,
         calibration_constant=_number(photometric, "calibration_constant", "photometric.calibration_constant"),

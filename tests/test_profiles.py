@@ -1,0 +1,52 @@
+"""Camera profiles: the shipped ones load, and every lens model round-trips through TOML."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lsadphoto.calibrate import CameraProfile, load_profile, save_profile
+from lsadphoto.errors import BadInputError
+from lsadphoto.geometry import IdealFisheyeProjection, OpenCVFisheyeProjection, OpenCVPinholeProjection
+
+CALIBRATION = Path(__file__).resolve().parents[1] / "calibration"
+
+
+@pytest.mark.slow
+def test_shipped_profiles_load():
+    nikon = load_profile(CALIBRATION / "nikon-d3100-18mm-nominal.toml")
+    cam = nikon.projection((3072, 4608))
+    # Datasheet: 18 mm on a 23.1 mm wide, 4608 px sensor → f = 18·4608/23.1 px.
+    assert cam.fx == pytest.approx(18 * 4608 / 23.1, rel=1e-12)
+    assert "UNCALIBRATED" in nikon.provenance["status"]
+    fisheye = load_profile(CALIBRATION / "ideal-fisheye-180.toml").projection((1000, 1000))
+    rows, cols = fisheye.pixel_grid()
+    # Clipped pixel solid angles of a 180° image circle sum to the hemisphere, 2π.
+    assert fisheye.clipped_solid_angles(rows, cols).sum() == pytest.approx(2 * np.pi, rel=1e-9)
+    demo = load_profile(CALIBRATION / "synthetic-demo.toml")
+    assert demo.calibration_constant == 12.0
+
+
+@pytest.mark.parametrize("projection", [
+    IdealFisheyeProjection("equisolid", 63.5, 47.5, 60.0, 170.0, 128, 96),
+    OpenCVPinholeProjection(100.0, 101.0, 63.2, 47.9, [-0.28, 0.09, 1e-3, -5e-4, -0.01], 128, 96),
+    OpenCVFisheyeProjection(40.0, 40.0, 63.5, 47.5, [0.05, -0.01, 0.003, -0.0005], 128, 96),
+])
+def test_lens_models_round_trip(tmp_path, projection):
+    profile = CameraProfile(id="x", width=128, height=96, lens_projection=projection)
+    save_profile(profile, tmp_path / "p.toml")
+    back = load_profile(tmp_path / "p.toml")
+    assert back.projection((96, 128)) == projection
+    assert back.projection((96, 128), binning=2) == projection.binned(2)
+    with pytest.raises(BadInputError, match="not 64×48"):
+        back.projection((48, 64))
+
+
+def test_bad_lens_model(tmp_path):
+    path = tmp_path / "bad.toml"
+    path.write_text('id = "x"\n[sensor]\nwidth_px = 10\nheight_px = 10\n[lens_model]\nmodel = "zoom"\n')
+    with pytest.raises(BadInputError, match="unknown projection model 'zoom'"):
+        load_profile(path)
+    path.write_text('id = "x"\n[lens_model]\nmodel = "fisheye-ideal"\n')
+    with pytest.raises(BadInputError, match="needs sensor.width_px"):
+        load_profile(path)
