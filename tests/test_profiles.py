@@ -50,3 +50,29 @@ def test_bad_lens_model(tmp_path):
     path.write_text('id = "x"\n[lens_model]\nmodel = "fisheye-ideal"\n')
     with pytest.raises(BadInputError, match="needs sensor.width_px"):
         load_profile(path)
+
+
+def test_luminance_stage_uses_the_profile_lens_model(camera, shoot, profile_for):
+    """The spot cone comes from the profile's lens model: an OpenCV model without distortion
+    equal to the nominal pinhole gives the identical calibration factor."""
+    import warnings
+
+    from lsadphoto import luminance_from_raw
+    from lsadphoto.calibrate import SpotReading
+    from lsadphoto.datasets import interior_scene
+
+    path = shoot(camera, interior_scene((camera.height, camera.width)), exposure_time=1 / 1000)
+    nominal = profile_for(camera)
+    f = camera.focal_length * camera.width / camera.sensor_width
+    lens = OpenCVPinholeProjection(f, camera.focal_length * camera.height / camera.sensor_height,
+                                   (camera.width - 1) / 2, (camera.height - 1) / 2, [0, 0, 0, 0],
+                                   camera.width, camera.height)
+    calibrated = profile_for(camera, lens_projection=lens)
+    spot = [SpotReading(0.62 * camera.height, 0.5 * camera.width, 60.0)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a = luminance_from_raw([path], profile=nominal, spots=spot)
+        b = luminance_from_raw([path], profile=calibrated, spots=spot)
+    assert isinstance(b.map.projection, OpenCVPinholeProjection)
+    assert b.summary["spots"][0]["pixels"] == a.summary["spots"][0]["pixels"]
+    assert b.summary["calibration_factor"] == pytest.approx(a.summary["calibration_factor"], rel=1e-9)
