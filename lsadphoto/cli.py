@@ -107,6 +107,29 @@ def cmd_calibrate_vignetting(args):
     return 0
 
 
+def cmd_calibrate_geometry(args):
+    from .calibrate.geometric import calibrate_geometry, parse_pattern
+    from .calibrate.profile import CameraProfile, save_profile
+
+    result = calibrate_geometry(args.images, pattern=parse_pattern(args.pattern), model=args.model)
+    profile = _load_profile(args.profile) or CameraProfile(id=args.id or "geometry-fit")
+    profile.lens_projection = result.projection
+    profile.width, profile.height = result.width, result.height
+    profile.provenance = dict(profile.provenance, geometry_fit=(
+        f"lsadphoto {__version__}: {args.model} model, pattern {args.pattern}, RMS {result.rms_px:.3f} px, "
+        f"{len(result.summary()['used_images'])} views"))
+    save_profile(profile, args.output)
+    summary = dict(result.summary(), output=args.output)
+    if args.json:
+        _print_json(summary)
+    else:
+        print(f"wrote {args.output}: {args.model} model, RMS {result.rms_px:.3f} px, "
+              f"{len(summary['used_images'])} views used, {len(summary['rejected_images'])} rejected")
+        for item in summary["rejected_images"]:
+            print(f"  rejected {item['name']}: {item['reason']}")
+    return 0
+
+
 def build_parser():
     from .raw.colour import COLOUR_METHODS
     from .raw.decode import DEMOSAIC_METHODS
@@ -143,6 +166,16 @@ def build_parser():
     vig.add_argument("--demosaic", choices=DEMOSAIC_METHODS, default="superpixel")
     vig.add_argument("--json", action="store_true")
     vig.set_defaults(func=cmd_calibrate_vignetting)
+    geo = calsub.add_parser("geometry", help="calibrate the camera geometry from chessboard images (OpenCV)")
+    geo.add_argument("images", nargs="+", help="images of a chessboard (8-bit, any format OpenCV reads)")
+    geo.add_argument("--pattern", required=True, metavar="chessboard:COLSxROWS:SQUARE_MM",
+                     help="inner corners per row and column, and the square size [mm]")
+    geo.add_argument("--model", choices=("pinhole", "fisheye"), default="pinhole")
+    geo.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
+    geo.add_argument("--profile", help="profile to start from (its other sections are kept)")
+    geo.add_argument("--id", help="profile id when no --profile is given")
+    geo.add_argument("--json", action="store_true")
+    geo.set_defaults(func=cmd_calibrate_geometry)
     return parser
 
 

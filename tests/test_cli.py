@@ -111,3 +111,31 @@ def test_bad_input_one_line_exit_2_nothing_written(tmp_path, scene_dng, camera, 
 def test_version_and_debug_flag():
     code, stdout, _ = run_cli("--version")
     assert code == 0 and stdout.startswith("lsadphoto ")
+
+
+@pytest.mark.realdata
+def test_calibrate_geometry_json_on_real_fisheye_set(tmp_path):
+    from lsadphoto.calibrate import load_profile
+
+    from .conftest import realdata
+
+    folder = realdata("calib/fisheye_chessboard")
+    images = sorted(folder.glob("*.jpg"))
+    target = tmp_path / "fisheye.toml"
+    code, stdout, stderr = run_cli("calibrate", "geometry", *images, "--pattern", "chessboard:6x9:25",
+                                   "--model", "fisheye", "-o", target, "--json")
+    assert code == 0, stderr
+    summary = json.loads(stdout)
+    for key in ("rms_px", "fx", "fy", "cx", "cy", "distortion", "used_images", "rejected_images"):
+        assert key in summary
+    # The data set's README: an OpenCV fisheye fit gives RMS ≈ 0.28 px (issue: < 0.5 px).
+    assert summary["rms_px"] < 0.5
+    profile = load_profile(target)
+    assert profile.projection((640, 640)).fx == pytest.approx(summary["fx"], rel=1e-12)
+
+
+def test_calibrate_geometry_bad_pattern_is_one_line(tmp_path):
+    code, _, stderr = run_cli("calibrate", "geometry", tmp_path / "x.png", "--pattern", "circles:4x5",
+                              "-o", tmp_path / "p.toml")
+    assert code == 2 and "Traceback" not in stderr and len(stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "p.toml").exists()
