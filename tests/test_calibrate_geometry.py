@@ -240,3 +240,18 @@ def test_synthetic_fisheye():
     assert p.fx == pytest.approx(250.0, rel=0.005)
     assert p.fy == pytest.approx(250.0, rel=0.005)
     assert abs(p.cx - 399.5) < 2.0 and abs(p.cy - 299.5) < 2.0
+
+
+@pytest.mark.slow
+def test_outlier_view_is_rejected(pinhole_views):
+    """A view taken through another lens (opposite barrel/pincushion distortion, which no pose
+    can mimic) is found but cannot fit the common model: its reprojection RMS exceeds
+    3 × the median and it is left out with the reason."""
+    other = OpenCVPinholeProjection(600.0, 600.0, 399.5, 299.5, (0.25, 0.0, 0.0, 0.0, 0.0), 800, 600)
+    odd = _render(_supersampled_directions(other, 3), (0.3, -0.2, 0.2), (-150, 100, 550))
+    res = calibrate_geometry([*pinhole_views, odd], pattern=PATTERN)
+    last = res.per_image[-1]
+    assert not last["used"] and last["reason"].startswith("outlier: RMS")
+    # The refit without it is as good as the fit of the consistent views alone.
+    assert res.rms_px < 0.3
+    assert res.projection.fx == pytest.approx(600.0, rel=0.005)
