@@ -26,7 +26,7 @@ import numpy as np
 from .._validation import check_choice, check_positive
 from ..errors import BadInputError
 from ._spherical import quad_solid_angle
-from .base import Projection
+from .base import Projection, binned_coordinate, check_binning_factor, check_centre, check_image_size
 
 __all__ = ["IdealFisheyeProjection"]
 
@@ -91,13 +91,11 @@ class IdealFisheyeProjection(Projection):
     """
 
     model = "fisheye-ideal"
+    _fields = ("kind", "cx", "cy", "radius", "fov_deg", "width", "height")
 
     def __init__(self, kind, cx, cy, radius, fov_deg, width, height):
         self.kind = check_choice(kind, "fisheye kind", KINDS)
-        self.cx = float(cx)
-        self.cy = float(cy)
-        if not (math.isfinite(self.cx) and math.isfinite(self.cy)):
-            raise BadInputError(f"cx, cy must be finite, got {cx!r}, {cy!r}")
+        self.cx, self.cy = check_centre(cx, cy)
         self.radius = check_positive(radius, "radius")
         self.fov_deg = check_positive(fov_deg, "fov_deg")
         limit = _MAX_FOV[self.kind]
@@ -106,16 +104,9 @@ class IdealFisheyeProjection(Projection):
                 f"fov_deg must be {'<' if self.kind == 'stereographic' else '≤'} {limit:g} "
                 f"for a {self.kind} fisheye, got {fov_deg!r}"
             )
-        if int(width) != width or int(height) != height or width < 1 or height < 1:
-            raise BadInputError(f"image size must be positive integers, got {width}×{height}")
-        self.width = int(width)
-        self.height = int(height)
+        self.width, self.height = check_image_size(width, height)
 
     # --- mapping ---------------------------------------------------------------------------
-
-    @property
-    def shape(self):
-        return (self.height, self.width)
 
     @property
     def theta_max(self):
@@ -253,12 +244,9 @@ class IdealFisheyeProjection(Projection):
 
     def binned(self, factor):
         """Model after ``factor``×``factor`` binning (see :meth:`PinholeProjection.binned`)."""
-        factor = int(factor)
-        if factor < 1:
-            raise BadInputError(f"factor must be a positive integer, got {factor}")
-        shift = (factor - 1) / 2.0
+        factor = check_binning_factor(factor)
         return IdealFisheyeProjection(
-            self.kind, (self.cx - shift) / factor, (self.cy - shift) / factor,
+            self.kind, binned_coordinate(self.cx, factor), binned_coordinate(self.cy, factor),
             self.radius / factor, self.fov_deg, self.width // factor, self.height // factor,
         )
 
@@ -336,31 +324,6 @@ class IdealFisheyeProjection(Projection):
         return cls(kind, cx, cy, radius, fov, width, height)
 
     # --- serialisation ---------------------------------------------------------------------
-
-    def to_dict(self):
-        return {
-            "model": self.model,
-            "kind": self.kind,
-            "cx": self.cx,
-            "cy": self.cy,
-            "radius": self.radius,
-            "fov_deg": self.fov_deg,
-            "width": self.width,
-            "height": self.height,
-        }
-
-    @classmethod
-    def from_dict(cls, data):
-        try:
-            return cls(data["kind"], data["cx"], data["cy"], data["radius"], data["fov_deg"],
-                       data["width"], data["height"])
-        except KeyError as exc:
-            raise BadInputError(f"fisheye projection lacks {exc.args[0]!r}") from None
-
-    def __eq__(self, other):
-        return isinstance(other, IdealFisheyeProjection) and self.to_dict() == other.to_dict()
-
-    __hash__ = None
 
     def __repr__(self):
         return (

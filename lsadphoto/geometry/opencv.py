@@ -35,33 +35,13 @@ from numpy.polynomial import polynomial as P
 from .._validation import check_positive
 from ..errors import BadInputError
 from ._spherical import quad_solid_angle
-from .base import Projection
+from .base import Projection, binned_coordinate, check_binning_factor, check_centre, check_image_size
 
 __all__ = ["OpenCVFisheyeProjection", "OpenCVPinholeProjection"]
 
 #: Newton stops when the residual [normalised units] is below this.
 _TOL = 1e-12
 _MAX_ITER = 100
-
-
-def _check_size(width, height):
-    try:
-        ok = int(width) == width and int(height) == height and width >= 1 and height >= 1
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
-        raise BadInputError(f"image size must be positive integers, got {width}×{height}")
-    return int(width), int(height)
-
-
-def _check_centre(cx, cy):
-    try:
-        cx, cy = float(cx), float(cy)
-    except (TypeError, ValueError):
-        raise BadInputError(f"cx, cy must be numbers, got {cx!r}, {cy!r}") from None
-    if not (math.isfinite(cx) and math.isfinite(cy)):
-        raise BadInputError(f"cx, cy must be finite, got {cx!r}, {cy!r}")
-    return cx, cy
 
 
 def _check_distortion(distortion, lengths, model):
@@ -77,12 +57,6 @@ def _check_distortion(distortion, lengths, model):
     if not np.all(np.isfinite(d)):
         raise BadInputError("distortion contains NaN or infinite values")
     return tuple(float(v) for v in d)
-
-
-def _check_factor(factor):
-    if int(factor) != factor or factor < 1:
-        raise BadInputError(f"factor must be a positive integer, got {factor!r}")
-    return int(factor)
 
 
 def _split_camera_matrix(K):
@@ -111,17 +85,14 @@ class _OpenCVBase(Projection):
     """Shared parts: size, solid angles, serialisation, equality."""
 
     _lengths = ()
+    _fields = ("fx", "fy", "cx", "cy", "distortion", "width", "height")
 
     def __init__(self, fx, fy, cx, cy, distortion, width, height):
         self.fx = check_positive(fx, "fx")
         self.fy = check_positive(fy, "fy")
-        self.cx, self.cy = _check_centre(cx, cy)
+        self.cx, self.cy = check_centre(cx, cy)
         self.distortion = _check_distortion(distortion, self._lengths, self.model)
-        self.width, self.height = _check_size(width, height)
-
-    @property
-    def shape(self):
-        return (self.height, self.width)
+        self.width, self.height = check_image_size(width, height)
 
     @property
     def camera_matrix(self):
@@ -168,38 +139,12 @@ class _OpenCVBase(Projection):
         The distortion acts on normalised coordinates and is unchanged; ``fx/factor`` and
         ``cx' = (cx − (factor − 1)/2)/factor``.
         """
-        factor = _check_factor(factor)
-        shift = (factor - 1) / 2.0
+        factor = check_binning_factor(factor)
         return type(self)(
-            self.fx / factor, self.fy / factor, (self.cx - shift) / factor,
-            (self.cy - shift) / factor, self.distortion, self.width // factor,
+            self.fx / factor, self.fy / factor, binned_coordinate(self.cx, factor),
+            binned_coordinate(self.cy, factor), self.distortion, self.width // factor,
             self.height // factor,
         )
-
-    def to_dict(self):
-        return {
-            "model": self.model,
-            "fx": self.fx,
-            "fy": self.fy,
-            "cx": self.cx,
-            "cy": self.cy,
-            "distortion": list(self.distortion),
-            "width": self.width,
-            "height": self.height,
-        }
-
-    @classmethod
-    def from_dict(cls, data):
-        try:
-            return cls(data["fx"], data["fy"], data["cx"], data["cy"], data["distortion"],
-                       data["width"], data["height"])
-        except KeyError as exc:
-            raise BadInputError(f"{cls.model} projection lacks {exc.args[0]!r}") from None
-
-    def __eq__(self, other):
-        return type(other) is type(self) and self.to_dict() == other.to_dict()
-
-    __hash__ = None
 
     def __repr__(self):
         dist = ", ".join(f"{v:.6g}" for v in self.distortion)

@@ -5,8 +5,7 @@ import math
 import numpy as np
 
 from .._validation import check_positive
-from ..errors import BadInputError
-from .base import Projection
+from .base import Projection, binned_coordinate, check_binning_factor, check_centre, check_image_size
 
 
 class PinholeProjection(Projection):
@@ -35,16 +34,13 @@ class PinholeProjection(Projection):
     """
 
     model = "pinhole"
+    _fields = ("fx", "fy", "cx", "cy", "width", "height")
 
     def __init__(self, fx, fy, cx, cy, width, height):
         self.fx = check_positive(fx, "fx")
         self.fy = check_positive(fy, "fy")
-        self.cx = float(cx)
-        self.cy = float(cy)
-        if int(width) != width or int(height) != height or width < 1 or height < 1:
-            raise BadInputError(f"image size must be positive integers, got {width}×{height}")
-        self.width = int(width)
-        self.height = int(height)
+        self.cx, self.cy = check_centre(cx, cy)
+        self.width, self.height = check_image_size(width, height)
 
     @classmethod
     def from_sensor(cls, *, focal_length, sensor_width, sensor_height, width, height):
@@ -53,10 +49,6 @@ class PinholeProjection(Projection):
         fx = focal_length * width / check_positive(sensor_width, "sensor_width")
         fy = focal_length * height / check_positive(sensor_height, "sensor_height")
         return cls(fx, fy, (width - 1) / 2.0, (height - 1) / 2.0, width, height)
-
-    @property
-    def shape(self):
-        return (self.height, self.width)
 
     def _plane(self, rows, cols):
         return (np.asarray(cols, float) - self.cx) / self.fx, (np.asarray(rows, float) - self.cy) / self.fy
@@ -89,18 +81,14 @@ class PinholeProjection(Projection):
         return f(x2, y2) - f(x1, y2) - f(x2, y1) + f(x1, y1)
 
     def binned(self, factor):
-        """Model of the image after ``factor``×``factor`` binning (superpixel demosaic).
-
-        New pixel ``u'`` covers old pixels ``factor·u' … factor·u' + factor − 1`` whose mean
-        centre is ``factor·u' + (factor − 1)/2``.
-        """
-        factor = int(factor)
-        shift = (factor - 1) / 2.0
+        """Model of the image after ``factor``×``factor`` binning (superpixel demosaic);
+        see :func:`~lsadphoto.geometry.base.binned_coordinate`."""
+        factor = check_binning_factor(factor)
         return PinholeProjection(
             self.fx / factor,
             self.fy / factor,
-            (self.cx - shift) / factor,
-            (self.cy - shift) / factor,
+            binned_coordinate(self.cx, factor),
+            binned_coordinate(self.cy, factor),
             self.width // factor,
             self.height // factor,
         )
@@ -132,27 +120,6 @@ class PinholeProjection(Projection):
         cx = (0.5 - options.get("vs", 0.0)) * width - 0.5
         cy = (options.get("vl", 0.0) + 0.5) * height - 0.5
         return cls(fx, fy, cx, cy, width, height)
-
-    def to_dict(self):
-        return {
-            "model": self.model,
-            "fx": self.fx,
-            "fy": self.fy,
-            "cx": self.cx,
-            "cy": self.cy,
-            "width": self.width,
-            "height": self.height,
-        }
-
-    @classmethod
-    def from_dict(cls, data):
-        try:
-            return cls(data["fx"], data["fy"], data["cx"], data["cy"], data["width"], data["height"])
-        except KeyError as exc:
-            raise BadInputError(f"pinhole projection lacks {exc.args[0]!r}") from None
-
-    def __eq__(self, other):
-        return isinstance(other, PinholeProjection) and self.to_dict() == other.to_dict()
 
     def __repr__(self):
         return (
