@@ -17,8 +17,9 @@ from pathlib import Path
 import numpy as np
 
 from ..calibrate.profile import CameraProfile, save_profile
-from ..calibrate.spot import SpotReading, spot_cone
+from ..calibrate.spot import spot_cone
 from ..calibrate.vignetting import VignettingModel
+from ..constants import LS100_ACCEPTANCE_ANGLE
 from ..geometry.pinhole import PinholeProjection
 from ..raw.bracket import NoiseModel
 from .scenes import interior_scene, uniform_field
@@ -50,7 +51,7 @@ def demo_profile():
 
 def meter_reading(luminance, projection, row, col):
     """What an LS-100 would display aimed at (row, col): the cone mean, 3 significant digits."""
-    window, mask, weights = spot_cone(projection, row, col, SpotReading(row, col, 1.0).acceptance_angle)
+    window, mask, weights = spot_cone(projection, row, col, LS100_ACCEPTANCE_ANGLE)
     value = float(np.sum(luminance[window][mask] * weights[mask]) / np.sum(weights[mask]))
     return float(f"{value:.3g}")
 

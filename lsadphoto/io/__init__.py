@@ -1,5 +1,8 @@
 """Reading and writing luminance maps: OpenEXR, Radiance HDR, false-colour PNG."""
 
+from pathlib import Path
+
+from ..errors import UnsupportedFileError
 from ._atomic import atomic_outputs, atomic_path
 from .exr import read_exr, write_exr
 from .falsecolour import write_false_colour_png
@@ -19,10 +22,6 @@ __all__ = [
 
 def read_map(path):
     """Read a luminance map from an OpenEXR (``.exr``) or Radiance (``.hdr``/``.pic``) file."""
-    from pathlib import Path
-
-    from ..errors import UnsupportedFileError
-
     suffix = Path(path).suffix.lower()
     if suffix == ".exr":
         return read_exr(path)

@@ -131,14 +131,14 @@ def _levels(raw):
     return black, whites
 
 
-def _black_map(path, shape, dark_frame):
+def _black_map(path, shape, dark_frame, dng):
     """Per-pixel black level [ADU] where one replaces the per-channel values, else None."""
     if dark_frame is not None:
         dark = np.asarray(dark_frame, dtype=np.float64)
         if dark.shape != shape:
             raise BadInputError(f"dark frame is {dark.shape} but {path} is {shape}")
         return dark
-    return dng_black_map(read_dng_tags(path), shape)
+    return dng_black_map(dng, shape)
 
 
 def read_dark_frame(paths):
@@ -215,7 +215,8 @@ def _decode(path, raw, demosaic, saturation_fraction, dark_frame):
     pattern = _cfa_info(raw, path)
     image, colours = _copy_raw(raw, path)
     black, whites = _levels(raw)
-    black_map = _black_map(path, colours.shape, dark_frame)
+    dng = read_dng_tags(path)  # {} for files that are not DNGs
+    black_map = _black_map(path, colours.shape, dark_frame, dng)
     cell = colours[:2, :2]
     planes = [(dr, dc, int(cell[dr, dc])) for dr in (0, 1) for dc in (0, 1)]
     if np.any(whites <= black) or (black_map is not None and np.any(whites[colours] <= black_map)):
@@ -291,7 +292,7 @@ def _decode(path, raw, demosaic, saturation_fraction, dark_frame):
     )
     metadata = read_exposure_metadata(path, raw)
     if Path(path).suffix.lower() == ".dng":
-        colour.dng = read_dng_tags(path)
+        colour.dng = dng
     return RawImage(
         rgb=rgb,
         saturated=saturated,
