@@ -1,0 +1,1 @@
+"""Lighting-quality metrics of absolute luminance maps."""
