@@ -39,3 +39,33 @@ def interior_scene(shape, *, luminaires=((0.18, 0.3, 12000.0), (0.18, 0.7, 12000
         inside = (rr - r0) ** 2 + ((cc - c0) * aspect) ** 2 <= luminaire_radius**2
         scene[inside] = value
     return scene
+
+
+def disk_sources_scene(directions, *, background, sources):
+    """Luminance of a uniform background with uniform circular sources, per pixel direction.
+
+    Parameters
+    ----------
+    directions : ndarray, shape (rows, cols, 3)
+        Unit pixel directions (NaN where invalid; those pixels come out NaN).
+    background : float
+        Background luminance [cd·m⁻²].
+    sources : sequence of (direction, angular_radius, luminance)
+        Each source: its centre direction (3-vector, normalised here), its angular radius
+        [rad] (a spherical cap: solid angle 2π(1 − cos radius)) and its luminance [cd·m⁻²].
+        Later sources paint over earlier ones.
+
+    Returns
+    -------
+    ndarray, float64, shape (rows, cols)
+        The pixel's luminance is that of the region its centre direction lies in.
+    """
+    d = np.asarray(directions, dtype=np.float64)
+    scene = np.full(d.shape[:-1], float(background))
+    for centre, radius, value in sources:
+        c = np.asarray(centre, dtype=np.float64)
+        c = c / np.linalg.norm(c)
+        with np.errstate(invalid="ignore"):
+            scene[d @ c >= np.cos(radius)] = value
+    scene[~np.isfinite(d[..., 0])] = np.nan
+    return scene

@@ -1,0 +1,240 @@
+"""UGR (pixel-wise and grouped), glare-source rules and evalglare-style grouping.
+
+References: closed forms for a uniform disk source on a uniform background (CIE 117 eq. 1
+with the spherical-cap integrals ω = 2π(1 − cos ρ) and ∫cap cos σ dω = π sin²ρ cos σ₀), the
+identity pixel-UGR − UGR = 8·log10(1 + CV²) (FORMULAS.md §3.1), and scaling laws.
+"""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from lsadphoto.datasets import disk_sources_scene
+from lsadphoto.geometry import IdealFisheyeProjection, ObserverFrame, position_index
+from lsadphoto.metrics.field import background_luminance, mean_luminance, vertical_illuminance
+from lsadphoto.metrics.grouping import group_sources_evalglare
+from lsadphoto.metrics.sources import select_source_pixels, task_luminance
+from lsadphoto.metrics.ugr import ugr_CIE117, ugr_pixel
+
+
+def _fisheye(size=1000):
+    cam = IdealFisheyeProjection("equidistant", (size - 1) / 2, (size - 1) / 2, size / 2, 180.0,
+                                 size, size)
+    r, c = cam.pixel_grid()
+    d = cam.directions(r, c)
+    w = cam.solid_angles(r, c)
+    return cam, d, w
+
+
+@pytest.fixture(scope="module")
+def fisheye():
+    return _fisheye()
+
+
+def _up_direction(sigma):
+    """Direction σ above the optical axis (camera frame: y down)."""
+    return np.array([0.0, -math.sin(sigma), math.cos(sigma)])
+
+
+def _cap_integral_of_inverse_p2(centre, rho, order=64):
+    """∫cap dω/P² by Gauss–Legendre quadrature in polar coordinates about the cap centre."""
+    c = centre / np.linalg.norm(centre)
+    e1 = np.cross(c, [1.0, 0.0, 0.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(c, e1)
+    x, wx = np.polynomial.legendre.leggauss(order)
+    r = (x + 1) * rho / 2
+    wr = wx * rho / 2
+    phi = np.linspace(0, 2 * np.pi, 4 * order, endpoint=False)
+    R, PHI = np.meshgrid(r, phi, indexing="ij")
+    d = (np.cos(R)[..., None] * c + np.sin(R)[..., None]
+         * (np.cos(PHI)[..., None] * e1 + np.sin(PHI)[..., None] * e2))
+    P = position_index(*ObserverFrame().angles(d))
+    weights = (wr * np.sin(r))[:, None] * (2 * np.pi / phi.size)
+    return float(np.sum(weights / P**2))
+
+
+def _maps(d, w):
+    frame = ObserverFrame()
+    sigma, tau = frame.angles(d)
+    cos_sigma = np.where(np.isfinite(sigma), np.cos(sigma), 0.0)
+    P = position_index(sigma, tau)
+    return cos_sigma, P
+
+
+@pytest.mark.parametrize("sigma_deg", [20.0, 40.0])
+def test_uniform_disk_source_matches_closed_form(fisheye, sigma_deg):
+    cam, d, w = fisheye
+    L_bg, L_s, rho = 100.0, 20000.0, math.radians(3.0)
+    s0 = math.radians(sigma_deg)
+    L = disk_sources_scene(d, background=L_bg, sources=[(_up_direction(s0), rho, L_s)])
+    cos_sigma, P = _maps(d, w)
+    sel = select_source_pixels(L, w, cos_sigma)
+    l_b = background_luminance(L, w, cos_sigma, sel.mask)
+    groups, _ = group_sources_evalglare(L, d, w, sel.mask)
+    assert len(groups) == 1
+    # Closed forms: the cap's solid angle and cosine integral, Guth's P at the cap centre.
+    omega = 2 * math.pi * (1 - math.cos(rho))
+    l_b_exact = L_bg * (1 - math.sin(rho) ** 2 * math.cos(s0))
+    p_exact = float(position_index(s0, 0.0))
+    ugr_exact = 8 * math.log10(0.25 / l_b_exact * L_s**2 * omega / p_exact**2)
+    e_v_exact = math.pi * L_bg + (L_s - L_bg) * math.pi * math.sin(rho) ** 2 * math.cos(s0)
+    # Pixelising a 3° disk (≈17 px radius) misplaces its rim by up to half a pixel: the
+    # measured solid angle is within 1 % (8·log10(1.01) = 0.035 UGR); P varies over the
+    # disk by ±4 % at σ = 40°, which the pixel sum averages to second order.
+    assert groups[0].solid_angle == pytest.approx(omega, rel=0.01)
+    assert vertical_illuminance(L, w, cos_sigma) == pytest.approx(e_v_exact, rel=2e-3)
+    assert l_b == pytest.approx(l_b_exact, rel=1e-3)
+    source_p = float(position_index(*ObserverFrame().angles(np.array(groups[0].direction))))
+    grouped = ugr_CIE117([groups[0].luminance], [groups[0].solid_angle], [source_p], l_b)
+    assert grouped == pytest.approx(ugr_exact, abs=0.05)
+    # Pixel-UGR integrates 1/P² over the disk instead of taking P at its centre: the
+    # reference is the same closed form with ω/P₀² replaced by ∫cap dω/P² (quadrature).
+    pixel_exact = 8 * math.log10(0.25 / l_b_exact * L_s**2
+                                 * _cap_integral_of_inverse_p2(_up_direction(s0), rho))
+    assert ugr_pixel(L, w, P, sel.mask, l_b) == pytest.approx(pixel_exact, abs=0.05)
+
+
+def test_pixel_minus_grouped_ugr_is_8_log_one_plus_cv2(fisheye):
+    cam, d, w = fisheye
+    rng = np.random.default_rng(3)
+    L = disk_sources_scene(d, background=50.0, sources=[(_up_direction(0.4), 0.08, 1.0)])
+    inside = L == 1.0
+    L[inside] = rng.uniform(3000.0, 40000.0, inside.sum())
+    P = np.full(L.shape, 2.5)  # a common position index, as the identity requires
+    cos_sigma, _ = _maps(d, w)
+    sel = select_source_pixels(L, w, cos_sigma)
+    assert np.array_equal(sel.mask, inside)
+    groups, _ = group_sources_evalglare(L, d, w, sel.mask)
+    assert len(groups) == 1
+    l_b = background_luminance(L, w, cos_sigma, sel.mask)
+    lj, wj = L[inside], w[inside]
+    mean = np.sum(lj * wj) / wj.sum()
+    cv2 = np.sum(wj * (lj - mean) ** 2) / wj.sum() / mean**2
+    grouped = ugr_CIE117([groups[0].luminance], [groups[0].solid_angle], [2.5], l_b)
+    # The identity is exact algebra; 1e-6 leaves room for float64 summation only.
+    assert ugr_pixel(L, w, P, sel.mask, l_b) - grouped == pytest.approx(
+        8 * math.log10(1 + cv2), abs=1e-6)
+
+
+@settings(max_examples=25, deadline=None)
+@given(k=st.floats(1e-3, 1e6))
+def test_pixel_ugr_scales_as_8_log_k(k):
+    cam, d, w = _fisheye(96)
+    L = disk_sources_scene(d, background=80.0, sources=[(_up_direction(0.3), 0.15, 9000.0),
+                                                        ((0.5, 0.2, 1.0), 0.1, 30000.0)])
+    cos_sigma, P = _maps(d, w)
+
+    def ugr(scale):
+        # A scale-free rule (factor × field mean) selects the same pixels at every scale.
+        sel = select_source_pixels(L * scale, w, cos_sigma, method="mean", value=5.0)
+        return ugr_pixel(L * scale, w, P, sel.mask,
+                         background_luminance(L * scale, w, cos_sigma, sel.mask))
+
+    # Exact in real arithmetic; 1e-9 covers float64 rounding of sums and logarithms.
+    assert ugr(k) - ugr(1.0) == pytest.approx(8 * math.log10(k), abs=1e-9)
+
+
+def test_no_source_gives_nan_not_a_crash(fisheye):
+    cam, d, w = fisheye
+    L = np.where(np.isfinite(d[..., 0]), 100.0, np.nan)
+    cos_sigma, P = _maps(d, w)
+    sel = select_source_pixels(L, w, cos_sigma)
+    assert not sel.mask.any()
+    groups, labels = group_sources_evalglare(L, d, w, sel.mask)
+    assert groups == [] and not labels.any()
+    l_b = background_luminance(L, w, cos_sigma, sel.mask)
+    assert math.isnan(ugr_pixel(L, w, P, sel.mask, l_b))
+    assert math.isnan(ugr_CIE117([], [], [], l_b))
+
+
+def test_zero_background_gives_nan(fisheye):
+    cam, d, w = fisheye
+    L = disk_sources_scene(d, background=0.0, sources=[(_up_direction(0.3), 0.05, 5000.0)])
+    cos_sigma, P = _maps(d, w)
+    sel = select_source_pixels(L, w, cos_sigma)
+    l_b = background_luminance(L, w, cos_sigma, sel.mask)
+    assert l_b == 0.0
+    assert math.isnan(ugr_pixel(L, w, P, sel.mask, l_b))
+
+
+def test_grouping_links_within_half_the_search_angle(fisheye):
+    cam, d, w = fisheye
+    r = math.radians(1.0)
+    # Gap between the caps' rims: 0.06 rad (linked, ≤ 0.1) and 0.2 rad (separate).
+    a = _up_direction(0.3)
+    near = _up_direction(0.3 + 2 * r + 0.06)
+    far_axis = np.array([math.sin(0.3 + 2 * r + 0.2 + 0.3), 0.0, 0.0])
+    far = np.array([0.0, -math.sin(0.3), math.cos(0.3)])
+    L = disk_sources_scene(d, background=10.0, sources=[(a, r, 8000.0), (near, r, 8000.0)])
+    cos_sigma, _ = _maps(d, w)
+    sel = select_source_pixels(L, w, cos_sigma)
+    groups, labels = group_sources_evalglare(L, d, w, sel.mask)
+    assert len(groups) == 1
+    # Move the second cap 0.2 rad beyond the rim of the first: two sources.
+    rot = 2 * r + 0.2
+    second = np.array([0.0, -math.sin(0.3 + rot), math.cos(0.3 + rot)])
+    L2 = disk_sources_scene(d, background=10.0, sources=[(a, r, 8000.0), (second, r, 8000.0)])
+    sel2 = select_source_pixels(L2, w, cos_sigma)
+    groups2, labels2 = group_sources_evalglare(L2, d, w, sel2.mask)
+    assert len(groups2) == 2
+    assert set(np.unique(labels2)) == {0, 1, 2}
+    del far_axis, far
+
+
+def test_peak_extraction_splits_the_bright_core(fisheye):
+    cam, d, w = fisheye
+    centre = _up_direction(0.5)
+    L = disk_sources_scene(d, background=30.0, sources=[(centre, 0.1, 5000.0),
+                                                        (centre, 0.02, 1.6e9)])
+    cos_sigma, _ = _maps(d, w)
+    sel = select_source_pixels(L, w, cos_sigma)
+    groups, _ = group_sources_evalglare(L, d, w, sel.mask)
+    assert sorted(g.peak for g in groups) == [False, True]
+    peak = next(g for g in groups if g.peak)
+    assert peak.luminance == pytest.approx(1.6e9)
+    # The core's solid angle is the cap's to its pixelisation error (≈3.6 px radius: 10 %).
+    assert peak.solid_angle == pytest.approx(2 * math.pi * (1 - math.cos(0.02)), rel=0.1)
+    groups_off, _ = group_sources_evalglare(L, d, w, sel.mask, peak_luminance=None)
+    assert len(groups_off) == 1
+
+
+def test_task_rule_uses_the_cone_mean(fisheye):
+    cam, d, w = fisheye
+    L = disk_sources_scene(d, background=200.0, sources=[(_up_direction(0.6), 0.05, 1500.0)])
+    cos_sigma, _ = _maps(d, w)
+    # The task cone around the axis sees only background: L_task = 200, threshold 1000.
+    assert task_luminance(L, d, w, (0, 0, 1), math.radians(20)) == pytest.approx(200.0)
+    sel = select_source_pixels(L, w, cos_sigma, method="task", value=5.0, directions=d,
+                               task_direction=(0, 0, 1), task_opening=math.radians(20))
+    assert sel.threshold == pytest.approx(1000.0)
+    assert np.array_equal(sel.mask, L == 1500.0)
+
+
+def test_mean_luminance_of_hemisphere(fisheye):
+    cam, d, w = fisheye
+    L = np.where(np.isfinite(d[..., 0]), 42.0, np.nan)
+    cos_sigma, _ = _maps(d, w)
+    assert mean_luminance(L, w, cos_sigma) == pytest.approx(42.0, rel=1e-12)
+    # E_v of a uniform hemisphere is π·L; the centre-rule rim pixels add ≈6e-5 (fisheye.py).
+    assert vertical_illuminance(L, w, cos_sigma) == pytest.approx(math.pi * 42.0, rel=2e-4)
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (2, 2)])
+def test_tiny_maps_are_defined(shape):
+    cam = IdealFisheyeProjection("equidistant", (shape[1] - 1) / 2, (shape[0] - 1) / 2,
+                                 shape[0] / 2, 180.0, shape[1], shape[0])
+    r, c = cam.pixel_grid()
+    d = cam.directions(r, c)
+    w = cam.solid_angles(r, c)
+    L = np.full(shape, 5000.0)
+    cos_sigma, P = _maps(d, w)
+    sel = select_source_pixels(L, w, cos_sigma)
+    groups, _ = group_sources_evalglare(L, d, w, sel.mask)
+    l_b = background_luminance(L, w, cos_sigma, sel.mask)
+    value = ugr_pixel(L, w, P, sel.mask, l_b)
+    assert math.isnan(value) or math.isfinite(value)
+    assert sum(g.n_pixels for g in groups) == int(sel.mask.sum())
