@@ -37,7 +37,16 @@ def evaluated_field(luminance, solid_angle, cos_sigma):
 
 
 def _masked(values, mask):
-    return np.asarray(values, dtype=np.float64)[mask]
+    values = np.asarray(values, dtype=np.float64)
+    return values.ravel() if mask is None else values[mask]
+
+
+def _field(luminance, solid_angle, cos_sigma, mask):
+    """The selection of pixels to sum: None when it is every pixel (no copies then)."""
+    field = evaluated_field(luminance, solid_angle, cos_sigma)
+    if mask is not None:
+        field &= mask
+    return None if field.all() else field
 
 
 def vertical_illuminance(luminance, solid_angle, cos_sigma, *, mask=None):
@@ -52,11 +61,9 @@ def vertical_illuminance(luminance, solid_angle, cos_sigma, *, mask=None):
     >>> float(vertical_illuminance(np.array([1.0]), np.array([2 * np.pi]), np.array([0.5])))
     3.141592653589793
     """
-    field = evaluated_field(luminance, solid_angle, cos_sigma)
-    if mask is not None:
-        field &= mask
-    return float(np.sum(_masked(luminance, field) * _masked(cos_sigma, field)
-                        * _masked(solid_angle, field)))
+    field = _field(luminance, solid_angle, cos_sigma, mask)
+    return float(np.dot(_masked(luminance, field) * _masked(cos_sigma, field),
+                        _masked(solid_angle, field)))
 
 
 def mean_luminance(luminance, solid_angle, cos_sigma, *, mask=None):
@@ -64,14 +71,12 @@ def mean_luminance(luminance, solid_angle, cos_sigma, *, mask=None):
 
     NaN when the field is empty.
     """
-    field = evaluated_field(luminance, solid_angle, cos_sigma)
-    if mask is not None:
-        field &= mask
+    field = _field(luminance, solid_angle, cos_sigma, mask)
     omega = _masked(solid_angle, field)
     total = omega.sum()
-    if total <= 0:
+    if not total > 0:
         return math.nan
-    return float(np.sum(_masked(luminance, field) * omega) / total)
+    return float(np.dot(_masked(luminance, field), omega) / total)
 
 
 def background_luminance(luminance, solid_angle, cos_sigma, source_mask, *, method="CIE"):

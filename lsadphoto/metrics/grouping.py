@@ -28,7 +28,7 @@ Wienold, J., Christoffersen, J. (2006), Energy and Buildings 38, 743–757; Radi
 ``src/util/evalglare.c`` (find_near_pgs, find_split, peak extraction); FORMULAS.md §2.4.5–6.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import ndimage, sparse
@@ -185,7 +185,18 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
         Source number + 1 per pixel (0: not a source), indexing ``sources``.
     """
     separation = check_positive(search_angle, "search_angle") / 2.0
-    mask = np.asarray(source_mask, dtype=bool)
+    full_mask = np.asarray(source_mask, dtype=bool)
+    labels_full = np.zeros(full_mask.shape, dtype=np.int64)
+    rows_any = np.flatnonzero(full_mask.any(axis=1))
+    if rows_any.size == 0:
+        return [], labels_full
+    # Work inside the sources' bounding box: the rest of the picture holds no source pixel.
+    cols_any = np.flatnonzero(full_mask[rows_any[0]:rows_any[-1] + 1].any(axis=0))
+    box = (slice(rows_any[0], rows_any[-1] + 1), slice(cols_any[0], cols_any[-1] + 1))
+    mask = full_mask[box]
+    luminance = np.asarray(luminance)[box]
+    directions = np.asarray(directions)[box]
+    solid_angle = np.asarray(solid_angle)[box]
     labels, n = _link(mask, directions, separation)
     peak_flags = [False] * n
     if peak_luminance is not None and n:
@@ -201,4 +212,8 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
             labels = np.where(peak_mask, peak_labels + kept.size, renumber[rest])
             n = kept.size + n_peak
             peak_flags = [False] * kept.size + [True] * n_peak
-    return _describe(labels, n, luminance, directions, solid_angle, peak_flags), labels
+    sources = _describe(labels, n, luminance, directions, solid_angle, peak_flags)
+    offset_row, offset_col = box[0].start, box[1].start
+    sources = [replace(s, row=s.row + offset_row, col=s.col + offset_col) for s in sources]
+    labels_full[box] = labels
+    return sources, labels_full

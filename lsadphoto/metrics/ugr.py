@@ -57,7 +57,7 @@ def ugr_CIE117(luminance, solid_angle, position_index, background_luminance):
     8·log10(0.25·10⁸·0.01/100) = 8·log10(2500):
 
     >>> round(ugr_CIE117([1e4], [0.01], [1.0], 100.0), 6)
-    27.183174
+    27.18352
     """
     if np.size(luminance) == 0:
         return math.nan
