@@ -192,13 +192,13 @@ def _vwrays():
 @pytest.mark.parametrize(
     "kind, size",
     [("equidistant", (1000, 1000)), ("orthographic", (1000, 1000)), ("equidistant", (640, 480)),
-     ("orthographic", (300, 500))],
+     ("orthographic", (300, 500)), ("stereographic", (1000, 1000)), ("stereographic", (640, 480))],
 )
 def test_directions_match_radiance_vwrays(kind, size):
     vwrays = _vwrays()
     width, height = size
     # Radiance's -vth stops at vh = 180°: the orthographic circle must span the image.
-    radius = 0.45 * min(size) if kind == "equidistant" else 0.56 * max(size)
+    radius = 0.56 * max(size) if kind == "orthographic" else 0.45 * min(size)
     cam = IdealFisheyeProjection(kind, 0.47 * width, 0.53 * height, radius, 180.0, width, height)
     view = cam.radiance_view()
     back = IdealFisheyeProjection.from_radiance_view(parse_view(view), width, height)
@@ -240,15 +240,53 @@ def test_radiance_view_strings():
     assert cam.radiance_view().startswith("-vta ")
     assert " -vh 180 -vv 180 -vs 0 -vl 0" in cam.radiance_view()
     assert _cam("orthographic").radiance_view().startswith("-vth ")
+    # -vts: Radiance's planisphere reaches θ = vh/2 at the image edge (x = ½: tan(θ/2) =
+    # tan(vh/4)). A 180° circle filling a square image is therefore -vh 180 as for -vta.
+    view = _cam("stereographic").radiance_view()
+    assert view.startswith("-vts ") and " -vh 180 -vv 180 -vs 0 -vl 0" in view
+    back = IdealFisheyeProjection.from_radiance_view(parse_view(view), 1000, 1000)
+    assert back.kind == "stereographic" and back.radius == pytest.approx(500.0, rel=1e-14)
+
+
+def test_stereographic_view_edge_against_hand_numbers():
+    # -vts -vh 120 on 200 px: tan(θ/2) = 2·tan(30°)·x with x = (i + ½)/200 − ½ (image.c
+    # viewray, VT_PLS). Column 199.5 (x = ½) must be θ = 60°; column 149.5 (x = ¼) has
+    # tan(θ/2) = tan(30°)/2 = 0.288675 → θ = 32.2042°. The model's radius for a 180°
+    # circle: tan(45°) = R·(2·tan 30°/200), R = 100/tan 30° = 173.205 px.
+    cam = IdealFisheyeProjection.from_radiance_view(parse_view("-vts -vh 120 -vv 120"), 200, 200)
+    assert cam.radius == pytest.approx(100.0 / math.tan(math.radians(30.0)), rel=1e-14)
+    theta = np.degrees(np.arccos(cam.directions(99.5, np.array([199.5, 149.5]))[:, 2]))
+    # arccos near 1 − cos θ ≈ 0.15 loses nothing noticeable: 1e-9 deg is far below any use.
+    np.testing.assert_allclose(theta, [60.0, 32.204227], atol=1e-6)
+
+
+@pytest.mark.parametrize(("vtype", "name"), [("l", "parallel"), ("c", "cylindrical panorama"),
+                                             ("v", "perspective"), ("q", "unknown view type")])
+def test_non_fisheye_view_types_are_named(vtype, name):
+    with pytest.raises(BadInputError, match=rf"-vt{vtype} \({name}\)") as info:
+        IdealFisheyeProjection.from_radiance_view({"type": vtype}, 10, 10)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize(("vtype", "name"), [("l", "parallel"), ("c", "cylindrical panorama"),
+                                             ("x", "unknown view type")])
+def test_projection_from_view_rejects_unsupported_types(vtype, name):
+    from lsadphoto.io.hdr import projection_from_view
+
+    with pytest.raises(BadInputError, match=rf"-vt{vtype} \({name}\)") as info:
+        projection_from_view(parse_view(f"-vt{vtype} -vh 180 -vv 60"), 100, 100)
+    assert "\n" not in str(info.value)
+    cam = projection_from_view(parse_view("-vts -vh 180 -vv 180"), 100, 100)
+    assert cam == IdealFisheyeProjection("stereographic", 49.5, 49.5, 50.0, 180.0, 100, 100)
 
 
 # --- bad input --------------------------------------------------------------------------------
 
 
 def test_serialisation_and_bad_values():
-    cam = IdealFisheyeProjection("stereographic", 10.5, 12.0, 9.0, 170.0, 30, 25)
+    cam = IdealFisheyeProjection("equisolid", 10.5, 12.0, 9.0, 170.0, 30, 25)
     assert projection_from_dict(cam.to_dict()) == cam
-    assert "stereographic" in repr(cam)
+    assert "equisolid" in repr(cam)
     with pytest.raises(BadInputError, match="fisheye kind"):
         IdealFisheyeProjection("fish", 0, 0, 1, 180, 10, 10)
     with pytest.raises(BadInputError, match="radius"):
@@ -263,7 +301,7 @@ def test_serialisation_and_bad_values():
         IdealFisheyeProjection("equidistant", float("nan"), 0, 5, 180, 10, 10)
     with pytest.raises(BadInputError, match="lacks 'radius'"):
         IdealFisheyeProjection.from_dict({"kind": "equidistant", "cx": 0, "cy": 0})
-    with pytest.raises(BadInputError, match="no view type for a stereographic"):
+    with pytest.raises(BadInputError, match="no view type for a equisolid"):
         cam.radiance_view()
     with pytest.raises(BadInputError, match="not a fisheye view"):
         IdealFisheyeProjection.from_radiance_view({"type": "v"}, 10, 10)

@@ -113,6 +113,19 @@ class Projection(ABC):
 
     __hash__ = None
 
+    def _grid_direction_components(self, rows, cols, *, corners=False):
+        """Direction components ``(dx, dy, dz)``, each ``(len(rows), len(cols))``, on the grid
+        ``rows[:, None] × cols[None, :]`` of image coordinates [px].
+
+        Used by :func:`~lsadphoto.geometry.field.pixel_geometry`. With ``corners=True`` the
+        points are pixel corners, for which a model may extend its mapping beyond its valid
+        region (the ideal fisheye's centre rule); the default evaluates :meth:`directions`,
+        so that the cached maps equal it element for element.
+        """
+        r, c = np.meshgrid(np.asarray(rows, float), np.asarray(cols, float), indexing="ij")
+        d = self.directions(r, c)
+        return d[..., 0], d[..., 1], d[..., 2]
+
     def pixel_grid(self):
         """Row and column index arrays of the whole image."""
         rows, cols = self.shape

@@ -7,14 +7,14 @@ and ``R`` the image-circle radius [px] (``g(θmax) = R``):
 * equidistant:   r = R·θ/θmax                  (Radiance ``-vta``)
 * equisolid:     r = R·sin(θ/2)/sin(θmax/2)
 * orthographic:  r = R·sin θ/sin θmax          (Radiance ``-vth``)
-* stereographic: r = R·tan(θ/2)/tan(θmax/2)
+* stereographic: r = R·tan(θ/2)/tan(θmax/2)    (Radiance ``-vts``)
 
 Conventions are those of :mod:`~lsadphoto.geometry.base` (pixel centres at integer
 ``(row, col)``, x right, y down the image, z along the optical axis).
 
 References
 ----------
-FORMULAS.md §2.4.2 (Radiance viewray for ``-vta``/``-vth``; pixel solid angles);
+FORMULAS.md §2.4.2 (Radiance viewray for ``-vta``/``-vth``/``-vts``; pixel solid angles);
 K. Miyamoto, "Fish eye lens", J. Opt. Soc. Am. 54(8), 1964, 1060–1061 (the four mappings).
 """
 
@@ -25,8 +25,13 @@ import numpy as np
 
 from .._validation import check_choice, check_positive
 from ..errors import BadInputError
-from ._spherical import quad_solid_angle
-from .base import Projection, binned_coordinate, check_binning_factor, check_centre, check_image_size
+from .base import (
+    Projection,
+    binned_coordinate,
+    check_binning_factor,
+    check_centre,
+    check_image_size,
+)
 
 __all__ = ["IdealFisheyeProjection"]
 
@@ -34,7 +39,11 @@ KINDS = ("equidistant", "equisolid", "orthographic", "stereographic")
 #: Largest full field of view [deg] each mapping can represent one-to-one.
 _MAX_FOV = {"equidistant": 360.0, "equisolid": 360.0, "orthographic": 180.0, "stereographic": 360.0}
 #: Radiance view types (``-vt?``) this model reproduces.
-_RADIANCE_TYPES = {"a": "equidistant", "h": "orthographic"}
+_RADIANCE_TYPES = {"a": "equidistant", "h": "orthographic", "s": "stereographic"}
+#: Names of Radiance's view types (``src/common/view.h``), for messages.
+RADIANCE_VIEW_NAMES = {"v": "perspective", "l": "parallel", "c": "cylindrical panorama",
+                       "h": "hemispherical fisheye", "a": "angular fisheye",
+                       "s": "planisphere (stereographic) fisheye"}
 #: Largest θ [rad] each mapping reaches when extended beyond the image circle.
 _MAX_THETA = {"equidistant": math.pi, "equisolid": math.pi, "orthographic": math.pi / 2,
               "stereographic": math.pi}
@@ -129,14 +138,38 @@ class IdealFisheyeProjection(Projection):
         rows, cols = np.broadcast_arrays(np.asarray(rows, float), np.asarray(cols, float))
         return cols - self.cx, rows - self.cy
 
+    def _unclipped_components(self, x, y):
+        """Components (dx, dy, dz) of the directions of offsets ``(x, y)`` [px] from the centre.
+
+        θ is extended (and clamped) beyond the image circle as in :meth:`_theta`. sin θ and
+        cos θ come from half-angle identities (sin θ = 2t/(1 + t²), cos θ = (1 − t²)/(1 + t²)
+        with t = tan(θ/2); cos θ = 1 − 2 sin²(θ/2) for equisolid), which need at most one
+        transcendental function per point (none for the equisolid, orthographic and
+        stereographic mappings) and are accurate to a few ulp.
+        """
+        r = np.sqrt(x * x + y * y)
+        scale = 1.0 / self.radius
+        tm = self.theta_max
+        if self.kind == "equisolid":
+            h = np.minimum(r * (math.sin(tm / 2.0) * scale), 1.0)  # sin(θ/2)
+            s = 2.0 * h * np.sqrt(1.0 - h * h)
+            c = 1.0 - 2.0 * h * h
+        elif self.kind == "orthographic":
+            s = np.minimum(r * (math.sin(tm) * scale), 1.0)
+            c = np.sqrt(1.0 - s * s)
+        else:
+            if self.kind == "equidistant":
+                t = np.tan(np.minimum(r * (tm * scale), math.pi) * 0.5)
+            else:  # stereographic
+                t = r * (math.tan(tm / 2.0) * scale)
+            t2 = t * t
+            s = 2.0 * t / (1.0 + t2)
+            c = (1.0 - t2) / (1.0 + t2)
+        q = np.divide(s, r, out=np.zeros_like(r), where=r > 0)  # sin θ / r
+        return q * x, q * y, c
+
     def _unclipped(self, x, y):
-        r = np.hypot(x, y)
-        theta = self._theta(r)
-        s = np.sin(theta)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ux = np.where(r > 0, x / r, 0.0)
-            uy = np.where(r > 0, y / r, 0.0)
-        return np.stack([s * ux, s * uy, np.cos(theta)], axis=-1)
+        return np.stack(self._unclipped_components(x, y), axis=-1)
 
     def _inside(self, x, y):
         # A relative slack of 1e-12 keeps points computed *on* the rim (cx + R·cos φ, …)
@@ -174,13 +207,35 @@ class IdealFisheyeProjection(Projection):
     def solid_angles(self, rows, cols):
         """Solid angle [sr] of pixels: geodesic quad of the corner directions, centre rule.
 
-        0 for pixels whose centre lies outside the image circle (see the class notes).
+        0 for pixels whose centre lies outside the image circle (see the class notes). The
+        quad is measured by :func:`~lsadphoto.geometry.field.quad_solid_angle_components`,
+        the kernel that :func:`~lsadphoto.geometry.field.pixel_geometry` uses, so the cached
+        maps equal this method bit for bit.
         """
-        x, y = self._offsets(rows, cols)
-        corners = [self._unclipped(x + dx, y + dy)
-                   for dx, dy in ((-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5))]
-        omega = quad_solid_angle(*corners)
-        return np.where(self._inside(x, y), omega, 0.0)
+        from .field import quad_solid_angle_components
+
+        rows, cols = np.broadcast_arrays(np.asarray(rows, float), np.asarray(cols, float))
+        x0, x1 = (cols - 0.5) - self.cx, (cols + 0.5) - self.cx
+        y0, y1 = (rows - 0.5) - self.cy, (rows + 0.5) - self.cy
+        omega = quad_solid_angle_components(
+            self._unclipped_components(x0, y0), self._unclipped_components(x1, y0),
+            self._unclipped_components(x1, y1), self._unclipped_components(x0, y1),
+        )
+        return np.where(self._inside(cols - self.cx, rows - self.cy), omega, 0.0)
+
+    def _grid_direction_components(self, rows, cols, *, corners=False):
+        """Direction components on the grid ``rows[:, None] × cols[None, :]`` (1-D image
+        coordinates [px]); corners extend the mapping beyond the circle (centre rule)."""
+        rows = np.asarray(rows, float)[:, None]
+        cols = np.asarray(cols, float)[None, :]
+        x = np.broadcast_to(cols - self.cx, (rows.shape[0], cols.shape[1]))
+        y = np.broadcast_to(rows - self.cy, x.shape)
+        dx, dy, dz = self._unclipped_components(x, y)
+        if not corners:
+            outside = ~self._inside(x, y)
+            for component in (dx, dy, dz):
+                component[outside] = np.nan
+        return dx, dy, dz
 
     def clipped_solid_angles(self, rows, cols, order=24):
         """Exact solid angle [sr] of the part of each pixel square inside the image circle.
@@ -251,14 +306,24 @@ class IdealFisheyeProjection(Projection):
         )
 
     def radiance_view(self):
-        """Radiance view options (``-vta``/``-vth``) with the same pixel→direction mapping.
+        """Radiance view options (``-vta``/``-vth``/``-vts``) with the same pixel→direction mapping.
 
         Radiance maps pixel column i to ``x = (i + ½)/W − ½ + vs`` (rows from the bottom,
-        FORMULAS.md §2.4.2). ``-vta``: θ = π·√(X² + Y²) with X = x·vh/180, so
-        vh = 180·W·θmax/(π·R). ``-vth``: sin θ = √(X² + Y²) with X = x·2 sin(vh/2), so
-        vh = 2·asin(W·sin θmax/(2R)). Radiance itself also traces the pixels beyond this
-        model's circle (up to θ = 180° for ``-vta``); here they stay invalid. Only the
-        equidistant and orthographic kinds exist as Radiance views this package checks.
+        FORMULAS.md §2.4.2; Radiance ``src/common/image.c`` viewray):
+
+        * ``-vta``: θ = π·√(X² + Y²) with X = x·vh/180, so vh = 180·W·θmax/(π·R);
+        * ``-vth``: sin θ = √(X² + Y²) with X = x·2 sin(vh/2), so vh = 2·asin(W·sin θmax/(2R));
+        * ``-vts`` (VT_PLS, planisphere): with X = x·2 tan(vh/4) and d = X² + Y², Radiance
+          takes cos θ = (1 − d)/(1 + d), i.e. tan(θ/2) = √(X² + Y²), so
+          vh = 4·atan(W·tan(θmax/2)/(2R)).
+
+        Radiance itself also traces the pixels beyond this model's circle (up to θ = 180°
+        for ``-vta`` and ``-vts``); here they stay invalid. The equisolid kind has no
+        Radiance view type.
+
+        References
+        ----------
+        Radiance ``src/common/image.c`` (setview, viewray), v2.55.
         """
         w, h = self.width, self.height
         tm = self.theta_max
@@ -278,10 +343,14 @@ class IdealFisheyeProjection(Projection):
                 )
             vh = math.degrees(2.0 * math.asin(sx))
             vv = math.degrees(2.0 * math.asin(sy))
+        elif self.kind == "stereographic":
+            vt = "s"
+            vh = math.degrees(4.0 * math.atan(w * math.tan(tm / 2.0) / (2.0 * self.radius)))
+            vv = math.degrees(4.0 * math.atan(h * math.tan(tm / 2.0) / (2.0 * self.radius)))
         else:
             raise BadInputError(
-                f"Radiance has no view type for a {self.kind} fisheye (only -vta equidistant "
-                "and -vth orthographic are supported)"
+                f"Radiance has no view type for a {self.kind} fisheye (only -vta equidistant, "
+                "-vth orthographic and -vts stereographic)"
             )
         vs = 0.5 - (self.cx + 0.5) / w
         vl = (self.cy + 0.5) / h - 0.5
@@ -292,16 +361,19 @@ class IdealFisheyeProjection(Projection):
 
     @classmethod
     def from_radiance_view(cls, options, width, height, fov_deg=180.0):
-        """Model of a parsed ``-vta``/``-vth`` view (dict from :func:`~lsadphoto.io.hdr.parse_view`).
+        """Model of a parsed ``-vta``/``-vth``/``-vts`` view (dict from :func:`~lsadphoto.io.hdr.parse_view`).
 
-        ``options["type"]`` must be ``"a"`` or ``"h"``; Radiance's defaults vh = vv = 45° apply.
-        The image circle is cut at ``fov_deg`` (default 180°, the front hemisphere), although
-        Radiance renders ``-vta`` up to 180° off axis. Both axes must have the same angular
-        scale per pixel (relative 1e-9), since the model is rotationally symmetric.
+        ``options["type"]`` must be ``"a"``, ``"h"`` or ``"s"``; Radiance's defaults vh = vv = 45°
+        apply. The image circle is cut at ``fov_deg`` (default 180°, the front hemisphere),
+        although Radiance renders ``-vta`` and ``-vts`` up to 180° off axis. Both axes must
+        have the same angular scale per pixel (relative 1e-9), since the model is
+        rotationally symmetric. Any other view type raises :class:`BadInputError` naming it.
         """
         vtype = options.get("type")
         if vtype not in _RADIANCE_TYPES:
-            raise BadInputError(f"view type -vt{vtype} is not a fisheye view (need -vta or -vth)")
+            name = RADIANCE_VIEW_NAMES.get(vtype, "unknown view type")
+            raise BadInputError(
+                f"view type -vt{vtype} ({name}) is not a fisheye view (need -vta, -vth or -vts)")
         kind = _RADIANCE_TYPES[vtype]
         vh = check_positive(options.get("vh", 45.0), "vh")
         vv = check_positive(options.get("vv", 45.0), "vv")
@@ -310,10 +382,16 @@ class IdealFisheyeProjection(Projection):
         if kind == "equidistant":
             scale_x, scale_y = vh / width, vv / height  # θ per px [deg]
             radius = fov / (2.0 * scale_x)
-        else:
+        elif kind == "orthographic":
             scale_x = 2.0 * math.sin(math.radians(vh) / 2.0) / width  # sin θ per px
             scale_y = 2.0 * math.sin(math.radians(vv) / 2.0) / height
             radius = math.sin(tm) / scale_x
+        else:
+            if vh >= 360.0 or vv >= 360.0:
+                raise BadInputError(f"-vts view needs vh, vv < 360°, got vh={vh:g}, vv={vv:g}")
+            scale_x = 2.0 * math.tan(math.radians(vh) / 4.0) / width  # tan(θ/2) per px
+            scale_y = 2.0 * math.tan(math.radians(vv) / 4.0) / height
+            radius = math.tan(tm / 2.0) / scale_x
         if abs(scale_x - scale_y) > 1e-9 * scale_x:
             raise BadInputError(
                 f"-vt{vtype} view with vh={vh:g}, vv={vv:g} on {width}×{height} px has unequal "

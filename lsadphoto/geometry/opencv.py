@@ -35,7 +35,13 @@ from numpy.polynomial import polynomial as P
 from .._validation import check_positive
 from ..errors import BadInputError
 from ._spherical import quad_solid_angle
-from .base import Projection, binned_coordinate, check_binning_factor, check_centre, check_image_size
+from .base import (
+    Projection,
+    binned_coordinate,
+    check_binning_factor,
+    check_centre,
+    check_image_size,
+)
 
 __all__ = ["OpenCVFisheyeProjection", "OpenCVPinholeProjection"]
 

@@ -5,7 +5,13 @@ import math
 import numpy as np
 
 from .._validation import check_positive
-from .base import Projection, binned_coordinate, check_binning_factor, check_centre, check_image_size
+from .base import (
+    Projection,
+    binned_coordinate,
+    check_binning_factor,
+    check_centre,
+    check_image_size,
+)
 
 
 class PinholeProjection(Projection):

@@ -24,7 +24,7 @@ from .._validation import check_file
 from .._version import __version__
 from ..constants import RADIANCE_RGB_LUMINANCE_WEIGHTS, RADIANCE_WHITE_EFFICACY
 from ..errors import BadInputError, UnsupportedFileError
-from ..geometry.fisheye import IdealFisheyeProjection
+from ..geometry.fisheye import RADIANCE_VIEW_NAMES, IdealFisheyeProjection
 from ..geometry.pinhole import PinholeProjection
 from ..luminance_map import LuminanceMap
 from ._atomic import atomic_path
@@ -176,6 +176,36 @@ def parse_view(text):
     return options
 
 
+def projection_from_view(view, width, height, *, fov_deg=180.0):
+    """Camera model of a Radiance view (dict from :func:`parse_view`) for a picture [px].
+
+    ``-vtv`` gives a :class:`~lsadphoto.geometry.PinholeProjection`; ``-vta`` (angular,
+    equidistant), ``-vth`` (hemispherical, orthographic) and ``-vts`` (planisphere,
+    stereographic) an :class:`~lsadphoto.geometry.IdealFisheyeProjection` whose image circle
+    is cut at ``fov_deg`` [deg] (default 180°, the front hemisphere). ``-vtl`` (parallel),
+    ``-vtc`` (cylindrical panorama) and unknown types raise :class:`BadInputError` naming
+    the type.
+
+    References
+    ----------
+    Radiance ``src/common/image.c`` (setview, viewray) and ``src/common/view.h`` (VT_*).
+
+    Examples
+    --------
+    >>> projection_from_view(parse_view("-vta -vh 180 -vv 180"), 100, 100).kind
+    'equidistant'
+    """
+    vtype = view.get("type", "v")
+    if vtype == "v":
+        return PinholeProjection.from_radiance_view(view, width, height)
+    if vtype in ("a", "h", "s"):
+        return IdealFisheyeProjection.from_radiance_view(view, width, height, fov_deg)
+    name = RADIANCE_VIEW_NAMES.get(vtype, "unknown view type")
+    raise BadInputError(
+        f"Radiance view type -vt{vtype} ({name}) has no camera model; supported: -vtv, -vta, -vth, -vts"
+    )
+
+
 def _read_header(data, path):
     if not data.startswith(b"#?"):
         raise UnsupportedFileError(f"{path}: not a Radiance picture (no '#?' magic line)")
@@ -238,9 +268,11 @@ def read_hdr(path):
     """Read a Radiance HDR picture as a :class:`LuminanceMap` [cd·m⁻²] (179 lm/W convention).
 
     Files written by :func:`write_hdr` come back with their metadata; for other files a
-    ``-vtv`` VIEW= line gives a :class:`PinholeProjection`, ``-vta`` and ``-vth`` an
-    :class:`IdealFisheyeProjection` (image circle cut at 180°); other view types are kept
-    in the provenance (``radiance_view``) without a projection.
+    ``-vtv`` VIEW= line gives a :class:`PinholeProjection`, ``-vta``, ``-vth`` and ``-vts`` an
+    :class:`IdealFisheyeProjection` (image circle cut at 180°; see
+    :func:`projection_from_view`); other view types (``-vtl``, ``-vtc``) are kept in the
+    provenance (``radiance_view``) without a projection, so that their luminance can still
+    be read.
     """
     rgb, header = read_hdr_rgb(path)
     weights = np.asarray(RADIANCE_RGB_LUMINANCE_WEIGHTS)
@@ -253,10 +285,8 @@ def read_hdr(path):
         if header["view"] is not None:
             view = parse_view(header["view"])
             try:
-                if view["type"] == "v":
-                    fields["projection"] = PinholeProjection.from_radiance_view(view, cols, rows)
-                elif view["type"] in ("a", "h"):
-                    fields["projection"] = IdealFisheyeProjection.from_radiance_view(view, cols, rows)
+                if view["type"] in ("v", "a", "h", "s"):
+                    fields["projection"] = projection_from_view(view, cols, rows)
             except BadInputError as exc:
                 raise UnsupportedFileError(f"{path}: unusable VIEW= line ({exc})") from None
     return LuminanceMap(luminance, **fields)
@@ -282,11 +312,18 @@ def write_hdr(lmap, path):
     lines.append(f"LSADPHOTO={metadata_json(lmap)}")
     lines.append("FORMAT=32-bit_rle_rgbe")
     head = ("\n".join(lines) + f"\n\n-Y {rows} +X {cols}\n").encode("latin-1", "replace")
-    with atomic_path(path) as temp:
-        with open(temp, "wb") as fh:
-            fh.write(head)
-            fh.write(_encode_scanlines(rgbe))
+    with atomic_path(path) as temp, open(temp, "wb") as fh:
+        fh.write(head)
+        fh.write(_encode_scanlines(rgbe))
 
 
 
-__all__ = ["read_hdr", "write_hdr", "read_hdr_rgb", "float_to_rgbe", "rgbe_to_float", "parse_view"]
+__all__ = [
+    "float_to_rgbe",
+    "parse_view",
+    "projection_from_view",
+    "read_hdr",
+    "read_hdr_rgb",
+    "rgbe_to_float",
+    "write_hdr",
+]

@@ -1,0 +1,195 @@
+"""Per-pixel geometry cache: the cached maps against the projections' own (uncached)
+methods, the observer frame and the position index, plus cache and read-only behaviour."""
+
+import math
+
+import numpy as np
+import pytest
+
+from lsadphoto.errors import BadInputError
+from lsadphoto.geometry import (
+    IdealFisheyeProjection,
+    ObserverFrame,
+    OpenCVFisheyeProjection,
+    OpenCVPinholeProjection,
+    PinholeProjection,
+    clear_geometry_cache,
+    pixel_geometry,
+    position_index,
+    visual_field,
+)
+from lsadphoto.geometry import field as field_module
+from lsadphoto.geometry._spherical import quad_solid_angle
+
+KINDS = ["equidistant", "equisolid", "orthographic", "stereographic"]
+
+OTHER_MODELS = {
+    "pinhole": PinholeProjection(150.0, 160.0, 99.3, 70.8, 203, 149),
+    "opencv-pinhole": OpenCVPinholeProjection(150.0, 150.0, 101.2, 74.9, (-0.2, 0.05, 0.001, -0.002, 0.0), 203, 149),
+    "opencv-fisheye": OpenCVFisheyeProjection(60.0, 60.0, 101.7, 73.2, (0.05, -0.01, 0.003, -0.0005), 203, 149),
+    # Image corners beyond the fold of the mapping (θ_max = 131.6°): NaN there, no warnings.
+    "opencv-fisheye-folded": OpenCVFisheyeProjection(45.0, 46.0, 101.7, 73.2, (0.05, -0.01, 0.003, -0.0005),
+                                                     203, 149),
+}
+
+
+@pytest.fixture(autouse=True)
+def _fresh_cache():
+    clear_geometry_cache()
+    yield
+    clear_geometry_cache()
+
+
+def _fisheye(kind):
+    return IdealFisheyeProjection(kind, 101.3, 72.6, 70.0, 180.0, 203, 149)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_ideal_fisheye_maps_equal_the_projection_methods_exactly(kind):
+    cam = _fisheye(kind)
+    geometry = pixel_geometry(cam)
+    rows, cols = cam.pixel_grid()
+    # Same elementwise arithmetic on the same inputs (corner offsets (c ± ½) − cx are exact
+    # in both paths and both use quad_solid_angle_components): equal bit for bit.
+    np.testing.assert_array_equal(geometry.directions, cam.directions(rows, cols))
+    np.testing.assert_array_equal(geometry.solid_angle, cam.solid_angles(rows, cols))
+    np.testing.assert_array_equal(geometry.valid, cam.valid(rows, cols))
+    assert geometry.directions.dtype == geometry.solid_angle.dtype == np.float64
+    assert geometry.directions.shape == (149, 203, 3) and geometry.valid.dtype == bool
+
+
+@pytest.mark.parametrize("name", OTHER_MODELS)
+def test_other_models_match_the_projection_methods(name):
+    cam = OTHER_MODELS[name]
+    geometry = pixel_geometry(cam)
+    rows, cols = cam.pixel_grid()
+    ok = geometry.valid
+    assert ok.sum() > 0.5 * ok.size
+    reference = cam.directions(rows, cols)
+    assert np.all(np.isnan(geometry.directions[~ok])) and np.all(geometry.solid_angle[~ok] == 0)
+    if name.startswith("opencv-fisheye"):
+        # pixel_geometry inverts θd(θ) = ρ by table + Newton to rounding; the model's own
+        # solver stops at a residual below 1e-12, i.e. θ within 1e-12/(dθd/dθ) (dθd/dθ ≥ 0.3
+        # on this image): 1e-11 bounds the difference (measured 8e-13).
+        np.testing.assert_allclose(geometry.directions[ok], reference[ok], rtol=0, atol=1e-11)
+        # Corner directions differ by that much over pixel edges of 1.7e-2 rad: relative
+        # 1e-9 on the solid angle (measured 6e-11).
+        rtol = 1e-9
+    else:
+        # Directions come from the model's own directions(): equal bit for bit.
+        np.testing.assert_array_equal(geometry.directions[ok], reference[ok])
+        # Solid angles: the same geodesic quad (for the pinhole the exact rectangle formula,
+        # the same spherical quadrilateral since straight image edges map to great circles),
+        # evaluated with different algebra: relative 1e-11 (measured ≤ 1e-13).
+        rtol = 1e-11
+    np.testing.assert_allclose(geometry.solid_angle[ok], cam.solid_angles(rows, cols)[ok], rtol=rtol)
+
+
+def test_solid_angle_kernel_against_analytic_squares():
+    # Reference: a square of half-size a on the tangent plane at a unit vector c (corners
+    # c + a(±e1 ± e2)) subtends 4·arctan(a²/√(1 + 2a²)) (the rectangle formula of FORMULAS.md
+    # §2.4.2 for a centred square), for random orientations and a from 1e-5 to 0.5 (pixels of
+    # 24-MP images are ~5e-4 wide).
+    from lsadphoto.geometry.field import quad_solid_angle_components
+
+    rng = np.random.default_rng(3)
+    centre = rng.normal(size=(2000, 3))
+    centre /= np.linalg.norm(centre, axis=1)[:, None]
+    half = 10 ** rng.uniform(-5, -0.3, 2000)
+    e1 = np.cross(centre, [0.3, 0.5, 0.8])
+    e1 /= np.linalg.norm(e1, axis=1)[:, None]
+    e2 = np.cross(centre, e1)
+    corners = [centre + half[:, None] * (sx * e1 + sy * e2) for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    corners = [c / np.linalg.norm(c, axis=1)[:, None] for c in corners]
+    ours = quad_solid_angle_components(*[tuple(c.T) for c in corners])
+    exact = 4 * np.arctan(half * half / np.sqrt(1 + 2 * half * half))
+    # The unit corner vectors are stored to ~eps absolute, so a quad of edge 2a is known to
+    # relative ~eps/a (2e-11 at a = 1e-5; measured max 6e-12). 1e-15/a + 1e-13 bounds it.
+    assert np.all(np.abs(ours - exact) <= (1e-15 / half + 1e-13) * exact)
+    # For quads of 1e-4 sr and up, the per-triangle arctan2 form of _spherical agrees too.
+    big = exact > 1e-4
+    np.testing.assert_allclose(ours[big], quad_solid_angle(*[c[big] for c in corners]), rtol=1e-11)
+    # Octant: exactly π/2 (Girard: three right angles).
+    x, y, z = np.eye(3)
+    assert quad_solid_angle_components(tuple(x), tuple(y), tuple(z), tuple(z)) == pytest.approx(math.pi / 2, rel=1e-15)
+    # A hemisphere-sized quad (each triangle π: the arctan2 branch with a negative half-angle
+    # sum wrapped by 2π): corners on the equator at 45°, 135°, 225°, 315°, lifted by 1e-9
+    # towards +z, bound the upper hemisphere, 2π up to the 1e-9 lift.
+    eq = [np.array([math.cos(a), math.sin(a), 0.0]) for a in np.radians([45.0, 135.0, 225.0, 315.0])]
+    tilt = [tuple(_unit(v + np.array([0, 0, 1e-9]))) for v in eq]
+    assert quad_solid_angle_components(*tilt) == pytest.approx(2 * math.pi, rel=1e-6)
+
+
+def _unit(v):
+    return v / np.linalg.norm(v)
+
+
+def test_total_solid_angle_of_the_hemisphere():
+    cam = IdealFisheyeProjection("equisolid", 199.5, 199.5, 200.0, 180.0, 400, 400)
+    geometry = pixel_geometry(cam)
+    # Reference 2π for the 180° circle; the centre rule misses it by the rim band only
+    # (measured 7.5e-5 relative at R = 500 px, test_geometry_fisheye); 5e-4 at R = 200 px.
+    assert geometry.solid_angle.sum() == pytest.approx(2 * math.pi, rel=5e-4)
+
+
+def test_cache_identity_keys_and_read_only():
+    cam = _fisheye("equidistant")
+    first = pixel_geometry(cam)
+    assert pixel_geometry(cam) is first
+    # An equal model built anew hits the same entry (key: the model's to_dict()).
+    assert pixel_geometry(IdealFisheyeProjection.from_dict(cam.to_dict())) is first
+    other = pixel_geometry(cam.binned(2))
+    assert other is not first and other.valid.shape == (74, 101)
+    for array in (first.directions, first.solid_angle, first.valid):
+        assert not array.flags.writeable
+        with pytest.raises(ValueError):
+            array[0, 0] = 0
+    # LRU of CACHE_SIZE entries: filling it with other sizes evicts the first.
+    for k in range(field_module.CACHE_SIZE):
+        pixel_geometry(IdealFisheyeProjection("equidistant", 10.0, 10.0, 10.0, 180.0, 21 + k, 21))
+    assert pixel_geometry(cam) is not first
+    with pytest.raises(BadInputError, match="Projection"):
+        pixel_geometry("fisheye")
+
+
+def test_blocks_and_threads_do_not_change_the_result(monkeypatch):
+    cam = OTHER_MODELS["opencv-fisheye"]
+    whole = pixel_geometry(cam)
+    clear_geometry_cache()
+    monkeypatch.setattr(field_module, "_BLOCK_PIXELS", 3 * 203 + 5)  # 3-row blocks, 50 of them
+    split = pixel_geometry(cam)
+    np.testing.assert_array_equal(split.directions, whole.directions)
+    np.testing.assert_array_equal(split.solid_angle, whole.solid_angle)
+    np.testing.assert_array_equal(split.valid, whole.valid)
+
+
+@pytest.mark.parametrize("method", ["evalglare", "Guth", "Kim2011"])
+def test_visual_field_against_observer_and_position_index(method):
+    cam = IdealFisheyeProjection("equidistant", 101.3, 72.6, 70.0, 200.0, 203, 149)  # reaches σ = 100°
+    frame = ObserverFrame.levelled(roll_deg=4.0, pitch_deg=-8.0)
+    field = visual_field(cam, frame, position_index_method=method)
+    geometry = pixel_geometry(cam)
+    ok = geometry.valid
+    sigma, tau = frame.angles(geometry.directions)
+    # Same formulas (hypot vs √(a² + b²) for the lateral part): rounding only, 1e-14 rad.
+    np.testing.assert_allclose(field.sigma[ok], sigma[ok], atol=1e-14)
+    np.testing.assert_allclose(field.tau[ok], tau[ok], atol=1e-13)
+    # Position index from components (Iwata's β by one atan2) vs from σ, τ: rounding in β
+    # (≈1e-15 rad) times dlnP/dβ (< 0.1 per degree) — 1e-12 relative is ample.
+    np.testing.assert_allclose(field.position_index[ok], position_index(sigma[ok], tau[ok], method=method), rtol=1e-12)
+    v = frame.axes()[0]
+    np.testing.assert_allclose(field.cos_sigma[ok], geometry.directions[ok] @ v, atol=1e-15)
+    assert np.all(np.isnan(field.sigma[~ok])) and np.all(np.isnan(field.position_index[~ok]))
+    assert np.all(field.cos_sigma[~ok] == 0)
+    assert (field.cos_sigma[ok] < 0).any()  # the 200° circle reaches behind the observer
+    assert visual_field(cam, frame, position_index_method=method) is field
+    assert visual_field(cam, ObserverFrame(), position_index_method=method) is not field
+    assert not field.position_index.flags.writeable
+
+
+def test_visual_field_bad_input():
+    cam = _fisheye("equidistant")
+    with pytest.raises(BadInputError, match="position index method"):
+        visual_field(cam, ObserverFrame(), position_index_method="CIE117")
+    with pytest.raises(BadInputError, match="ObserverFrame"):
+        visual_field(cam, (0, 0, 1))
