@@ -62,8 +62,9 @@ def vertical_illuminance(luminance, solid_angle, cos_sigma, *, mask=None):
     3.141592653589793
     """
     field = _field(luminance, solid_angle, cos_sigma, mask)
-    return float(np.dot(_masked(luminance, field) * _masked(cos_sigma, field),
-                        _masked(solid_angle, field)))
+    # np.sum (pairwise) rather than np.dot: BLAS dot results depend on its thread count.
+    return float(np.sum(_masked(luminance, field) * _masked(cos_sigma, field)
+                        * _masked(solid_angle, field)))
 
 
 def mean_luminance(luminance, solid_angle, cos_sigma, *, mask=None):
@@ -76,7 +77,7 @@ def mean_luminance(luminance, solid_angle, cos_sigma, *, mask=None):
     total = omega.sum()
     if not total > 0:
         return math.nan
-    return float(np.dot(_masked(luminance, field), omega) / total)
+    return float(np.sum(_masked(luminance, field) * omega) / total)
 
 
 def background_luminance(luminance, solid_angle, cos_sigma, source_mask, *, method="CIE"):
@@ -105,12 +106,11 @@ def background_luminance(luminance, solid_angle, cos_sigma, source_mask, *, meth
     """
     check_choice(method, "background luminance method", BACKGROUND_METHODS)
     source_mask = np.asarray(source_mask, dtype=bool)
-    e_v = vertical_illuminance(luminance, solid_angle, cos_sigma)
     if method == "Ev":
-        return e_v / math.pi
+        return vertical_illuminance(luminance, solid_angle, cos_sigma) / math.pi
     if method == "CIE":
-        e_dir = vertical_illuminance(luminance, solid_angle, cos_sigma, mask=source_mask)
-        return max(e_v - e_dir, 0.0) / math.pi
+        # E_v − E_dir summed directly over the non-source pixels (no cancellation).
+        return vertical_illuminance(luminance, solid_angle, cos_sigma, mask=~source_mask) / math.pi
     background = mean_luminance(luminance, solid_angle, cos_sigma, mask=~source_mask)
     if math.isnan(background):
         return mean_luminance(luminance, solid_angle, cos_sigma)

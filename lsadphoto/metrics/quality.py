@@ -1,0 +1,653 @@
+"""The lighting-quality criterion Q of Budak et al.: weighted luminance-gradient contrast.
+
+The seed paper (Budak, Chembaev, Meshkova, Zheltov, GraphiCon 2020) defines a generalized
+contrast K = p·|∇L|/L̄ (its eq. 11), a criterion Q = weighted mean of K divided by a threshold
+contrast K_th (eq. 12), a cut-off luminance L_th = N·ΔL (eq. 13) below which contrasts do not
+count (eq. 14), and reports N = 50 as the best fit to observers. The equations themselves were
+lost from the available text; what is computed here is **the reconstruction of FORMULAS.md
+§5.2**, every reconstructed choice a keyword parameter:
+
+1. Field mean ``L̄ = Σ L_j·ω_j / Σ ω_j`` over the *field*: pixels with finite luminance,
+   finite direction, ω > 0, a position index that is not NaN, and ``valid`` where given.
+2. Pre-blur to the critical detail α [RECONSTRUCTED]: an isotropic Gaussian of angular
+   standard deviation ``s = α/√(2π)``, whose width in pixels is s divided by the mean pixel
+   pitch of the field ``p = √(Ω_field/n_field)``. The width α/√(2π) makes a sharp luminance
+   step of height H produce ``g·α = H`` at its steepest point (the Gaussian's peak slope
+   H/(√(2π)·s) times α) — as averaging over a box α wide would — so the cut-off compares the
+   luminance change *across one critical detail* with N thresholds, whatever the pixel size.
+   This is what makes Q resolution-independent. It needs a pitch of at most about α/2.5
+   (σ_px ≥ 1); below σ_px = 0.5 no blur is applied (``settings["blur_sigma_px"]`` = 0).
+3. Angular gradient ``g_j = |∇L|`` [cd·m⁻²·rad⁻¹] of the blurred map: pixel derivatives
+   L_u, L_v by the Gaussian's derivative (normalised so that a linear ramp gets its slope
+   exactly; central differences without blur), turned into an angular gradient by the local
+   metric of the pixel grid on the unit sphere: with tangent vectors
+   t_u = (d̂(col+1) − d̂(col−1))/2, t_v = (d̂(row+1) − d̂(row−1))/2 (chords rescaled to arcs,
+   θ = 2·arcsin(c/2), by its series), E = t_u·t_u, F = t_u·t_v, G = t_v·t_v,
+   ``g² = (G·L_u² − 2F·L_u·L_v + E·L_v²)/(EG − F²)``. Non-square and non-orthogonal pixels
+   (fisheye rims, pinhole corners) are handled exactly; no arccos of nearly parallel vectors.
+4. ``ΔL_j = g_j·α`` (α in radians) and the cut-off [RECONSTRUCTED]: ``c_j = 1`` if
+   ``ΔL_j ≥ L_th = N·ΔL_thr(L̄, α)`` (``cutoff="difference"``, default) or if
+   ``L_j − L̄ ≥ L_th`` with L_j the blurred luminance (``cutoff="luminance"``).
+   ΔL_thr is Adrian's threshold (``threshold="Adrian1989"``, default, positive contrast,
+   ``exposure_time``, ``age``) or its large-target Weber limit (``threshold="Weber"``,
+   about 0.67 % of L̄ at 100 cd·m⁻² — the reading of the paper's "N = 50 ≈ 1/3 of the mean
+   luminance" remark).
+5. ``K_j = w_j·c_j·g_j/L̄`` [rad⁻¹] with ``w_j = P_j^(−m)`` (``weight_exponent`` m, default 1;
+   P = ∞ gives w = 0 for m > 0) [RECONSTRUCTED: whether p multiplies or divides].
+6. ``Q = (Σ_evaluated K_j·ω_j / Σ_field w_j·ω_j) / K_th`` with ``K_th = ΔL_thr/(L̄·α)``
+   [rad⁻¹] unless ``k_th`` is given [RECONSTRUCTED: the normalisation and the value of K_th,
+   which the paper leaves to future experiments]. The normalisation runs over the same field
+   as L̄ (FORMULAS.md §5.2 item 1); field pixels whose gradient cannot be measured count as
+   K = 0.
+
+*Evaluated* pixels are field pixels whose whole stencil — the filter kernel, half-width
+``int(4·σ_px + 0.5)`` px (at least 1, for the metric) — lies inside the field and the image:
+the fisheye rim and the image border are not turned into spurious edges. The band left out
+along the rim is ≈ 1.6·α wide (0.5 % of a 180° fisheye's solid angle at α = 10′) and biases Q
+low by its share of Σ w·ω at most; normalising by the field rather than the evaluated
+pixels keeps Q independent of how that band's width rounds to whole pixels.
+
+Edge cases (no exception; ``QualityResult.reason`` says why): no field pixel, L̄ ≤ 0
+("Q undefined", FORMULAS.md §5.2 item 7), no evaluated pixel (e.g. 1×1 and 2×2 maps),
+or all weights zero → Q = NaN. No pixel passing the cut → Q = 0.
+
+Discretisation error (measured in ``tests/test_quality.py``): between a map and the same
+angular scene with twice the pixels per axis (σ_px 1.16 → 2.32), Q changes by 0.03 % (median)
+to 0.2 % for Gaussian luminaires 3–5α wide, up to 1.1 % when a thin kept ring lies
+symmetrically on the grid; for a sharp-edged disk the 1× map (σ_px = 1.16) is 2.4 % below
+the converged value and σ_px ≥ 2.3 agrees to 0.05 %. Where the pixel pitch varies across the
+field the blur, isotropic in pixels at the mean pitch, has an angular width that varies with
+the local pitch: a *sharp* edge's ΔL scales by p/p_local across the edge (equidistant 180°
+fisheye: 0.90 for edges around the axis; 0.90·θ/sin θ for edges along a radius, i.e. 0.90 at
+the centre, 1.00 at 45°, 1.27 at 80°); smooth content is unaffected.
+
+Large maps (> 2²⁰ px) skip, before computing the exact metric, pixels whose gradient bound
+|(L_u, L_v)|/p_min stays below the smallest cut-off; p_min is half the smallest pitch on a
+16-px sample (valid for direction maps that are smooth on that scale, as camera models are).
+The result is identical to the unscreened computation (tested).
+
+References
+----------
+Budak, V. P., Chembaev, V. D., Meshkova, A. V., Zheltov, V. S. (2020). Luminance
+spatial-angular distribution and the quality criterion of lighting. *GraphiCon 2020*, CEUR-WS
+Vol-2744, short35 (eqs. 11–14 and §4). Budak et al. (2020), *Light & Engineering* 28(3)
+(Moscow Metro calibration, N = 50). Cai, H. (2013). Luminance gradient for evaluating
+lighting. *Lighting Res. Technol.* Adrian, W. (1989), *Lighting Res. Technol.* 21(4),
+181–188. FORMULAS.md §5.
+"""
+
+import math
+from dataclasses import dataclass
+from dataclasses import field as dataclass_field
+
+import numpy as np
+
+from .._validation import check_choice, check_positive
+from ..errors import BadInputError
+from .adrian import threshold_luminance_difference
+
+__all__ = [
+    "BLURS",
+    "CUTOFFS",
+    "METHODS",
+    "THRESHOLDS",
+    "QualityResult",
+    "q_Budak2021",
+    "q_sweep",
+    "quality",
+]
+
+#: Threshold models for ΔL_thr (see :func:`~lsadphoto.metrics.adrian.threshold_luminance_difference`).
+THRESHOLDS = ("Adrian1989", "Weber")
+#: Cut-off rules: on the luminance change across α, or on the luminance above the mean.
+CUTOFFS = ("difference", "luminance")
+#: Pre-blur to the critical detail: Gaussian of angular s.d. α/√(2π), or none (pixel scale).
+BLURS = ("gaussian", "none")
+#: Methods of :func:`quality`.
+METHODS = ("Budak2021",)
+
+#: Gaussian kernel truncation [standard deviations] (scipy's default).
+_TRUNCATE = 4.0
+#: Relative tolerance on |d̂| = 1 of the direction vectors (checked on a sample).
+_UNIT_TOLERANCE = 1e-3
+#: Images larger than this [px] are screened before the exact angular gradient is computed:
+#: a pixel is a candidate only if the bound g ≤ |(L_u, L_v)|/p_min reaches the cut-off.
+_SCREEN_MIN_PIXELS = 1 << 20
+#: Stride [px] of the sample that finds the smallest local pitch p_min for the screen, and the
+#: safety factor applied to it (the screen assumes the pitch does not fall below half its
+#: smallest sampled value between samples — true of every smooth camera model).
+_SCREEN_STRIDE = 16
+_SCREEN_SAFETY = 0.5
+#: Smallest blur [px] applied; below it (pitch > 0.8·α) the gradient is taken by central
+#: differences at the pixel scale, as with ``blur="none"``.
+_MIN_SIGMA_PX = 0.5
+#: Pixels per chunk of the exact gradient computation.
+_CHUNK = 1 << 18
+_ARCMIN = math.pi / (180.0 * 60.0)
+
+
+@dataclass(frozen=True, eq=False)
+class QualityResult:
+    """Result of :func:`q_Budak2021`.
+
+    Attributes
+    ----------
+    q : float
+        Quality criterion Q [–]; NaN when undefined (see ``reason``).
+    mean_luminance : float
+        Field mean L̄ [cd·m⁻²].
+    threshold_difference : float
+        ΔL_thr(L̄, α) [cd·m⁻²] (Adrian's threshold or its Weber limit).
+    cutoff_difference : float
+        L_th = N·ΔL_thr [cd·m⁻²].
+    k_th : float
+        Threshold contrast K_th [rad⁻¹].
+    contrast : ndarray, shape (rows, cols), float32
+        K = w·c·g/L̄ [rad⁻¹]; 0 where cut, NaN where not evaluated.
+    kept_fraction : float
+        Share of the field's solid angle that passes the cut [–].
+    settings : dict
+        Every option, and derived values: ``blur_sigma_px`` (0: no blur),
+        ``reference_pitch_rad``, ``field_solid_angle_sr``, ``evaluated_solid_angle_sr``,
+        ``weighted_solid_angle_sr`` (Σ w·ω over the field), ``n_field``, ``n_evaluated``.
+    reason : str or None
+        Why ``q`` is NaN; None when it is defined.
+    """
+
+    q: float
+    mean_luminance: float
+    threshold_difference: float
+    cutoff_difference: float
+    k_th: float
+    contrast: np.ndarray = dataclass_field(repr=False)
+    kept_fraction: float
+    settings: dict
+    reason: str | None = None
+
+
+# --- input checks ------------------------------------------------------------------------------
+
+def _check_inputs(luminance, directions, solid_angle, position_index, valid):
+    try:
+        L = np.asarray(luminance, dtype=np.float32)
+    except (TypeError, ValueError):
+        raise BadInputError("luminance is not a numeric array") from None
+    if L.ndim != 2:
+        raise BadInputError(f"luminance must have shape (rows, cols), got {L.shape}")
+    shape = L.shape
+    if np.isinf(L).any():
+        raise BadInputError("luminance contains infinite values (NaN marks unknown pixels)")
+    d = np.asarray(directions)
+    if d.dtype.kind not in "fiu":
+        raise BadInputError("directions is not a numeric array")
+    if d.shape != shape + (3,):
+        raise BadInputError(f"directions must have shape {shape + (3,)}, got {d.shape}")
+    sample = np.asarray(d[::max(1, shape[0] // 61), ::max(1, shape[1] // 61)], dtype=np.float64)
+    norms = np.linalg.norm(sample, axis=-1)
+    norms = norms[np.isfinite(norms)]
+    if norms.size and np.max(np.abs(norms - 1.0)) > _UNIT_TOLERANCE:
+        raise BadInputError("directions must be unit vectors")
+    omega = np.asarray(solid_angle, dtype=np.float32)
+    if omega.shape != shape:
+        raise BadInputError(f"solid_angle must have shape {shape}, got {omega.shape}")
+    if np.any(omega < 0) or np.isinf(omega).any():
+        raise BadInputError("solid_angle must be finite and ≥ 0 sr (NaN marks unknown pixels)")
+    if position_index is None:
+        P = None
+    else:
+        P = np.asarray(position_index, dtype=np.float32)
+        if P.shape != shape:
+            raise BadInputError(f"position_index must have shape {shape}, got {P.shape}")
+        if np.any(P <= 0):
+            raise BadInputError("position_index must be > 0 (NaN: unknown, inf: weight 0)")
+    if valid is not None:
+        valid = np.asarray(valid)
+        if valid.shape != shape or valid.dtype != bool:
+            raise BadInputError(f"valid must be a boolean array of shape {shape}")
+    return L, d, omega, P, valid
+
+
+def _check_options(n_thresholds, size_arcmin, weight_exponent, threshold, cutoff, exposure_time, age,
+                   blur, k_th):
+    size_arcmin = check_positive(size_arcmin, "size_arcmin")
+    weight_exponent = check_positive(weight_exponent, "weight_exponent", allow_zero=True)
+    check_choice(threshold, "threshold", THRESHOLDS)
+    check_choice(cutoff, "cutoff", CUTOFFS)
+    check_choice(blur, "blur", BLURS)
+    if k_th is not None:
+        k_th = check_positive(k_th, "k_th")
+    options = {} if threshold == "Weber" else {"exposure_time": exposure_time, "age": age}
+    # Validates exposure_time and age early (BadInputError names them).
+    threshold_luminance_difference(100.0, size_arcmin, method=threshold, **options)
+    if n_thresholds is not None:
+        n_thresholds = check_positive(n_thresholds, "n_thresholds", allow_zero=True)
+    return n_thresholds, size_arcmin, weight_exponent, k_th, options
+
+
+# --- the shared computation --------------------------------------------------------------------
+
+@dataclass
+class _Analysis:
+    shape: tuple
+    settings: dict
+    mean_luminance: float = math.nan
+    threshold_difference: float = math.nan
+    k_th: float = math.nan
+    reason: str | None = None
+    box: tuple = None                      # slices of the field's bounding box
+    evaluated: np.ndarray = None           # bool over the box: pixels with a complete stencil
+    index: np.ndarray = None               # flat indices of the candidate pixels
+    key: np.ndarray = None                 # cut-off quantity of the candidates [cd·m⁻²], float64
+    contrast: np.ndarray = None            # w·g/L̄ of the candidates [rad⁻¹], float64
+    weighted_contrast: np.ndarray = None   # w·g/L̄·ω of the candidates, float64
+    omega: np.ndarray = None               # ω of the candidates [sr], float64
+    weighted_solid_angle: float = math.nan  # Σ w·ω over the field
+    evaluated_solid_angle: float = math.nan
+    field_solid_angle: float = math.nan
+
+
+def _arc_over_chord(chord_squared):
+    """θ/c for an arc θ = 2·arcsin(c/2) of chord c, from c²: 1 + c²/24 + 3c⁴/640 (error < 1e-7·c⁶)."""
+    return 1.0 + chord_squared * (1.0 / 24.0 + chord_squared * (3.0 / 640.0))
+
+
+def _metric(index, directions, cols):
+    """E, F, G [rad²] of the per-pixel tangent vectors t_u, t_v at flat ``index`` (float64).
+
+    t_u = (d̂(col+1) − d̂(col−1))/2 rescaled from chord to arc, t_v likewise along rows.
+    """
+    a = directions[index + 1].astype(np.float64) - directions[index - 1]
+    b = directions[index + cols].astype(np.float64) - directions[index - cols]
+    e = np.einsum("ij,ij->i", a, a)
+    f = np.einsum("ij,ij->i", a, b)
+    g = np.einsum("ij,ij->i", b, b)
+    su = 0.5 * _arc_over_chord(e)
+    sv = 0.5 * _arc_over_chord(g)
+    return e * su * su, f * su * sv, g * sv * sv
+
+
+def _angular_gradient(index, local, directions, lu, lv, cols):
+    """|∇L| [cd·m⁻²·rad⁻¹] at flat image ``index`` from the pixel derivatives ``lu``, ``lv`` at
+    the same pixels' flat ``local`` indices (float64).
+
+    g² = (G·L_u² − 2F·L_u·L_v + E·L_v²)/(EG − F²): the gradient under the metric of the pixel
+    grid on the unit sphere. NaN where the metric is degenerate.
+    """
+    out = np.empty(index.size)
+    for start in range(0, index.size, _CHUNK):
+        i = index[start:start + _CHUNK]
+        j = local[start:start + _CHUNK]
+        e, f, g = _metric(i, directions, cols)
+        du = lu[j].astype(np.float64)
+        dv = lv[j].astype(np.float64)
+        det = e * g - f * f
+        with np.errstate(invalid="ignore", divide="ignore"):
+            value = (g * du * du - 2.0 * f * du * dv + e * dv * dv) / det
+        out[start:start + _CHUNK] = np.where(det > 0, np.sqrt(np.maximum(value, 0.0)), np.nan)
+    return out
+
+
+def _pitch_lower_bound(index, directions, cols):
+    """Lower bound [rad] of the smallest local pixel pitch: ``_SCREEN_SAFETY`` × the smallest
+    at the sample pixels ``index`` (smaller singular value of the tangent vectors); None if
+    there is none."""
+    if index.size == 0:
+        return None
+    e, f, g = _metric(index, directions, cols)
+    smallest = 0.5 * (e + g) - np.sqrt(0.25 * (e - g) ** 2 + f * f)  # λ_min of the metric
+    smallest = smallest[np.isfinite(smallest)]
+    if smallest.size == 0 or not smallest.min() > 0:
+        return None
+    return _SCREEN_SAFETY * math.sqrt(float(smallest.min()))
+
+
+def _kernels(sigma_px):
+    """Smoothing and derivative kernels (float32 columns) and their radius [px].
+
+    A Gaussian of s.d. ``sigma_px`` truncated at 4σ and normalised to sum 1, and its
+    derivative x·G(x) normalised so that Σ x·k(x) = 1 (a linear ramp gets its slope
+    exactly). Without blur (σ = 0): the identity and central differences [−½, 0, ½].
+    """
+    if sigma_px <= 0:
+        return np.ones((1, 1), np.float32), np.array([[-0.5], [0.0], [0.5]], np.float32), 1
+    radius = max(int(_TRUNCATE * sigma_px + 0.5), 1)
+    x = np.arange(-radius, radius + 1, dtype=np.float64)
+    gauss = np.exp(-0.5 * (x / sigma_px) ** 2)
+    smooth = gauss / gauss.sum()
+    derivative = x * gauss / np.sum(x * x * gauss)
+    return smooth.astype(np.float32)[:, None], derivative.astype(np.float32)[:, None], radius
+
+
+def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin, weight_exponent,
+             threshold, cutoff, blur, k_th, threshold_options, valid, n_min):
+    L, d, omega, P, valid = _check_inputs(luminance, directions, solid_angle, position_index, valid)
+    shape = L.shape
+    cols = shape[1]
+    alpha = size_arcmin * _ARCMIN
+    settings = {"size_arcmin": size_arcmin, "weight_exponent": weight_exponent, "threshold": threshold,
+                "cutoff": cutoff, "blur": blur, "k_th": k_th, **threshold_options}
+    out = _Analysis(shape=shape, settings=settings)
+
+    # The field: finite L and direction, ω > 0, P not NaN, and ``valid``.
+    field = np.isfinite(L)
+    field &= omega > 0
+    if P is not None:
+        field &= ~np.isnan(P)
+    if valid is not None:
+        field &= valid
+    settings.update(n_field=0, field_solid_angle_sr=0.0, n_evaluated=0, evaluated_solid_angle_sr=0.0,
+                    weighted_solid_angle_sr=math.nan)
+    rows_used = np.flatnonzero(field.any(axis=1))
+    if rows_used.size == 0:
+        out.reason = "no valid pixel (finite luminance and direction, ω > 0)"
+        return out
+    # Work on the bounding box of the field (a fisheye's circle leaves the frame's sides out).
+    cols_used = np.flatnonzero(field.any(axis=0))
+    r0, c0 = int(rows_used[0]), int(cols_used[0])
+    box = (slice(r0, int(rows_used[-1]) + 1), slice(c0, int(cols_used[-1]) + 1))
+    out.box = box
+    field_box, omega_box = field[box], omega[box]
+    field_box &= _finite_directions(d[box])
+    n_field = int(np.count_nonzero(field_box))
+    if n_field == 0:
+        out.reason = "no valid pixel (finite luminance and direction, ω > 0)"
+        return out
+    total_omega = float(np.sum(omega_box, where=field_box, dtype=np.float64))
+    settings.update(n_field=n_field, field_solid_angle_sr=total_omega)
+    filled = np.where(field_box, L[box], np.float32(0.0))
+    mean = float(np.sum(filled * omega_box, where=field_box, dtype=np.float64)) / total_omega
+    out.mean_luminance = mean
+    out.field_solid_angle = total_omega
+    pitch = math.sqrt(total_omega / n_field)
+    sigma_px = alpha / math.sqrt(2.0 * math.pi) / pitch if blur == "gaussian" else 0.0
+    if sigma_px < _MIN_SIGMA_PX:  # pixels coarser than the critical detail: nothing to blur
+        sigma_px = 0.0
+    smooth, derivative, radius = _kernels(sigma_px)
+    settings.update(reference_pitch_rad=pitch, blur_sigma_px=sigma_px)
+    if not mean > 0:
+        out.reason = f"mean luminance L̄ = {mean:g} cd/m² ≤ 0: Q is undefined"
+        return out
+    delta = float(threshold_luminance_difference(mean, size_arcmin, method=threshold, **threshold_options))
+    out.threshold_difference = delta
+    out.k_th = k_th if k_th is not None else delta / (mean * alpha)
+
+    # Σ w·ω over the field: the normalisation of Q.
+    weighted = P is not None and weight_exponent != 0
+    if weighted:
+        with np.errstate(invalid="ignore"):
+            out.weighted_solid_angle = float(np.sum(omega_box * _weights(P[box], weight_exponent),
+                                                    where=field_box, dtype=np.float64))
+    else:
+        out.weighted_solid_angle = total_omega
+    settings["weighted_solid_angle_sr"] = out.weighted_solid_angle
+
+    # Evaluated pixels: the whole stencil (filter kernel, and ±1 px for the metric) inside the
+    # field and the image.
+    size = 2 * radius + 1
+    box_rows, box_cols = field_box.shape
+    if box_rows < size or box_cols < size:
+        out.reason = f"no pixel has a complete {size}×{size} stencil inside the field"
+        return out
+    import cv2  # kept out of import time
+
+    evaluated = cv2.erode(np.ascontiguousarray(field_box).view(np.uint8), np.ones((size, size), np.uint8),
+                          borderType=cv2.BORDER_CONSTANT, borderValue=0).view(bool)
+    out.evaluated = evaluated
+    settings["n_evaluated"] = int(np.count_nonzero(evaluated))
+    if settings["n_evaluated"] == 0:
+        out.reason = f"no pixel has a complete {size}×{size} stencil inside the field"
+        return out
+    out.evaluated_solid_angle = float(np.sum(omega_box, where=evaluated, dtype=np.float64))
+    settings["evaluated_solid_angle_sr"] = out.evaluated_solid_angle
+    # Pixel derivatives of the smoothed map (correlation; kernelX runs along columns). Borders
+    # never reach an evaluated pixel, so the border rule does not matter.
+    lu = cv2.sepFilter2D(filled, cv2.CV_32F, derivative, smooth)
+    lv = cv2.sepFilter2D(filled, cv2.CV_32F, smooth, derivative)
+
+    # Candidates: evaluated pixels that may pass the smallest cut-off n_min·ΔL_thr. Indices
+    # into the box (``local``) and into the whole image (``index``).
+    min_cut = n_min * np.float64(delta)
+    flat_directions = d.reshape(-1, 3)
+
+    def to_image(local):
+        return (local // box_cols + r0) * cols + (local % box_cols + c0)
+
+    if cutoff == "luminance":
+        smoothed = cv2.sepFilter2D(filled, cv2.CV_32F, smooth, smooth)
+        level = mean + min_cut
+        candidates = evaluated & (smoothed >= np.float32(level - 1e-5 * abs(level)))  # float32 margin
+        local = np.flatnonzero(candidates)
+        key = smoothed.ravel()[local].astype(np.float64) - mean
+        keep = key >= min_cut
+        local, key = local[keep], key[keep]
+        index = to_image(local)
+        grad = _angular_gradient(index, local, flat_directions, lu.ravel(), lv.ravel(), cols)
+    else:
+        bound = None
+        if evaluated.size > _SCREEN_MIN_PIXELS and min_cut > 0:
+            sample = np.zeros(evaluated.shape, bool)
+            sample[::_SCREEN_STRIDE, ::_SCREEN_STRIDE] = True
+            sample &= evaluated
+            bound = _pitch_lower_bound(to_image(np.flatnonzero(sample)), flat_directions, cols)
+        if bound is None:
+            local = np.flatnonzero(evaluated)
+        else:
+            # g ≤ |(L_u, L_v)|/p_min: pixels whose bound stays below the cut are cut. (OpenCV's
+            # multithreaded arithmetic; float32 rounding is covered by the 1e-5 margin.)
+            limit = float(min_cut / alpha * bound * (1.0 - 1e-5))
+            candidates = cv2.compare(cv2.magnitude(lu, lv), limit, cv2.CMP_GE)
+            local = np.flatnonzero(cv2.bitwise_and(candidates, evaluated.view(np.uint8)))
+        index = to_image(local)
+        grad = _angular_gradient(index, local, flat_directions, lu.ravel(), lv.ravel(), cols)
+        key = grad * alpha
+    if weighted:
+        weight = _weights(P.ravel()[index], weight_exponent).astype(np.float64)
+    else:
+        weight = np.ones(index.size)
+    out.index = index
+    out.key = key
+    out.contrast = weight * grad / mean
+    out.omega = omega.ravel()[index].astype(np.float64)
+    out.weighted_contrast = out.contrast * out.omega
+    if not out.weighted_solid_angle > 0:
+        out.reason = "every field pixel has weight 0 (position index ∞)"
+    return out
+
+
+def _finite_directions(d):
+    """True where all three components of ``d`` (rows, cols, 3) are finite."""
+    pixel_contiguous = d.strides[2] == d.itemsize and d.strides[1] == 3 * d.itemsize
+    if d.dtype in (np.float32, np.float64) and pixel_contiguous and d.shape[1] < (1 << 15):
+        import cv2
+
+        total = cv2.transform(d, np.ones((1, 3), d.dtype))  # one pass: d_x + d_y + d_z
+        return np.isfinite(total.reshape(d.shape[:2]))
+    return np.isfinite(d).all(axis=-1)
+
+
+def _weights(P, m):
+    """w = P^(−m) (float32); exact IEEE operations for m = 1 and 2."""
+    if m == 1:
+        return np.float32(1.0) / P
+    if m == 2:
+        return np.float32(1.0) / (P * P)
+    return P ** np.float32(-m)
+
+
+def _q_value(kept_sum, analysis):
+    return kept_sum / analysis.weighted_solid_angle / analysis.k_th
+
+
+# --- public API ----------------------------------------------------------------------------------
+
+def q_Budak2021(luminance, directions, solid_angle, position_index, *, n_thresholds=50, size_arcmin=10.0,
+                weight_exponent=1, threshold="Adrian1989", cutoff="difference", exposure_time=2.0, age=23,
+                blur="gaussian", k_th=None, valid=None):
+    """Lighting-quality criterion Q of Budak et al. (reconstruction of FORMULAS.md §5.2).
+
+    Certain (from the paper): K = p·|∇L|/L̄, Q = weighted mean of K over the field divided by
+    a threshold contrast K_th, L_th = N·ΔL with ΔL Blackwell's (here Adrian's) threshold at
+    L_a = L̄ for the task's critical detail, contrasts below L_th cut off, N = 50.
+    Reconstructed (keyword parameters; see the module docstring for the formulas): the
+    pre-blur to α (``blur``), the angular gradient and ΔL = g·α, the cut-off rule (``cutoff``),
+    the threshold model (``threshold``), the weight w = P^(−m) (``weight_exponent``), the
+    normalisation by Σ w·ω and K_th = ΔL_thr/(L̄·α) (``k_th``).
+
+    Parameters
+    ----------
+    luminance : array_like, shape (rows, cols)
+        L [cd·m⁻²]; NaN marks unknown pixels (kept as float32).
+    directions : array_like, shape (rows, cols, 3)
+        Unit direction of each pixel in any fixed frame; NaN where invalid (fisheye rim).
+    solid_angle : array_like, shape (rows, cols)
+        ω [sr] of each pixel; pixels with ω = 0 or NaN are outside the field.
+    position_index : array_like, shape (rows, cols), or None
+        P [–] of each pixel (e.g. :func:`lsadphoto.geometry.position_index`); NaN: outside
+        the field; ∞: weight 0. None means P = 1 everywhere.
+    n_thresholds : float
+        N ≥ 0, the number of thresholds of the cut-off (eq. 13). Default 50 (the paper's best).
+    size_arcmin : float
+        Critical detail α of the visual task [arcmin], > 0. Default 10′.
+    weight_exponent : float
+        m in w = P^(−m), ≥ 0 (0: no weighting; 1: UGR's L/P analogy, default; 2: P² as in UGR).
+    threshold : {"Adrian1989", "Weber"}
+        ΔL_thr: Adrian's threshold for α at L̄ (positive contrast), or its α → ∞ Weber limit.
+    cutoff : {"difference", "luminance"}
+        Keep a pixel when ΔL = g·α ≥ L_th (default) or when L − L̄ ≥ L_th.
+    exposure_time : float
+        t [s] of Adrian's threshold (default 2 s; ``np.inf``: no time factor). Unused by "Weber".
+    age : float or None
+        Observer age [years] of Adrian's threshold, 23–75 (default 23; None: no age factor).
+        Unused by "Weber".
+    blur : {"gaussian", "none"}
+        Pre-blur to α (default) or none (gradient at the pixel scale: Q then depends on the
+        resolution).
+    k_th : float, optional
+        Threshold contrast K_th [rad⁻¹]; default ΔL_thr/(L̄·α). A global scale of Q.
+    valid : ndarray of bool, shape (rows, cols), optional
+        Restricts the field (e.g. to the observer's front hemisphere or the Guth field).
+
+    Returns
+    -------
+    QualityResult
+
+    References
+    ----------
+    Budak, V. P., Chembaev, V. D., Meshkova, A. V., Zheltov, V. S. (2020), GraphiCon 2020,
+    CEUR-WS Vol-2744 short35, eqs. (11)–(14). FORMULAS.md §5.2 (reconstruction).
+
+    Examples
+    --------
+    A uniform field has no gradient: Q = 0 (nothing passes the cut).
+
+    >>> rows = cols = 32
+    >>> v, u = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
+    >>> f = 1.0 / 0.002                                    # pinhole, 0.002 rad per pixel
+    >>> d = np.stack([(u - 15.5) / f, (v - 15.5) / f, np.ones((rows, cols))], axis=-1)
+    >>> d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    >>> omega = 0.002 ** 2 * d[..., 2] ** 3                 # pinhole pixel solid angle
+    >>> result = q_Budak2021(np.full((rows, cols), 100.0), d, omega, None, size_arcmin=5.0)
+    >>> float(result.q), round(result.mean_luminance, 6)
+    (0.0, 100.0)
+    """
+    n_thresholds, size_arcmin, weight_exponent, k_th, options = _check_options(
+        n_thresholds, size_arcmin, weight_exponent, threshold, cutoff, exposure_time, age, blur, k_th)
+    analysis = _analyse(luminance, directions, solid_angle, position_index, size_arcmin=size_arcmin,
+                        weight_exponent=weight_exponent, threshold=threshold, cutoff=cutoff, blur=blur,
+                        k_th=k_th, threshold_options=options, valid=valid, n_min=n_thresholds)
+    settings = {"n_thresholds": n_thresholds, **analysis.settings}
+    cut = n_thresholds * np.float64(analysis.threshold_difference)
+    if analysis.index is None:
+        contrast = np.full(analysis.shape, np.nan, np.float32)
+        return QualityResult(math.nan, analysis.mean_luminance, analysis.threshold_difference, float(cut),
+                             analysis.k_th, contrast, math.nan, settings, analysis.reason)
+    contrast = np.full(analysis.shape, np.nan, np.float32)
+    contrast[analysis.box] = np.where(analysis.evaluated, np.float32(0.0), np.float32(np.nan))
+    kept = analysis.key >= cut
+    contrast.ravel()[analysis.index[kept]] = analysis.contrast[kept]
+    kept_fraction = float(np.sum(analysis.omega[kept])) / analysis.field_solid_angle
+    if analysis.reason is not None:
+        q = math.nan
+    else:
+        q = _q_value(float(np.sum(analysis.weighted_contrast[kept])), analysis)
+    return QualityResult(q, analysis.mean_luminance, analysis.threshold_difference, float(cut), analysis.k_th,
+                         contrast, kept_fraction, settings, analysis.reason)
+
+
+def q_sweep(luminance, directions, solid_angle, position_index, *, n_values=range(1, 101), size_arcmin=10.0,
+            weight_exponent=1, threshold="Adrian1989", cutoff="difference", exposure_time=2.0, age=23,
+            blur="gaussian", k_th=None, valid=None):
+    """Q for many N at once: the map is analysed once and each pixel binned by the cut-offs it passes.
+
+    Equal to :func:`q_Budak2021` at each N (same comparisons ΔL ≥ N·ΔL_thr; sums in another
+    order, so to float64 rounding). Options as in :func:`q_Budak2021`.
+
+    Parameters
+    ----------
+    n_values : iterable of float
+        The N values (≥ 0), in any order. Default 1…100 (the paper's Fig. 2 range).
+
+    Returns
+    -------
+    n_values : ndarray, float64
+        As given.
+    q : ndarray, float64
+        Q at each N; all NaN when Q is undefined (see :func:`q_Budak2021`).
+
+    References
+    ----------
+    Budak et al. (2020), GraphiCon 2020, Fig. 2 (correlation against N). FORMULAS.md §5.
+
+    Examples
+    --------
+    >>> rows = cols = 32
+    >>> v, u = np.meshgrid(np.arange(rows), np.arange(cols), indexing="ij")
+    >>> d = np.stack([(u - 15.5) * 0.002, (v - 15.5) * 0.002, np.ones((rows, cols))], axis=-1)
+    >>> d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    >>> n, q = q_sweep(np.full((rows, cols), 100.0), d, 0.002 ** 2 * d[..., 2] ** 3, None,
+    ...                n_values=[10, 50], size_arcmin=5.0)
+    >>> n.tolist(), q.tolist()
+    ([10.0, 50.0], [0.0, 0.0])
+    """
+    try:
+        n = np.array(list(n_values), dtype=np.float64)
+    except (TypeError, ValueError):
+        raise BadInputError("n_values must be an iterable of numbers") from None
+    if n.ndim != 1 or not np.all(np.isfinite(n) & (n >= 0)):
+        raise BadInputError("n_values must be finite numbers ≥ 0")
+    _, size_arcmin, weight_exponent, k_th, options = _check_options(
+        None, size_arcmin, weight_exponent, threshold, cutoff, exposure_time, age, blur, k_th)
+    analysis = _analyse(luminance, directions, solid_angle, position_index, size_arcmin=size_arcmin,
+                        weight_exponent=weight_exponent, threshold=threshold, cutoff=cutoff, blur=blur,
+                        k_th=k_th, threshold_options=options, valid=valid,
+                        n_min=float(n.min()) if n.size else 0.0)
+    if analysis.index is None or analysis.reason is not None or n.size == 0:
+        return n, np.full(n.shape, np.nan)
+    cuts = n * np.float64(analysis.threshold_difference)
+    order = np.argsort(cuts, kind="stable")
+    sorted_cuts = cuts[order]
+    # Pixel j passes the i-th smallest cut-off iff i < bins_j = #{cuts ≤ key_j}.
+    candidates = analysis.key >= sorted_cuts[0]
+    bins = np.searchsorted(sorted_cuts, analysis.key[candidates].astype(np.float64), side="right")
+    per_bin = np.bincount(bins, weights=analysis.weighted_contrast[candidates], minlength=n.size + 1)
+    kept_sums = np.cumsum(per_bin[::-1])[::-1][1:]   # kept_sums[i] = Σ over bins > i
+    q = np.empty(n.size)
+    q[order] = [_q_value(float(s), analysis) for s in kept_sums]
+    return n, q
+
+
+def quality(luminance, directions, solid_angle, position_index, *, method="Budak2021", **options):
+    """Lighting-quality criterion by the named method (only "Budak2021": :func:`q_Budak2021`).
+
+    References
+    ----------
+    See :func:`q_Budak2021`.
+
+    Examples
+    --------
+    >>> quality(np.ones((1, 1)), np.array([[[0.0, 0.0, 1.0]]]), np.ones((1, 1)), None,
+    ...         method="Budak2021").reason
+    'no pixel has a complete 3×3 stencil inside the field'
+    """
+    check_choice(method, "quality method", METHODS)
+    return q_Budak2021(luminance, directions, solid_angle, position_index, **options)

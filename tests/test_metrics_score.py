@@ -1,0 +1,155 @@
+"""score_map: extremes, invariances and the uncertainty it reports.
+
+References: closed forms (UGR scale law 8·log10(k); P = 1 on the line of sight), symmetry
+(rotating a centred fisheye image by 90° about the optical axis rotates every direction
+exactly), and the documented behaviour for undefined cases (null with a reason).
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from lsadphoto.datasets import disk_sources_scene
+from lsadphoto.geometry import IdealFisheyeProjection
+from lsadphoto.luminance_map import LuminanceMap
+from lsadphoto.metrics.score import score_map
+
+REQUIRED_KEYS = ("ugr_pixel", "ugr_grouped", "q", "dgp", "background_luminance",
+                 "vertical_illuminance", "sources", "settings", "provenance")
+
+
+def _camera(size):
+    return IdealFisheyeProjection("equidistant", (size - 1) / 2, (size - 1) / 2, size / 2, 180.0,
+                                  size, size)
+
+
+def _direction(sigma_deg, tau_deg):
+    s, t = math.radians(sigma_deg), math.radians(tau_deg)
+    return np.array([math.sin(s) * math.sin(t), -math.sin(s) * math.cos(t), math.cos(s)])
+
+
+def _map(size, background, sources, **kwargs):
+    cam = _camera(size)
+    L = disk_sources_scene(cam.directions(*cam.pixel_grid()), background=background,
+                           sources=sources)
+    return LuminanceMap(L, projection=cam, calibrated=True, **kwargs)
+
+
+def test_record_has_the_required_keys_and_is_json():
+    score = score_map(_map(200, 100.0, [(_direction(30, 0), 0.08, 20000.0)]))
+    record = score.to_dict()
+    for key in REQUIRED_KEYS:
+        assert key in record
+    json.dumps(record, allow_nan=False)  # strict JSON: no NaN or infinity
+    assert record["sources"][0]["n_pixels"] > 0
+
+
+def test_no_source_reports_null_with_a_reason():
+    record = score_map(_map(200, 100.0, [])).to_dict()
+    assert record["ugr_pixel"] is None and record["ugr_grouped"] is None
+    assert record["n_sources"] == 0 and record["sources"] == []
+    assert any("no glare sources" in n for n in record["notes"])
+    # DGP is defined without sources: c1·E_v + c3 with E_v ≈ π·100 (rim pixels: 1e-3).
+    assert record["dgp"] == pytest.approx(5.87e-5 * math.pi * 100 + 0.159, abs=1e-4)
+
+
+def test_zero_background_reports_null():
+    record = score_map(_map(200, 0.0, [(_direction(30, 0), 0.08, 20000.0)])).to_dict()
+    assert record["background_luminance"] == 0.0
+    assert record["ugr_grouped"] is None and record["ugr_pixel"] is None
+    assert any("background luminance is zero" in n for n in record["notes"])
+
+
+def test_sun_in_view_is_finite():
+    record = score_map(_map(400, 50.0, [(_direction(40, 90), 0.2, 6000.0),
+                                        (_direction(40, 90), 0.01, 1.6e9)])).to_dict()
+    assert record["dgp"] == 1.0
+    assert math.isfinite(record["ugr_grouped"]) and record["ugr_grouped"] > 60
+    assert any(s["peak"] for s in record["sources"])
+
+
+@pytest.mark.parametrize("size", [1, 2])
+def test_tiny_maps_are_defined(size):
+    score = score_map(LuminanceMap(np.full((size, size), 3000.0), projection=_camera(size)))
+    json.dumps(score.to_dict(), allow_nan=False)
+
+
+def test_all_nan_and_half_nan_maps():
+    cam = _camera(64)
+    record = score_map(LuminanceMap(np.full((64, 64), np.nan), projection=cam)).to_dict()
+    assert record["vertical_illuminance"] == 0.0
+    assert record["q"] is None and record["ugr_pixel"] is None
+    assert any("no valid pixel" in n for n in record["notes"])
+    full = disk_sources_scene(cam.directions(*cam.pixel_grid()), background=100.0,
+                              sources=[(_direction(30, 270), 0.2, 9000.0)])  # left half
+    half = full.copy()
+    half[:, 32:] = np.nan  # the right half of a centred 64-px circle, exactly
+    e_full = score_map(LuminanceMap(full, projection=cam)).values["vertical_illuminance"]
+    record = score_map(LuminanceMap(half, projection=cam)).to_dict()
+    uniform = score_map(LuminanceMap(np.full((64, 64), 100.0), projection=cam))
+    # By mirror symmetry the missing half held half the uniform background's E_v.
+    assert e_full - record["vertical_illuminance"] == pytest.approx(
+        uniform.values["vertical_illuminance"] / 2, rel=1e-9)
+    assert record["ugr_grouped"] is not None
+
+
+def test_source_on_the_line_of_sight_and_at_the_edge():
+    record = score_map(_map(300, 100.0, [(_direction(0, 0), 0.05, 10000.0)])).to_dict()
+    assert record["sources"][0]["position_index"] == pytest.approx(1.0, abs=1e-3)
+    edge = score_map(_map(300, 100.0, [(_direction(89, 0), 0.05, 10000.0)])).to_dict()
+    # Straight above at σ ≈ 90° Guth's index exceeds 16: evalglare's cap (FORMULAS.md §2.1).
+    assert edge["sources"][0]["position_index"] == pytest.approx(16.0)
+    assert edge["sources"][0]["sigma_deg"] > 80
+
+
+def test_rotation_about_the_line_of_sight_leaves_sigma_only_quantities():
+    lmap = _map(240, 80.0, [(_direction(30, 20), 0.1, 15000.0), (_direction(55, 200), 0.15,
+                                                                   4000.0)])
+    rotated = LuminanceMap(np.rot90(lmap.luminance).copy(), projection=lmap.projection)
+    a = score_map(lmap, q_weight_exponent=0)
+    b = score_map(rotated, q_weight_exponent=0)
+    # rot90 of a centred square fisheye maps pixel directions onto each other exactly; sums
+    # are reordered, so agreement is to float64 summation error.
+    for key in ("vertical_illuminance", "background_luminance", "mean_luminance", "q"):
+        assert b.values[key] == pytest.approx(a.values[key], rel=1e-9), key
+    for ring_a, ring_b in zip(a.statistics["rings"], b.statistics["rings"], strict=True):
+        assert ring_b["mean"] == pytest.approx(ring_a["mean"], rel=1e-9)
+        assert ring_b["percentiles"] == ring_a["percentiles"]
+
+
+def test_calibration_uncertainty_propagates_as_8_u_over_ln10():
+    lmap = _map(200, 100.0, [(_direction(30, 0), 0.08, 20000.0)], calibration_uncertainty=0.03)
+    u = score_map(lmap).uncertainty
+    # UGR(k·L) = UGR + 8·log10 k; half the spread over k = 1 ± u is 4·log10((1+u)/(1−u)).
+    expected = 4 * math.log10(1.03 / 0.97)
+    assert u["ugr_grouped"] == pytest.approx(expected, rel=1e-9)
+    assert u["ugr_pixel"] == pytest.approx(expected, rel=1e-9)
+    assert u["vertical_illuminance"] == pytest.approx(0.03 * score_map(lmap).values[
+        "vertical_illuminance"], rel=1e-9)
+
+
+def test_map_without_geometry_is_rejected():
+    from lsadphoto.errors import BadInputError
+
+    with pytest.raises(BadInputError, match="no camera projection"):
+        score_map(LuminanceMap(np.ones((4, 4))))
+
+
+def test_q_uncertainty_from_one_sweep_equals_recomputing_at_scaled_luminance():
+    from lsadphoto.geometry.field import pixel_geometry, visual_field
+    from lsadphoto.geometry.observer import ObserverFrame
+    from lsadphoto.metrics.quality import q_Budak2021
+
+    u = 0.05
+    lmap = _map(200, 40.0, [(_direction(30, 0), 0.08, 3000.0), (_direction(50, 150), 0.12, 600.0)],
+                calibration_uncertainty=u)
+    score = score_map(lmap)
+    g = pixel_geometry(lmap.projection)
+    P = visual_field(lmap.projection, ObserverFrame()).position_index
+    L = np.asarray(lmap.luminance, dtype=np.float64)
+    direct = [q_Budak2021(L * k, g.directions, g.solid_angle, P).q for k in (1 + u, 1 - u)]
+    # The sweep uses Q(kL; N) = Q(L; N')·N/N' exactly; only float rounding differs.
+    assert score.uncertainty["q"] == pytest.approx(abs(direct[0] - direct[1]) / 2, rel=1e-6)
+    assert score.uncertainty["q"] > 0
