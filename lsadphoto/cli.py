@@ -116,7 +116,7 @@ def cmd_calibrate_geometry(args):
     profile.lens_projection = result.projection
     profile.width, profile.height = result.width, result.height
     profile.provenance = dict(profile.provenance, geometry_fit=(
-        f"lsadphoto {__version__}: {args.model} model, pattern {args.pattern}, RMS {result.rms_px:.3f} px, "
+        f"lsadphoto {__version__}: {args.model} model, pattern {result.pattern}, RMS {result.rms_px:.3f} px, "
         f"{len(result.summary()['used_images'])} views"))
     save_profile(profile, args.output)
     summary = dict(result.summary(), output=args.output)
@@ -128,6 +128,173 @@ def cmd_calibrate_geometry(args):
         for item in summary["rejected_images"]:
             print(f"  rejected {item['name']}: {item['reason']}")
     return 0
+
+
+def _vector(text, name):
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != 3:
+        raise BadInputError(f"{name} must be three numbers X,Y,Z, got {text!r}")
+    return values
+
+
+def _line_of_sight(text, lmap):
+    """``X,Y,Z`` (camera frame) or ``px:ROW,COL`` (through an image point)."""
+    if text is None:
+        return None
+    if text.startswith("px:"):
+        try:
+            row, col = (float(v) for v in text[3:].split(","))
+        except ValueError:
+            raise BadInputError(f"--line-of-sight px:ROW,COL needs two numbers, got {text!r}") from None
+        direction = lmap.projection.directions(row, col)
+        if not np.all(np.isfinite(direction)):
+            raise BadInputError(f"--line-of-sight {text}: the point is outside the image's valid area")
+        return list(direction)
+    return _vector(text, "--line-of-sight")
+
+
+def _format(value, digits=3):
+    return "—" if value is None else f"{value:.{digits}f}"
+
+
+def cmd_score(args):
+    from .io import read_map
+    from .io._atomic import atomic_text
+    from .metrics.score import score_map
+    from .report import write_contrast_png, write_glare_source_png
+
+    lmap = read_map(args.map)
+    if lmap.projection is None:
+        raise BadInputError(f"{args.map} has no camera geometry (no VIEW= line or lsadphoto metadata)")
+    method = args.source_method
+    score = score_map(
+        lmap, line_of_sight=_line_of_sight(args.line_of_sight, lmap),
+        up=_vector(args.up, "--up") if args.up else None, source_method=method,
+        source_threshold=args.threshold,
+        task_direction=_vector(args.task, "--task") if args.task else None,
+        task_opening_deg=args.task_opening_deg, search_angle=args.search_angle,
+        peak_luminance=None if args.no_peak_extraction else args.peak_luminance,
+        background_method=args.background, position_index_method=args.position_index,
+        guth_field=args.guth_field, n_thresholds=args.N, size_arcmin=args.alpha_arcmin,
+        q_weight_exponent=args.q_weight_exponent,
+        sweep=range(1, 101) if args.sweep else None,
+    )
+    record = score.to_dict()
+    record["provenance"]["input"] = str(args.map)
+    if args.sources_png:
+        write_glare_source_png(lmap.luminance, score.source_labels, args.sources_png)
+    if args.contrast_png:
+        write_contrast_png(score.contrast, args.contrast_png)
+    if args.output_json:
+        atomic_text(args.output_json, json.dumps(record, indent=2, default=_json_default))
+    if args.json:
+        _print_json(record)
+    else:
+        u = record["uncertainty"]
+
+        def pm(key, digits):
+            return "" if u.get(key) is None else f" ± {u[key]:.{digits}f}"
+
+        print(f"{args.map}: {record['n_sources']:.0f} glare sources; "
+              f"UGR pixel {_format(record['ugr_pixel'], 2)}{pm('ugr_pixel', 2)}, "
+              f"grouped {_format(record['ugr_grouped'], 2)}{pm('ugr_grouped', 2)}; "
+              f"Q {_format(record['q'], 3)}{pm('q', 3)}; DGP {_format(record['dgp'], 3)}{pm('dgp', 3)}; "
+              f"E_v {_format(record['vertical_illuminance'], 1)} lx; "
+              f"L_b {_format(record['background_luminance'], 2)} cd/m²")
+        for note in record["notes"]:
+            print(f"  note: {note}")
+    return 0
+
+
+def cmd_compare(args):
+    from .compare import compare_maps
+    from .io import read_map
+    from .io._atomic import atomic_text
+    from .report import write_ratio_png
+
+    photo, model = read_map(args.photo), read_map(args.model)
+    result = compare_maps(photo, model,
+                          line_of_sight=_line_of_sight(args.line_of_sight, photo) if photo.projection else None)
+    record = result.to_dict()
+    record["inputs"] = {"photo": str(args.photo), "model": str(args.model)}
+    if args.ratio_png:
+        write_ratio_png(result.ratio, args.ratio_png)
+    if args.output_json:
+        atomic_text(args.output_json, json.dumps(record, indent=2, default=_json_default))
+    if args.json:
+        _print_json(record)
+    else:
+        f = record["field"]
+        print(f"model/photo over the field: median {_format(f['median_ratio'])}, 5–95 % "
+              f"{_format(f['p05_ratio'])}–{_format(f['p95_ratio'])}, RMS relative error "
+              f"{_format(f['rms_relative_error'])}, within ±10 %: {_format(f['within_10_percent'])}")
+        for key, m in record["metrics"].items():
+            print(f"  {key}: photo {_format(m['photo'])}, model {_format(m['model'])}, "
+                  f"difference {_format(m['difference'])} ± {_format(m['combined_uncertainty'])}")
+    return 0
+
+
+def cmd_study(args):
+    from .io._atomic import atomic_text
+    from .study import run_study
+
+    result = run_study(args.ratings, args.metrics, metric=args.metric,
+                       sweep_prefix=args.sweep_prefix or None, jitter=args.jitter,
+                       n_jitter=args.n_jitter, n_bootstrap=args.n_bootstrap,
+                       confidence=args.confidence, seed=args.seed, direction=args.direction)
+    record = result.to_dict()
+    if args.figures:
+        Path(args.figures).mkdir(parents=True, exist_ok=True)
+        record["figures"] = [str(p) for p in result.figures(args.figures)]
+    if args.output_json:
+        atomic_text(args.output_json, json.dumps(record, indent=2, default=_json_default))
+    if args.json:
+        _print_json(record)
+        return 0
+    c = record["correlations"][args.metric]
+    ci = c["pearson_ci"] or [None, None]
+    print(f"{args.metric} vs mean rating over {c['n']} scenes: Pearson r = {_format(c['pearson_r'])} "
+          f"[{_format(ci[0])}, {_format(ci[1])}] ({c['chaddock']}), Spearman ρ = "
+          f"{_format(c['spearman_rho'])}, Kendall τ = {_format(c['kendall_tau'])}")
+    sweep = record.get("sweep")
+    if sweep and sweep.get("best"):
+        best = sweep["best"]
+        print(f"best N = {best['n']:g}: r = {_format(best['r'])}")
+    loo = record.get("leave_one_out")
+    if loo:
+        print(f"leave-one-scene-out choice of N: out-of-sample r = {_format(loo['r_loo'])} "
+              f"(in-sample {_format(loo['r_in_sample'])})")
+    jit = record.get("jitter")
+    if jit:
+        print(f"ratings jittered ±{jit['half_width']:g} × {jit['n_trials']}: r = {_format(jit['mean'])} ± "
+              f"{_format(jit['sd'])}, largest relative change {100 * jit['max_relative_change']:.1f} %")
+    for note in record.get("notes", []):
+        print(f"  note: {note}")
+    return 0
+
+
+def cmd_survey(args):
+    from .survey import run_survey
+
+    score_options = {}
+    if args.N is not None:
+        score_options["n_thresholds"] = args.N
+    if args.alpha_arcmin is not None:
+        score_options["size_arcmin"] = args.alpha_arcmin
+    result = run_survey(args.manifest, args.output, workers=args.workers, dask_address=args.dask,
+                        progress=not args.quiet, score_options=score_options or None)
+    if args.json:
+        _print_json(result.to_dict())
+    else:
+        print(f"{args.output}: {len(result.table)} views finished ({len(result.processed)} processed now, "
+              f"{len(result.skipped)} already done), {len(result.failures)} failed; "
+              f"table {Path(args.output) / 'metrics.csv'}")
+        for view, reason in result.failures:
+            print(f"  failed {view}: {reason}")
+    return 1 if result.failures else 0
 
 
 def build_parser():
@@ -166,16 +333,85 @@ def build_parser():
     vig.add_argument("--demosaic", choices=DEMOSAIC_METHODS, default="superpixel")
     vig.add_argument("--json", action="store_true")
     vig.set_defaults(func=cmd_calibrate_vignetting)
-    geo = calsub.add_parser("geometry", help="calibrate the camera geometry from chessboard images (OpenCV)")
-    geo.add_argument("images", nargs="+", help="images of a chessboard (8-bit, any format OpenCV reads)")
-    geo.add_argument("--pattern", required=True, metavar="chessboard:COLSxROWS:SQUARE_MM",
-                     help="inner corners per row and column, and the square size [mm]")
+    geo = calsub.add_parser("geometry", help="calibrate the camera geometry from chessboard or ChArUco images (OpenCV)")
+    geo.add_argument("images", nargs="+", help="images of a chessboard or ChArUco board (8-bit, any format OpenCV reads)")
+    geo.add_argument("--pattern", required=True, metavar="PATTERN",
+                     help="chessboard:COLSxROWS:SQUARE_MM (inner corners, square side [mm]) or "
+                          "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT] (squares, square and marker "
+                          "sides [mm], ArUco dictionary, default DICT_5X5_100); e.g. chessboard:9x6:25, "
+                          "charuco:9x6:35:26")
     geo.add_argument("--model", choices=("pinhole", "fisheye"), default="pinhole")
     geo.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
     geo.add_argument("--profile", help="profile to start from (its other sections are kept)")
     geo.add_argument("--id", help="profile id when no --profile is given")
     geo.add_argument("--json", action="store_true")
     geo.set_defaults(func=cmd_calibrate_geometry)
+
+    sc = sub.add_parser("score", help="score a luminance map (EXR, or Radiance HDR with VIEW=): UGR, Q, DGP, …")
+    sc.add_argument("map", help="luminance map: our .exr, or a Radiance .hdr with a VIEW= line")
+    sc.add_argument("--line-of-sight", metavar="X,Y,Z|px:ROW,COL",
+                    help="line of sight in the camera frame (x right, y down, z forward) or through "
+                         "an image point; default the map's, else the optical axis")
+    sc.add_argument("--up", metavar="X,Y,Z", help="view-up vector in the camera frame (default camera up)")
+    sc.add_argument("--source-method", choices=("fixed", "task", "mean", "contrast"), default="fixed",
+                    help="glare-source rule (default: fixed threshold)")
+    sc.add_argument("--threshold", type=float,
+                    help="glare-source threshold [cd/m²] (fixed, default 2000) or factor (task, mean; default 5)")
+    sc.add_argument("--task", metavar="X,Y,Z", help="task direction for --source-method task (default: line of sight)")
+    sc.add_argument("--task-opening-deg", type=float, default=20.0, help="task cone full opening angle [deg]")
+    sc.add_argument("--search-angle", type=float, default=0.2, help="evalglare -r grouping opening angle [rad]")
+    sc.add_argument("--peak-luminance", type=float, default=50000.0, help="peak-extraction limit [cd/m²]")
+    sc.add_argument("--no-peak-extraction", action="store_true")
+    sc.add_argument("--background", choices=("CIE", "mean", "Ev"), default="CIE", help="background luminance definition")
+    sc.add_argument("--position-index", choices=("evalglare", "Guth", "Kim2011"), default="evalglare")
+    sc.add_argument("--guth-field", type=int, choices=(1, 2), help="evaluate only Guth's total (1) or central (2) field")
+    sc.add_argument("--N", type=float, default=50.0, help="threshold count N of the Q criterion (default 50)")
+    sc.add_argument("--alpha-arcmin", type=float, default=10.0, help="critical detail α [arcmin] (default 10)")
+    sc.add_argument("--q-weight-exponent", type=int, choices=(0, 1, 2), default=1,
+                    help="Q weight w = P^-m (default m = 1)")
+    sc.add_argument("--sweep", action="store_true", help="also compute Q(N) for N = 1…100 in one pass")
+    sc.add_argument("--sources-png", metavar="OUT.png", help="write the glare-source map")
+    sc.add_argument("--contrast-png", metavar="OUT.png", help="write the Q contrast map")
+    sc.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
+    sc.add_argument("--json", action="store_true", help="print the JSON record")
+    sc.set_defaults(func=cmd_score)
+
+    cmp_ = sub.add_parser("compare", help="compare a model map with a photo of the same view")
+    cmp_.add_argument("photo", help="photo luminance map (.exr or .hdr)")
+    cmp_.add_argument("model", help="model luminance map rendered through the same camera (.exr or .hdr)")
+    cmp_.add_argument("--line-of-sight", metavar="X,Y,Z|px:ROW,COL", help="as for score")
+    cmp_.add_argument("--ratio-png", metavar="OUT.png", help="write the per-pixel ratio map")
+    cmp_.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
+    cmp_.add_argument("--json", action="store_true", help="print the JSON record")
+    cmp_.set_defaults(func=cmd_compare)
+
+    st = sub.add_parser("study", help="correlate observers' ratings with metrics (the paper's analyses)")
+    st.add_argument("ratings", help="RATINGS.csv: scene, observer, rating")
+    st.add_argument("metrics", help="METRICS.csv: scene and metric columns (the survey's metrics.csv)")
+    st.add_argument("--metric", default="q", help="metric analysed in detail (default q)")
+    st.add_argument("--sweep-prefix", default="q_n", help="prefix of the Q(N) sweep columns ('' for none)")
+    st.add_argument("--direction", choices=("positive", "negative", "either"), default="positive",
+                    help="which correlation counts as best in the N sweep")
+    st.add_argument("--jitter", type=float, default=0.25, help="half-width of the rating jitter")
+    st.add_argument("--n-jitter", type=int, default=10000, help="jitter repetitions")
+    st.add_argument("--n-bootstrap", type=int, default=10000, help="bootstrap resamples")
+    st.add_argument("--confidence", type=float, default=0.95)
+    st.add_argument("--seed", type=int, default=0)
+    st.add_argument("--figures", metavar="DIR", help="write the scatter and r-vs-N figures")
+    st.add_argument("--output-json", metavar="OUT.json")
+    st.add_argument("--json", action="store_true")
+    st.set_defaults(func=cmd_study)
+
+    sv = sub.add_parser("survey", help="process every view of a survey manifest (parallel, resumable)")
+    sv.add_argument("manifest", help="survey manifest (TOML, schema lsadphoto.survey/1)")
+    sv.add_argument("-o", "--output", required=True, help="output folder (rerun to resume)")
+    sv.add_argument("--workers", type=int, help="worker processes here (default one per CPU; 0: in this process)")
+    sv.add_argument("--dask", metavar="tcp://HOST:PORT", help="use a running Dask scheduler instead")
+    sv.add_argument("--N", type=float, help="threshold count N of Q for every view")
+    sv.add_argument("--alpha-arcmin", type=float, help="critical detail α [arcmin] for every view")
+    sv.add_argument("--quiet", action="store_true", help="no progress bar")
+    sv.add_argument("--json", action="store_true", help="print the JSON summary")
+    sv.set_defaults(func=cmd_survey)
     return parser
 
 

@@ -3,9 +3,12 @@
 1. ``lsadphoto calibrate vignetting`` fits the demo camera's vignetting from two flat fields;
 2. ``lsadphoto luminance`` merges the 3-frame office bracket, corrects vignetting with the
    fitted profile and calibrates with the two spot readings of ``spots.csv``;
-3. the result is compared with the scene's true luminance (known: the samples are synthetic).
+3. the result is compared with the scene's true luminance (known: the samples are synthetic);
+4. ``lsadphoto score`` scores the map: pixel-wise and grouped UGR, Q, DGP and the rest, with
+   the glare-source and contrast maps.
 
-Outputs go to ``demo_output/`` (EXR, HDR, false-colour PNG, fitted profile).
+Outputs go to ``demo_output/`` (EXR, HDR, false-colour PNG, fitted profile, scores JSON and
+figures).
 """
 
 import csv
@@ -58,6 +61,13 @@ def run(out=Path("demo_output")):
     print(f"against the true scene: median |error| {100 * np.median(error):.2f} %, "
           f"95th percentile {100 * np.percentile(error, 95):.2f} %")
     print(f"maps: {out / 'office.exr'}, {out / 'office.hdr'}; false colour: {out / 'office.png'}")
+    code = cli(["score", str(out / "office.exr"), "--sweep", "--output-json", str(out / "office-score.json"),
+                "--sources-png", str(out / "office-sources.png"),
+                "--contrast-png", str(out / "office-contrast.png")])
+    if code:
+        return code
+    print(f"scores: {out / 'office-score.json'}; glare sources: {out / 'office-sources.png'}; "
+          f"contrasts: {out / 'office-contrast.png'}")
     return 0
 
 

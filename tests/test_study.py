@@ -229,11 +229,13 @@ def test_error_unknown_scene_in_ratings(tmp_path):
         run_study(ratings, metrics, n_jitter=0, n_bootstrap=0)
 
 
-def test_error_scene_without_ratings(tmp_path):
+def test_scene_without_ratings_is_left_out_with_a_note(tmp_path):
     ratings, metrics = _write_study(tmp_path)
+    before = run_study(ratings, metrics, n_jitter=0, n_bootstrap=0).to_dict()
     metrics.write_text(metrics.read_text() + "S_new,1,2,3,4,5\n")
-    with pytest.raises(BadInputError, match=r"METRICS\.csv, line 8.*'S_new' has no ratings"):
-        run_study(ratings, metrics, n_jitter=0, n_bootstrap=0)
+    after = run_study(ratings, metrics, n_jitter=0, n_bootstrap=0).to_dict()
+    assert any("S_new" in note for note in after["notes"])
+    assert after["correlations"] == before["correlations"]
 
 
 def test_error_fewer_than_three_scenes(tmp_path):

@@ -26,7 +26,6 @@ Adobe, *DNG Specification* 1.6, chapter 6. IEC 61966-2-1 (sRGB). CIE 015:2018 (Y
 photopic luminance).
 """
 
-import colour
 import numpy as np
 
 from .._validation import check_array, check_choice
@@ -39,6 +38,10 @@ _ILLUMINANT_PREFERENCE = {21: 0, 20: 1, 23: 2, 22: 3, 1: 4, 9: 5, 10: 6}
 
 
 def _srgb_to_xyz():
+    # Imported here: colour-science takes seconds to import (it loads its plotting stack),
+    # which every CLI call and survey worker would pay although only this route needs it.
+    import colour
+
     return np.asarray(colour.RGB_COLOURSPACES["sRGB"].matrix_RGB_to_XYZ, dtype=np.float64)
 
 

@@ -8,7 +8,7 @@ import numpy as np
 from ..io._atomic import atomic_path
 from ..io.falsecolour import false_colour_range
 
-__all__ = ["write_glare_source_png", "write_contrast_png"]
+__all__ = ["write_glare_source_png", "write_contrast_png", "write_ratio_png"]
 
 
 def _figure(shape, width=7.0, dpi=100):
@@ -38,12 +38,13 @@ def write_glare_source_png(luminance, labels, path, *, title=None, dpi=100):
     from matplotlib import colors
 
     luminance = np.asarray(luminance, dtype=np.float64)
-    low, high = false_colour_range(luminance)
+    # Grey scale from the non-source pixels, so that the scene around the sources shows.
+    low, high = false_colour_range(np.where(labels > 0, np.nan, luminance))
     with np.errstate(invalid="ignore", divide="ignore"):
         grey = np.clip((np.log10(np.maximum(luminance, low)) - np.log10(low))
                        / (np.log10(high) - np.log10(low)), 0.0, 1.0)
     grey = np.where(np.isfinite(grey), grey, 0.0)
-    rgb = np.repeat(grey[..., None], 3, axis=-1) * 0.8
+    rgb = 0.1 + 0.75 * np.repeat(grey[..., None], 3, axis=-1)
     n = int(labels.max()) if labels.size else 0
     if n:
         palette = matplotlib.colormaps["tab10"](np.arange(n) % 10)[:, :3]
@@ -79,5 +80,25 @@ def write_contrast_png(contrast, path, *, title=None, dpi=100):
     cax = fig.add_axes((0.84, 0.1, 0.035, 0.76))
     fig.colorbar(image, cax=cax).set_label("generalised contrast K [1/rad]")
     ax.set_title(title or "Q criterion: contrasts above the cut-off", fontsize=10)
+    with atomic_path(path) as temp:
+        fig.savefig(temp, format="png")
+
+
+def write_ratio_png(ratio, path, *, title=None, limit=2.0, dpi=100):
+    """Per-pixel ratio model/photo on a diverging log scale from 1/limit to limit (NaN grey)."""
+    import matplotlib
+    from matplotlib import colors
+
+    ratio = np.asarray(ratio, dtype=np.float64)
+    fig = _figure(ratio.shape, dpi=dpi)
+    ax = fig.add_axes((0.03, 0.06, 0.78, 0.84))
+    cmap = matplotlib.colormaps["RdBu_r"].with_extremes(bad="0.5")
+    shown = np.ma.masked_where(~(np.isfinite(ratio) & (ratio > 0)), ratio)
+    image = ax.imshow(shown, cmap=cmap, norm=colors.LogNorm(vmin=1.0 / limit, vmax=limit),
+                      interpolation="nearest")
+    ax.set_axis_off()
+    cax = fig.add_axes((0.84, 0.1, 0.035, 0.76))
+    fig.colorbar(image, cax=cax, extend="both").set_label("model / photo")
+    ax.set_title(title or "luminance ratio model / photo", fontsize=10)
     with atomic_path(path) as temp:
         fig.savefig(temp, format="png")

@@ -24,7 +24,7 @@ from .selection import (
     leave_one_out_selection,
     sweep_correlations,
 )
-from .tables import read_metrics, read_ratings, scene_ratings, sweep_columns
+from .tables import rated_scenes_only, read_metrics, read_ratings, scene_ratings, sweep_columns
 
 __all__ = ["MIN_SCENES", "StudyResult", "run_study"]
 
@@ -243,7 +243,7 @@ def run_study(ratings_csv, metrics_csv, *, metric="q", sweep_prefix="q_n", jitte
         raise BadInputError(f"confidence must be between 0 and 1, got {confidence!r}")
 
     ratings = read_ratings(ratings_csv, rating_scale=rating_scale)
-    metrics = read_metrics(metrics_csv)
+    metrics, unrated = rated_scenes_only(read_metrics(metrics_csv), ratings)
     summary = scene_ratings(ratings, metrics)
     n_scenes = len(metrics.scenes)
     if n_scenes < MIN_SCENES:
@@ -256,6 +256,9 @@ def run_study(ratings_csv, metrics_csv, *, metric="q", sweep_prefix="q_n", jitte
                             + ", ".join(metrics.values))
     x = _complete(metrics, metric)
     notes = []
+    if unrated:
+        notes.append(f"{len(unrated)} scene(s) of the metrics file have no ratings and are left "
+                     f"out: {', '.join(unrated)}")
     if n_scenes < 4:
         notes.append("fewer than 4 scenes: no Fisher interval and no leave-one-out check")
 

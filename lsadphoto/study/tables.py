@@ -210,6 +210,8 @@ def _text_column(body, index):
 def read_metrics(path):
     """Read ``METRICS.csv``: one row per scene, column ``scene`` plus numeric metric columns.
 
+    The id column may also be called ``view``, as in the survey's ``metrics.csv``.
+
     Every column other than ``scene`` that holds numbers is a metric; empty cells (see
     :data:`MISSING_TOKENS`) become NaN. Columns in which no cell is a number (provenance
     such as file names or versions, as the survey table carries) are not metrics and are
@@ -219,16 +221,23 @@ def read_metrics(path):
     -------
     Metrics
     """
-    path, header, body = _read_rows(path, "metrics file", ("scene",))
-    i_scene = header.index("scene")
-    columns = [c for c in header if c != "scene" and not _text_column(body, header.index(c))]
+    path = check_file(path, "metrics file")
+    with open(path, newline="", encoding="utf-8-sig") as fh:
+        first = fh.readline()
+    # The survey's metrics.csv names its scenes "view"; either name is the id column.
+    id_column = "view" if "view" in [c.strip() for c in first.split(",")] and \
+        "scene" not in [c.strip() for c in first.split(",")] else "scene"
+    path, header, body = _read_rows(path, "metrics file", (id_column,))
+    i_scene = header.index(id_column)
+    columns = [c for c in header
+               if c != id_column and not _text_column(body, header.index(c))]
     if not columns:
         raise BadInputError(f"{path}: no metric columns besides 'scene'")
     scenes, lines = [], []
     values = {c: [] for c in columns}
     first_line = {}
     for line, row in body:
-        scene = _label(row[i_scene], path, line, "scene")
+        scene = _label(row[i_scene], path, line, id_column)
         if scene in first_line:
             raise BadInputError(f"{path}, line {line}, column 'scene': scene {scene!r} "
                                 f"appears again (first on line {first_line[scene]})")
@@ -264,6 +273,22 @@ def sweep_columns(metrics, prefix):
                                     f"both give N = {n:g}")
             found[n] = column
     return sorted(found.items())
+
+
+def rated_scenes_only(metrics, ratings):
+    """``metrics`` restricted to the scenes that have ratings, and the scenes left out.
+
+    A survey may hold views nobody rated; they cannot enter a correlation with ratings.
+    """
+    rated = set(ratings.scene)
+    keep = [i for i, s in enumerate(metrics.scenes) if s in rated]
+    dropped = [s for s in metrics.scenes if s not in rated]
+    if not dropped:
+        return metrics, []
+    idx = np.asarray(keep, dtype=np.intp)
+    return Metrics(metrics.path, tuple(metrics.scenes[i] for i in keep),
+                   {k: v[idx] for k, v in metrics.values.items()},
+                   tuple(metrics.line[i] for i in keep)), dropped
 
 
 def scene_ratings(ratings, metrics):
