@@ -222,6 +222,10 @@ def cmd_compare(args):
     record["inputs"] = {"photo": str(args.photo), "model": str(args.model)}
     if args.ratio_png:
         write_ratio_png(result.ratio, args.ratio_png)
+    if args.report:
+        from .report import write_comparison_report
+
+        record["report"] = str(write_comparison_report(result, args.report, photo=photo, model=model))
     if args.output_json:
         atomic_text(args.output_json, json.dumps(record, indent=2, default=_json_default))
     if args.json:
@@ -249,6 +253,10 @@ def cmd_study(args):
     if args.figures:
         Path(args.figures).mkdir(parents=True, exist_ok=True)
         record["figures"] = [str(p) for p in result.figures(args.figures)]
+    if args.report:
+        from .report import write_survey_report
+
+        record["report"] = str(write_survey_report(args.report, study=result))
     if args.output_json:
         atomic_text(args.output_json, json.dumps(record, indent=2, default=_json_default))
     if args.json:
@@ -273,6 +281,8 @@ def cmd_study(args):
               f"{_format(jit['sd'])}, largest relative change {100 * jit['max_relative_change']:.1f} %")
     for note in record.get("notes", []):
         print(f"  note: {note}")
+    if "report" in record:
+        print(f"report: {record['report']}")
     return 0
 
 
@@ -286,6 +296,11 @@ def cmd_survey(args):
         score_options["size_arcmin"] = args.alpha_arcmin
     result = run_survey(args.manifest, args.output, workers=args.workers, dask_address=args.dask,
                         progress=not args.quiet, score_options=score_options or None)
+    report = None
+    if not args.no_report:
+        from .report import write_survey_report
+
+        report = write_survey_report(args.output)
     if args.json:
         _print_json(result.to_dict())
     else:
@@ -294,6 +309,8 @@ def cmd_survey(args):
               f"table {Path(args.output) / 'metrics.csv'}")
         for view, reason in result.failures:
             print(f"  failed {view}: {reason}")
+        if report is not None:
+            print(f"report: {report}")
     return 1 if result.failures else 0
 
 
@@ -381,6 +398,7 @@ def build_parser():
     cmp_.add_argument("model", help="model luminance map rendered through the same camera (.exr or .hdr)")
     cmp_.add_argument("--line-of-sight", metavar="X,Y,Z|px:ROW,COL", help="as for score")
     cmp_.add_argument("--ratio-png", metavar="OUT.png", help="write the per-pixel ratio map")
+    cmp_.add_argument("--report", metavar="OUT.html", help="write a self-contained HTML report")
     cmp_.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
     cmp_.add_argument("--json", action="store_true", help="print the JSON record")
     cmp_.set_defaults(func=cmd_compare)
@@ -398,6 +416,8 @@ def build_parser():
     st.add_argument("--confidence", type=float, default=0.95)
     st.add_argument("--seed", type=int, default=0)
     st.add_argument("--figures", metavar="DIR", help="write the scatter and r-vs-N figures")
+    st.add_argument("--report", metavar="SURVEY_DIR",
+                    help="(re)write SURVEY_DIR/report.html with these statistics")
     st.add_argument("--output-json", metavar="OUT.json")
     st.add_argument("--json", action="store_true")
     st.set_defaults(func=cmd_study)
@@ -410,6 +430,7 @@ def build_parser():
     sv.add_argument("--N", type=float, help="threshold count N of Q for every view")
     sv.add_argument("--alpha-arcmin", type=float, help="critical detail α [arcmin] for every view")
     sv.add_argument("--quiet", action="store_true", help="no progress bar")
+    sv.add_argument("--no-report", action="store_true", help="do not write OUTPUT/report.html")
     sv.add_argument("--json", action="store_true", help="print the JSON summary")
     sv.set_defaults(func=cmd_survey)
     return parser

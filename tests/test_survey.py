@@ -451,6 +451,7 @@ def test_cli_survey_rerun_then_study_reads_the_survey_tables(surveyed, tmp_path)
     proc = cli("survey", manifest, "-o", copy, "--quiet", "--workers", "0")
     assert proc.returncode == 1  # the corrupt view still fails
     assert "failed" in proc.stdout and "Traceback" not in proc.stderr
+    assert (copy / "report.html").read_text().startswith("<!DOCTYPE html>")
     proc = cli("study", copy / "ratings.csv", copy / "metrics.csv", "--n-jitter", "20",
                "--n-bootstrap", "20", "--json")
     # The tables parse (the text provenance columns are skipped, the unrated view left out);
