@@ -1,0 +1,717 @@
+"""Scene model of the solver: Lambertian surfaces, luminaires and views, from TOML.
+
+A scene is a set of triangles (every shape is triangulated when it is read), each with a
+Lambertian reflectance and possibly a Lambertian emission, plus point-like luminaires with
+a luminous intensity distribution, plus named views. Lengths are in metres, flux in lumens,
+intensity in candelas, luminance in cd·m⁻². The TOML schema is documented in
+``docs/user-guide-solver.md``; :func:`scene_from_dict` accepts the same structure as a
+Python ``dict``.
+
+Surfaces reflect on both sides (the shading normal is turned towards the side a ray comes
+from); Lambertian luminaires emit from their front side only, the side towards which the
+polygon's vertices turn counter-clockwise (right-hand rule).
+
+References
+----------
+Budak, V. P., Zheltov, V. S., Kalakutsky, T. K. (2012). Local estimations of Monte Carlo
+method with the object spectral representation in the solution of global illumination
+equation. *Computer Research and Modeling* 4(1), 75–84.
+"""
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import BadInputError
+from ..geometry.base import Projection, projection_from_dict
+from .intensity import IntensityTable, luminaire_frame
+
+__all__ = [
+    "AreaLuminaire",
+    "PointLuminaire",
+    "Scene",
+    "View",
+    "camera_to_world",
+    "load_scene",
+    "polygon_triangles",
+    "scene_from_dict",
+]
+
+#: Relative tolerance of the planarity check of polygons (fraction of the polygon size).
+PLANARITY_TOLERANCE = 1e-6
+
+
+def camera_to_world(line_of_sight, up=(0.0, 0.0, 1.0)):
+    """3×3 rotation taking camera-frame vectors (x right, y down, z forward) to the world.
+
+    Parameters
+    ----------
+    line_of_sight : array_like, shape (3,)
+        World direction of the optical axis (need not be unit length).
+    up : array_like, shape (3,)
+        World direction that appears up in the image (made perpendicular).
+
+    Examples
+    --------
+    >>> r = camera_to_world([1, 0, 0], [0, 0, 1])
+    >>> (r @ [0, 0, 1]).tolist(), (r @ [1, 0, 0]).tolist(), (r @ [0, 1, 0]).tolist()
+    ([1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0])
+    """
+    v = _vector(line_of_sight, "line_of_sight")
+    u = _vector(up, "up")
+    if np.linalg.norm(v) == 0:
+        raise BadInputError("line_of_sight must not be the zero vector")
+    v = v / np.linalg.norm(v)
+    u = u - (u @ v) * v
+    if np.linalg.norm(u) < 1e-9:
+        raise BadInputError("up vector must not be parallel to the line of sight")
+    u = u / np.linalg.norm(u)
+    right = np.cross(v, u)
+    out = np.stack([right, -u, v], axis=1)
+    return out + 0.0  # no negative zeros in printed examples
+
+
+def _vector(value, name, size=3):
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise BadInputError(f"{name} must be a list of {size} numbers, got {value!r}") from None
+    if v.shape != (size,) or not np.all(np.isfinite(v)):
+        raise BadInputError(f"{name} must be a list of {size} finite numbers, got {value!r}")
+    return v
+
+
+# --- triangulation -------------------------------------------------------------------------
+
+def _newell_normal(points):
+    p = points
+    q = np.roll(points, -1, axis=0)
+    return np.array([
+        np.sum((p[:, 1] - q[:, 1]) * (p[:, 2] + q[:, 2])),
+        np.sum((p[:, 2] - q[:, 2]) * (p[:, 0] + q[:, 0])),
+        np.sum((p[:, 0] - q[:, 0]) * (p[:, 1] + q[:, 1])),
+    ])
+
+
+def polygon_triangles(vertices, name="polygon"):
+    """Triangles ``(n − 2, 3, 3)`` of a planar simple polygon (convex or concave) [m].
+
+    Ear clipping in the polygon's plane; the triangles keep the vertex winding, so their
+    normals point to the polygon's front side. Raises :class:`BadInputError` for fewer
+    than three distinct vertices, zero area, or a polygon that is not planar (relative
+    tolerance :data:`PLANARITY_TOLERANCE`).
+
+    Examples
+    --------
+    >>> polygon_triangles([[0, 0, 0], [2, 0, 0], [2, 1, 0], [1, 0.5, 0], [0, 1, 0]]).shape
+    (3, 3, 3)
+    """
+    try:
+        pts = np.asarray(vertices, dtype=float)
+    except (TypeError, ValueError):
+        raise BadInputError(f"{name}: vertices must be a list of [x, y, z] points") from None
+    if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
+        raise BadInputError(f"{name}: vertices must be a list of [x, y, z] points")
+    # drop repeated consecutive vertices (and a closing copy of the first)
+    keep = np.linalg.norm(pts - np.roll(pts, 1, axis=0), axis=1) > 0
+    pts = pts[keep] if keep.any() else pts[:1]
+    if len(pts) < 3:
+        raise BadInputError(f"{name}: needs at least 3 distinct vertices, got {len(pts)}")
+    normal = _newell_normal(pts)
+    size = np.ptp(pts, axis=0).max()
+    area2 = np.linalg.norm(normal)
+    if area2 <= 1e-12 * size * size:
+        raise BadInputError(f"{name}: degenerate polygon (zero area)")
+    normal = normal / area2
+    offset = (pts - pts.mean(axis=0)) @ normal
+    if np.abs(offset).max() > PLANARITY_TOLERANCE * size:
+        raise BadInputError(
+            f"{name}: vertices are not coplanar (off the plane by {np.abs(offset).max():.3g} m)")
+    # 2-D coordinates in the plane, counter-clockwise seen from the front
+    a = np.eye(3)[np.argmin(np.abs(normal))]
+    e1 = np.cross(normal, a)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(normal, e1)
+    xy = np.stack([pts @ e1, pts @ e2], axis=1)
+    idx = list(range(len(pts)))
+    tris = []
+    guard = 0
+    while len(idx) > 3:
+        guard += 1
+        if guard > 10 * len(pts) ** 2:
+            raise BadInputError(f"{name}: self-intersecting polygon cannot be triangulated")
+        n = len(idx)
+        clipped = False
+        for k in range(n):
+            i0, i1, i2 = idx[k - 1], idx[k], idx[(k + 1) % n]
+            a0, a1, a2 = xy[i0], xy[i1], xy[i2]
+            cross = (a1[0] - a0[0]) * (a2[1] - a0[1]) - (a1[1] - a0[1]) * (a2[0] - a0[0])
+            if cross <= 1e-14 * size * size:
+                continue  # reflex or collinear corner
+            others = [j for j in idx if j not in (i0, i1, i2)]
+            if others and _points_in_triangle(xy[others], a0, a1, a2).any():
+                continue
+            tris.append((i0, i1, i2))
+            idx.pop(k)
+            clipped = True
+            break
+        if not clipped:
+            # only collinear corners left: drop one collinear vertex
+            for k in range(n):
+                i0, i1, i2 = idx[k - 1], idx[k], idx[(k + 1) % n]
+                a0, a1, a2 = xy[i0], xy[i1], xy[i2]
+                cross = (a1[0] - a0[0]) * (a2[1] - a0[1]) - (a1[1] - a0[1]) * (a2[0] - a0[0])
+                if abs(cross) <= 1e-14 * size * size:
+                    idx.pop(k)
+                    break
+            else:
+                raise BadInputError(f"{name}: self-intersecting polygon cannot be triangulated")
+    tris.append(tuple(idx))
+    out = pts[np.array(tris)]
+    # collinear leftovers can leave zero-area triangles: drop them
+    areas = 0.5 * np.linalg.norm(np.cross(out[:, 1] - out[:, 0], out[:, 2] - out[:, 0]), axis=1)
+    out = out[areas > 1e-12 * size * size]
+    if len(out) == 0:
+        raise BadInputError(f"{name}: degenerate polygon (zero area)")
+    return out
+
+
+def _points_in_triangle(p, a, b, c):
+    def side(p1, p2):
+        return (p2[0] - p1[0]) * (p[:, 1] - p1[1]) - (p2[1] - p1[1]) * (p[:, 0] - p1[0])
+
+    d1, d2, d3 = side(a, b), side(b, c), side(c, a)
+    return (d1 >= 0) & (d2 >= 0) & (d3 >= 0)
+
+
+_BOX_FACES = {  # outward-facing quads of the unit cube [0, 1]³, counter-clockwise from outside
+    "-x": [(0, 0, 0), (0, 0, 1), (0, 1, 1), (0, 1, 0)],
+    "+x": [(1, 0, 0), (1, 1, 0), (1, 1, 1), (1, 0, 1)],
+    "-y": [(0, 0, 0), (1, 0, 0), (1, 0, 1), (0, 0, 1)],
+    "+y": [(0, 1, 0), (0, 1, 1), (1, 1, 1), (1, 1, 0)],
+    "-z": [(0, 0, 0), (0, 1, 0), (1, 1, 0), (1, 0, 0)],
+    "+z": [(0, 0, 1), (1, 0, 1), (1, 1, 1), (0, 1, 1)],
+}
+_FACE_ALIASES = {"floor": "-z", "ceiling": "+z"}
+
+
+def box_faces(minimum, maximum, *, facing="inward", axes=None):
+    """Six quads of a box as ``{face: (4, 3) vertices}`` [m], normals in or out.
+
+    ``minimum``/``maximum`` are the corners in the box's own axes (``axes``: 3×3 rows,
+    default the world axes, orthonormalised); faces are named ``-x``, ``+x``, … in those axes.
+    """
+    lo, hi = np.asarray(minimum, float), np.asarray(maximum, float)
+    r = np.eye(3) if axes is None else np.asarray(axes, float)
+    out = {}
+    for face, corners in _BOX_FACES.items():
+        c = lo + np.asarray(corners, float) * (hi - lo)
+        if facing == "inward":
+            c = c[::-1]
+        out[face] = c @ r
+    return out
+
+
+def disc_polygon(centre, normal, radius, segments=64):
+    """Vertices ``(segments, 3)`` of a regular polygon inscribed in a disc [m].
+
+    The polygon has the same area as the disc (its circumradius is enlarged by
+    √(2π/(n sin(2π/n)))), so fluxes and form factors of a disc are kept.
+    """
+    n = _vector(normal, "normal")
+    if np.linalg.norm(n) == 0:
+        raise BadInputError("disc normal must not be the zero vector")
+    n = n / np.linalg.norm(n)
+    a = np.eye(3)[np.argmin(np.abs(n))]
+    e1 = np.cross(n, a)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n, e1)
+    k = int(segments)
+    scale = math.sqrt(2 * math.pi / (k * math.sin(2 * math.pi / k)))
+    phi = 2 * math.pi * np.arange(k) / k
+    return (np.asarray(centre, float) + radius * scale
+            * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2))
+
+
+# --- scene objects -------------------------------------------------------------------------
+
+@dataclass
+class AreaLuminaire:
+    """A Lambertian emitting surface: its triangles emit ``flux`` [lm] from their front side."""
+
+    name: str
+    flux: float
+    triangles: np.ndarray  # indices into Scene.triangles
+
+    def luminance(self, scene):
+        """Uniform luminance of the emitting surface [cd·m⁻²]: Φ/(π·A)."""
+        return self.flux / (math.pi * scene.areas[self.triangles].sum())
+
+
+@dataclass
+class PointLuminaire:
+    """A luminaire with a luminous intensity distribution, as a point or a small rectangle.
+
+    Emission points are uniform on the luminous rectangle ``extent`` = (length, width) [m]
+    (along the C0 and C90 axes, centred on ``position``; (0, 0) is a point); each emits the
+    distribution's shape. The luminaire is not geometry: it blocks no light. A rectangle of
+    non-zero area appears in renders with the luminance I(ω)/(A·|cos γ|) of that emission
+    model (in front of whatever lies behind it); a point does not appear.
+    """
+
+    name: str
+    position: np.ndarray
+    table: IntensityTable
+    frame: np.ndarray  # rows e_C0, e_C90, e_nadir
+    extent: tuple = (0.0, 0.0)
+    multiplier: float = 1.0
+
+    @property
+    def flux(self):
+        """Luminous flux [lm]."""
+        return self.multiplier * self.table.luminous_flux
+
+    def intensity(self, directions):
+        """Luminous intensity [cd] towards world directions ``(..., 3)``."""
+        return self.multiplier * self.table.evaluate(directions, self.frame)
+
+
+@dataclass
+class View:
+    """An observer: eye ``position`` [m], camera-to-world ``rotation`` and a projection."""
+
+    name: str
+    position: np.ndarray
+    rotation: np.ndarray
+    projection: Projection
+
+
+@dataclass
+class Scene:
+    """Triangulated Lambertian scene with luminaires and views.
+
+    Attributes
+    ----------
+    triangles : ndarray, shape (n, 3, 3)
+        Vertex coordinates [m].
+    material : ndarray of int, shape (n,)
+        Index into ``material_names``/``reflectance`` per triangle.
+    reflectance : ndarray, shape (m,)
+        Lambertian reflectance ρ of each material [–], 0 ≤ ρ < 1.
+    emitter : ndarray of int, shape (n,)
+        Index into ``area_luminaires`` per triangle, −1 where the triangle does not emit.
+    """
+
+    triangles: np.ndarray
+    material: np.ndarray
+    material_names: list
+    reflectance: np.ndarray
+    emitter: np.ndarray
+    area_luminaires: list = field(default_factory=list)
+    point_luminaires: list = field(default_factory=list)
+    views: list = field(default_factory=list)
+    name: str = "scene"
+    source: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.triangles = np.ascontiguousarray(self.triangles, dtype=float).reshape(-1, 3, 3)
+        e1 = self.triangles[:, 1] - self.triangles[:, 0]
+        e2 = self.triangles[:, 2] - self.triangles[:, 0]
+        cross = np.cross(e1, e2)
+        norm = np.linalg.norm(cross, axis=1)
+        if len(self.triangles) == 0:
+            raise BadInputError("scene has no surfaces")
+        if np.any(norm <= 0):
+            raise BadInputError("scene has degenerate (zero-area) triangles")
+        self.normals = cross / norm[:, None]
+        self.areas = 0.5 * norm
+        self.material = np.asarray(self.material, dtype=np.int64)
+        self.emitter = np.asarray(self.emitter, dtype=np.int64)
+        self.reflectance = np.asarray(self.reflectance, dtype=float)
+        if np.any(self.reflectance < 0) or np.any(self.reflectance >= 1):
+            raise BadInputError("reflectance must be in [0, 1)")
+        if not self.area_luminaires and not self.point_luminaires:
+            raise BadInputError("scene has no luminaires")
+        lo = self.triangles.reshape(-1, 3).min(axis=0)
+        hi = self.triangles.reshape(-1, 3).max(axis=0)
+        for lum in self.point_luminaires:
+            lo, hi = np.minimum(lo, lum.position), np.maximum(hi, lum.position)
+        self.bounds = (lo, hi)
+        #: Characteristic size of the scene: diagonal of its bounding box [m].
+        self.size = float(np.linalg.norm(hi - lo))
+        self.triangle_reflectance = self.reflectance[self.material]
+
+    def __repr__(self):
+        return (f"Scene({self.name!r}, {len(self.triangles)} triangles, "
+                f"{len(self.area_luminaires)} area + {len(self.point_luminaires)} point luminaires, "
+                f"{len(self.views)} views)")
+
+    @property
+    def total_flux(self):
+        """Luminous flux of all luminaires [lm]."""
+        return (sum(l.flux for l in self.area_luminaires)
+                + sum(l.flux for l in self.point_luminaires))
+
+    def view(self, name=None):
+        """The view called ``name`` (the first one when ``None``)."""
+        if not self.views:
+            raise BadInputError("scene defines no views")
+        if name is None:
+            return self.views[0]
+        for v in self.views:
+            if v.name == name:
+                return v
+        valid = ", ".join(repr(v.name) for v in self.views)
+        raise BadInputError(f"unknown view {name!r}; valid: {valid}")
+
+
+# --- reading -------------------------------------------------------------------------------
+
+def load_scene(path, *, photometry_reader=None):
+    """Read a scene from a TOML file (schema: ``docs/user-guide-solver.md``).
+
+    Relative file names inside (meshes, photometric files) are taken relative to the
+    TOML file's folder. Every problem with the file is reported as one
+    :class:`~lsadphoto.errors.BadInputError` naming the offending entry.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML scene file.
+    photometry_reader : callable, optional
+        ``reader(path) -> Photometry`` for ``photometry = "file"`` luminaires; default
+        :func:`lsadphoto.solver.photometry.read_photometry`.
+
+    References
+    ----------
+    TOML v1.0.0, https://toml.io/en/v1.0.0.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise BadInputError(f"scene file {path} does not exist")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as exc:
+        raise BadInputError(f"{path}: not valid TOML ({exc})") from None
+    except UnicodeDecodeError:
+        raise BadInputError(f"{path}: not a UTF-8 text file") from None
+    return scene_from_dict(data, base=path.parent, photometry_reader=photometry_reader)
+
+
+def _require(d, key, ctx):
+    if not isinstance(d, dict):
+        raise BadInputError(f"{ctx}: must be a table")
+    if key not in d:
+        raise BadInputError(f"{ctx}: missing required field {key!r}")
+    return d[key]
+
+
+def _number(value, ctx, *, positive=False, nonneg=False):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise BadInputError(f"{ctx} must be a finite number, got {value!r}")
+    if positive and value <= 0:
+        raise BadInputError(f"{ctx} must be positive, got {value!r}")
+    if nonneg and value < 0:
+        raise BadInputError(f"{ctx} must not be negative, got {value!r}")
+    return float(value)
+
+
+def _check_keys(d, allowed, ctx):
+    unknown = sorted(set(d) - set(allowed))
+    if unknown:
+        raise BadInputError(f"{ctx}: unknown field {unknown[0]!r}; valid: {', '.join(sorted(allowed))}")
+
+
+_SHAPE_KEYS = {
+    "polygon": {"vertices"},
+    "box": {"min", "max", "facing", "axes", "face_materials"},
+    "disc": {"centre", "center", "normal", "radius", "segments"},
+    "sphere": {"centre", "center", "radius", "subdivisions", "facing"},
+    "mesh": {"file", "scale", "translate", "flip"},
+}
+
+
+def _shape_triangles(spec, ctx, base, material_of):
+    """List of (triangles, material name) of one shape table."""
+    kind = _require(spec, "type", ctx)
+    if kind not in _SHAPE_KEYS:
+        raise BadInputError(f"{ctx}: unknown shape type {kind!r}; valid: {', '.join(sorted(_SHAPE_KEYS))}")
+    _check_keys(spec, _SHAPE_KEYS[kind] | {"type", "material", "name"}, ctx)
+    material = material_of(spec, ctx)
+    ctx = f"{ctx} ({kind})"
+    if kind == "polygon":
+        return [(polygon_triangles(_require(spec, "vertices", ctx), ctx), material)]
+    if kind == "box":
+        lo = _vector(_require(spec, "min", ctx), f"{ctx} min")
+        hi = _vector(_require(spec, "max", ctx), f"{ctx} max")
+        if np.any(hi <= lo):
+            raise BadInputError(f"{ctx}: max must exceed min on every axis")
+        facing = spec.get("facing", "inward")
+        if facing not in ("inward", "outward"):
+            raise BadInputError(f"{ctx}: facing must be 'inward' or 'outward', got {facing!r}")
+        axes = None
+        if "axes" in spec:
+            axes = np.asarray(spec["axes"], float)
+            if axes.shape != (3, 3) or not np.allclose(axes @ axes.T, np.eye(3), atol=1e-9):
+                raise BadInputError(f"{ctx}: axes must be 3 orthonormal rows")
+        faces = box_faces(lo, hi, facing=facing, axes=axes)
+        face_materials = spec.get("face_materials", {})
+        if not isinstance(face_materials, dict):
+            raise BadInputError(f"{ctx}: face_materials must be a table")
+        chosen = {}
+        for key, mat in face_materials.items():
+            face = _FACE_ALIASES.get(key, key)
+            if face not in faces:
+                raise BadInputError(f"{ctx}: unknown face {key!r}; valid: {', '.join(list(faces) + list(_FACE_ALIASES))}")
+            chosen[face] = material_of({"material": mat}, f"{ctx} face {key}")
+        return [(polygon_triangles(q, f"{ctx} face {f}"), chosen.get(f, material))
+                for f, q in faces.items()]
+    if kind == "disc":
+        centre = _vector(spec.get("centre", spec.get("center")) if ("centre" in spec or "center" in spec)
+                         else _require(spec, "centre", ctx), f"{ctx} centre")
+        normal = _vector(_require(spec, "normal", ctx), f"{ctx} normal")
+        radius = _number(_require(spec, "radius", ctx), f"{ctx} radius", positive=True)
+        segments = spec.get("segments", 64)
+        if not isinstance(segments, int) or segments < 3:
+            raise BadInputError(f"{ctx}: segments must be an integer ≥ 3")
+        return [(polygon_triangles(disc_polygon(centre, normal, radius, segments), ctx), material)]
+    if kind == "sphere":
+        import trimesh
+
+        centre = _vector(spec.get("centre", spec.get("center")) if ("centre" in spec or "center" in spec)
+                         else _require(spec, "centre", ctx), f"{ctx} centre")
+        radius = _number(_require(spec, "radius", ctx), f"{ctx} radius", positive=True)
+        sub = spec.get("subdivisions", 3)
+        if not isinstance(sub, int) or not 0 <= sub <= 7:
+            raise BadInputError(f"{ctx}: subdivisions must be an integer 0…7")
+        facing = spec.get("facing", "outward")
+        if facing not in ("inward", "outward"):
+            raise BadInputError(f"{ctx}: facing must be 'inward' or 'outward', got {facing!r}")
+        ico = trimesh.creation.icosphere(subdivisions=sub, radius=radius)
+        tris = np.asarray(ico.triangles, float) + centre
+        if facing == "inward":
+            tris = tris[:, ::-1]
+        return [(tris, material)]
+    # mesh
+    import trimesh
+
+    file = Path(_require(spec, "file", ctx))
+    if not file.is_absolute() and base is not None:
+        file = Path(base) / file
+    if not file.is_file():
+        raise BadInputError(f"{ctx}: mesh file {file} does not exist")
+    try:
+        mesh = trimesh.load(file, force="mesh", process=False)
+    except Exception as exc:  # noqa: BLE001 - trimesh raises many kinds; report in one line
+        raise BadInputError(f"{ctx}: cannot read mesh {file} ({exc})") from None
+    tris = np.asarray(mesh.triangles, float)
+    if tris.size == 0:
+        raise BadInputError(f"{ctx}: mesh {file} has no triangles")
+    tris = tris * _number(spec.get("scale", 1.0), f"{ctx} scale", positive=True)
+    tris = tris + _vector(spec.get("translate", [0, 0, 0]), f"{ctx} translate")
+    if spec.get("flip", False):
+        tris = tris[:, ::-1]
+    e = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    tris = tris[np.linalg.norm(e, axis=1) > 0]  # meshes often carry slivers: drop them
+    return [(tris, material)]
+
+
+_DEFAULT_PROJECTION = {"model": "fisheye-ideal", "kind": "equidistant", "fov_deg": 180.0,
+                       "width": 256, "height": 256}
+
+
+def _projection(spec, ctx):
+    if spec is None:
+        spec = {}
+    if not isinstance(spec, dict):
+        raise BadInputError(f"{ctx}: projection must be a table")
+    data = dict(_DEFAULT_PROJECTION) if spec.get("model", "fisheye-ideal") == "fisheye-ideal" else {}
+    data.update(spec)
+    if data.get("model") == "fisheye-ideal":
+        w, h = data.get("width"), data.get("height")
+        if isinstance(w, int) and isinstance(h, int):
+            data.setdefault("cx", (w - 1) / 2.0)
+            data.setdefault("cy", (h - 1) / 2.0)
+            data.setdefault("radius", min(w, h) / 2.0)
+    try:
+        return projection_from_dict(data)
+    except BadInputError as exc:
+        raise BadInputError(f"{ctx}: {exc}") from None
+    except (TypeError, ValueError) as exc:
+        raise BadInputError(f"{ctx}: bad projection ({exc})") from None
+
+
+def scene_from_dict(data, *, base=None, photometry_reader=None):
+    """Build a :class:`Scene` from the TOML structure (a ``dict``); see :func:`load_scene`."""
+    if not isinstance(data, dict):
+        raise BadInputError("scene must be a table")
+    _check_keys(data, {"scene", "materials", "surfaces", "luminaires", "views"}, "scene file")
+    meta = data.get("scene", {})
+    name = str(meta.get("name", "scene")) if isinstance(meta, dict) else "scene"
+    materials = data.get("materials", {})
+    if not isinstance(materials, dict):
+        raise BadInputError("materials must be a table of named materials")
+    names = []
+    rho = []
+    for mname, m in materials.items():
+        ctx = f"materials.{mname}"
+        if not isinstance(m, dict):
+            raise BadInputError(f"{ctx}: must be a table with a reflectance")
+        _check_keys(m, {"reflectance"}, ctx)
+        r = _number(_require(m, "reflectance", ctx), f"{ctx} reflectance")
+        if not 0 <= r < 1:
+            raise BadInputError(f"{ctx}: reflectance must be in [0, 1), got {r!r}")
+        names.append(mname)
+        rho.append(r)
+
+    def material_of(spec, ctx, default=None):
+        m = spec.get("material", default)
+        if m is None:
+            raise BadInputError(f"{ctx}: missing required field 'material'")
+        if m not in names:
+            if m == "black":  # built-in ρ = 0
+                names.append("black")
+                rho.append(0.0)
+            else:
+                valid = ", ".join(repr(n) for n in names) or "none defined"
+                raise BadInputError(f"{ctx}: unknown material {m!r}; defined: {valid}")
+        return names.index(m)
+
+    tri_list, mat_list, emit_list = [], [], []
+    surfaces = data.get("surfaces", [])
+    if not isinstance(surfaces, list):
+        raise BadInputError("surfaces must be an array of tables ([[surfaces]])")
+    for k, spec in enumerate(surfaces):
+        for tris, mat in _shape_triangles(spec, f"surfaces[{k}]", base, material_of):
+            tri_list.append(tris)
+            mat_list.append(np.full(len(tris), mat))
+            emit_list.append(np.full(len(tris), -1))
+    area_lums, point_lums = [], []
+    luminaires = data.get("luminaires", [])
+    if not isinstance(luminaires, list):
+        raise BadInputError("luminaires must be an array of tables ([[luminaires]])")
+    for k, spec in enumerate(luminaires):
+        ctx = f"luminaires[{k}]"
+        kind = _require(spec, "type", ctx)
+        lname = str(spec.get("name", f"luminaire{k}"))
+        if kind == "area":
+            _check_keys(spec, {"type", "name", "shape", "flux", "luminance", "material"}, ctx)
+            shape = _require(spec, "shape", ctx)
+            lum_material = material_of({"material": spec.get("material", "black")}, ctx)
+            parts = _shape_triangles(shape, f"{ctx} shape", base,
+                                     lambda s, c, m=lum_material: m)
+            tris = np.concatenate([t for t, _ in parts])
+            mat = parts[0][1]
+            area = 0.5 * np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1).sum()
+            if ("flux" in spec) == ("luminance" in spec):
+                raise BadInputError(f"{ctx}: give exactly one of 'flux' [lm] or 'luminance' [cd/m²]")
+            if "flux" in spec:
+                flux = _number(spec["flux"], f"{ctx} flux", positive=True)
+            else:
+                flux = float(math.pi * area * _number(spec["luminance"], f"{ctx} luminance", positive=True))
+            first = sum(len(t) for t in tri_list)
+            tri_list.append(tris)
+            mat_list.append(np.full(len(tris), mat))
+            emit_list.append(np.full(len(tris), len(area_lums)))
+            area_lums.append(AreaLuminaire(lname, flux, np.arange(first, first + len(tris))))
+        elif kind == "point":
+            _check_keys(spec, {"type", "name", "position", "intensity", "flux", "photometry",
+                               "nadir", "length_axis", "extent", "multiplier"}, ctx)
+            position = _vector(_require(spec, "position", ctx), f"{ctx} position")
+            frame = luminaire_frame(_vector(spec.get("nadir", [0, 0, -1]), f"{ctx} nadir"),
+                                    _vector(spec.get("length_axis", [1, 0, 0]), f"{ctx} length_axis"))
+            given = [key for key in ("intensity", "flux", "photometry") if key in spec]
+            if len(given) != 1:
+                raise BadInputError(f"{ctx}: give exactly one of 'intensity' [cd], 'flux' [lm] "
+                                    "(isotropic) or 'photometry' (file)")
+            multiplier = _number(spec.get("multiplier", 1.0), f"{ctx} multiplier", positive=True)
+            extent = (0.0, 0.0)
+            if given[0] == "intensity":
+                table = IntensityTable.isotropic(_number(spec["intensity"], f"{ctx} intensity", positive=True))
+            elif given[0] == "flux":
+                table = IntensityTable.isotropic(
+                    _number(spec["flux"], f"{ctx} flux", positive=True) / (4 * math.pi))
+            else:
+                table, extent = _photometry_table(spec["photometry"], ctx, base, photometry_reader)
+            if "extent" in spec:
+                ext = spec["extent"]
+                if not (isinstance(ext, list) and len(ext) == 2):
+                    raise BadInputError(f"{ctx}: extent must be [length, width] in m")
+                extent = (_number(ext[0], f"{ctx} extent", nonneg=True),
+                          _number(ext[1], f"{ctx} extent", nonneg=True))
+            point_lums.append(PointLuminaire(lname, position, table, frame, extent, multiplier))
+        else:
+            raise BadInputError(f"{ctx}: unknown luminaire type {kind!r}; valid: 'area', 'point'")
+    views = []
+    view_specs = data.get("views", [])
+    if not isinstance(view_specs, list):
+        raise BadInputError("views must be an array of tables ([[views]])")
+    for k, spec in enumerate(view_specs):
+        ctx = f"views[{k}]"
+        _check_keys(spec, {"name", "position", "line_of_sight", "up", "projection"}, ctx)
+        position = _vector(_require(spec, "position", ctx), f"{ctx} position")
+        try:
+            rotation = camera_to_world(_require(spec, "line_of_sight", ctx), spec.get("up", [0, 0, 1]))
+        except BadInputError as exc:
+            raise BadInputError(f"{ctx}: {exc}") from None
+        views.append(View(str(spec.get("name", f"view{k}")), position, rotation,
+                          _projection(spec.get("projection"), ctx)))
+    if not tri_list:
+        raise BadInputError("scene has no surfaces")
+    if not area_lums and not point_lums:
+        raise BadInputError("scene has no luminaires")
+    return Scene(np.concatenate(tri_list), np.concatenate(mat_list), names, np.asarray(rho),
+                 np.concatenate(emit_list), area_lums, point_lums, views, name=name,
+                 source=data)
+
+
+def _photometry_table(file, ctx, base, reader):
+    """The intensity table and luminous rectangle of a photometric file.
+
+    The file's own (C, γ) grid is used, so the solver interpolates exactly as
+    :meth:`Photometry.intensity` does; γ ranges that stop short of 0° or 180° are closed
+    with zero intensity 1e-6° beyond the last sampled angle (the reader returns 0 outside
+    its range). The luminous opening gives the emission rectangle (length along C0, width
+    along C90); a circular opening (negative sizes, IES convention) becomes the square of
+    the same area.
+    """
+    file = Path(file)
+    if not file.is_absolute() and base is not None:
+        file = Path(base) / file
+    if reader is None:
+        try:
+            from .photometry import read_photometry as reader
+        except ImportError:
+            raise BadInputError(f"{ctx}: photometric files are not supported in this build") from None
+    try:
+        phot = reader(file)
+    except BadInputError as exc:
+        raise BadInputError(f"{ctx}: {exc}") from None
+    table = photometry_table(phot)
+    length = float(getattr(phot, "length", 0.0) or 0.0)
+    width = float(getattr(phot, "width", 0.0) or 0.0)
+    if length < 0 or width < 0:  # circular/elliptical opening: square of equal area
+        side = math.sqrt(math.pi * abs(length) * abs(width)) / 2.0
+        length = width = side
+    return table, (length, width)
+
+
+def photometry_table(phot):
+    """:class:`IntensityTable` of a :class:`~lsadphoto.solver.photometry.Photometry`."""
+    if hasattr(phot, "c_angles") and hasattr(phot, "gamma_angles") and hasattr(phot, "candela"):
+        c = np.radians(np.asarray(phot.c_angles, float))
+        g = np.asarray(phot.gamma_angles, float)
+        cd = np.asarray(phot.candela, float)
+        tiny = 1e-6
+        if g[0] > 0:
+            g = np.concatenate([[0.0, g[0] - tiny], g]) if g[0] > tiny else np.concatenate([[0.0], g[1:]])
+            cd = np.concatenate([np.zeros((len(c), len(g) - cd.shape[1])), cd], axis=1)
+        if g[-1] < 180:
+            extra = [g[-1] + tiny, 180.0] if g[-1] < 180 - tiny else [180.0]
+            g = np.concatenate([g, extra])
+            cd = np.concatenate([cd, np.zeros((len(c), len(extra)))], axis=1)
+        return IntensityTable(c, np.radians(g), cd)
+    return IntensityTable.from_function(phot.intensity, c_step_deg=2.5, gamma_step_deg=0.5)

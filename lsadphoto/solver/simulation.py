@@ -1,0 +1,159 @@
+"""Simulation entry point: trace light chains into a view-independent LSAD store.
+
+References
+----------
+Budak, Zheltov & Kalakutsky (2012); Marchuk et al. (1980). See
+:mod:`lsadphoto.solver.chains` and :mod:`lsadphoto.solver.rendering`.
+"""
+
+import math
+import time
+
+import numpy as np
+
+from .._validation import check_choice
+from .._version import __version__
+from ..errors import BadInputError
+from .chains import ABSORPTION_MODES, CHAIN_BLOCK, EmissionSampler, trace_chains
+from .rendering import NEAR_FIELD_TREATMENTS, _engine_for, render
+from .scene import Scene
+
+__all__ = ["DEFAULT_BATCHES", "DEFAULT_CHAINS", "MAX_CHAINS", "simulate"]
+
+#: Light chains of a simulation when neither ``samples`` nor ``target_error`` is given.
+DEFAULT_CHAINS = 65_536
+#: Independent batches for the standard errors (must divide the chain block size).
+DEFAULT_BATCHES = 16
+#: Upper limit of chains a ``target_error`` simulation may use.
+MAX_CHAINS = 1 << 24
+#: Largest image side of the low-resolution view used to estimate the error in rounds [px].
+_ERROR_VIEW_SIDE = 24
+#: Nodes per pixel and batch of that low-resolution render.
+_ERROR_VIEW_NODES = 128
+
+
+def _error_estimate(store):
+    """Relative standard error [–] of the field-mean luminance of the first view.
+
+    Rendered at ≤ 24 px per side from the store, 128 nodes per pixel and batch (the
+    estimate includes that subsampling noise, so it errs on the safe side). Without views: of the area-mean exitance
+    of all surfaces (collision estimate, per batch).
+    """
+    scene = store.scene
+    if scene.views:
+        view = scene.views[0]
+        factor = max(1, math.ceil(max(view.projection.shape) / _ERROR_VIEW_SIDE))
+        proj = view.projection.binned(factor) if factor > 1 else view.projection
+        lmap = render(store, proj, position=view.position, rotation=view.rotation,
+                      seed=store.seed, nodes_per_pixel=_ERROR_VIEW_NODES)
+        return lmap.provenance["achieved_relative_error"], "field-mean luminance of view " + repr(view.name)
+    total = np.zeros(store.batches)
+    surf = store.depth > 0
+    np.add.at(total, store.batch[surf], store.coefficient[surf])
+    rel = total.std(ddof=1) / math.sqrt(store.batches) / total.mean() if total.mean() > 0 else 0.0
+    return float(rel), "area-mean reflected exitance"
+
+
+def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
+             near_field="unbiased", absorption="weight", batches=DEFAULT_BATCHES,
+             max_samples=MAX_CHAINS, progress=None):
+    """Trace light chains from the luminaires of ``scene``; return an :class:`LsadStore`.
+
+    Parameters
+    ----------
+    scene : Scene
+    samples : int, optional
+        Number of light chains (rounded up to a multiple of 256). Default 65 536, or the
+        first round of a ``target_error`` run.
+    target_error : float, optional
+        Relative standard error [–] of the field-mean luminance of the scene's first view
+        (rendered at ≤ 24 px per side; without views, of the area-mean reflected exitance)
+        to reach: chains are added in rounds until it is reached or ``max_samples`` is.
+    seed : int
+        Root of all random streams; chain i always uses the same stream, so a run of
+        N chains equals the first N chains of any longer run.
+    max_depth : int, optional
+        Largest number of bounces (biased truncation); default unlimited (Russian
+        roulette ends the chains).
+    near_field : {"unbiased", "clamp"}
+        Default near-field treatment of renders from this store.
+    absorption : {"weight", "roulette"}
+        How chains account for absorption (:func:`~lsadphoto.solver.chains.trace_chains`).
+    batches : int
+        Independent batches (8 … 256, a divisor of 256).
+    max_samples : int
+        Cap on chains for ``target_error`` runs.
+    progress : callable, optional
+        ``progress(done_fraction, eta_s)``.
+
+    Returns
+    -------
+    LsadStore
+        With provenance: chains, seed, max_depth, wall time, and (for ``target_error``)
+        the achieved relative error and how it was estimated.
+
+    References
+    ----------
+    Budak, Zheltov & Kalakutsky (2012); Marchuk et al. (1980), ch. 2–3.
+    """
+    if not isinstance(scene, Scene):
+        raise BadInputError("simulate needs a Scene (see load_scene)")
+    check_choice(near_field, "near_field", NEAR_FIELD_TREATMENTS)
+    check_choice(absorption, "absorption", ABSORPTION_MODES)
+    batches = int(batches)
+    if batches < 8 or CHAIN_BLOCK % batches:
+        raise BadInputError(f"batches must be a divisor of {CHAIN_BLOCK} and at least 8, got {batches}")
+    if max_depth is not None and (int(max_depth) != max_depth or max_depth < 1):
+        raise BadInputError(f"max_depth must be a positive integer, got {max_depth!r}")
+    if target_error is not None and not (0 < float(target_error) < 1):
+        raise BadInputError(f"target_error must be a relative error in (0, 1), got {target_error!r}")
+    if samples is not None and (int(samples) != samples or samples < 1):
+        raise BadInputError(f"samples must be a positive integer, got {samples!r}")
+    first = samples if samples is not None else (16_384 if target_error is not None else DEFAULT_CHAINS)
+    blocks = max(1, math.ceil(first / CHAIN_BLOCK))
+    max_blocks = max(blocks, int(max_samples) // CHAIN_BLOCK)
+    engine = _engine_for(scene)
+    sampler = EmissionSampler(scene)
+    t0 = time.perf_counter()
+    store = None
+    done_blocks = 0
+    planned = blocks
+    achieved, measured = None, None
+
+    def report(k):
+        if progress is not None:
+            frac = min(1.0, (done_blocks + k) / planned)
+            elapsed = time.perf_counter() - t0
+            progress(frac, elapsed * (1 - frac) / frac if frac > 0 else float("nan"))
+
+    while True:
+        part = trace_chains(scene, engine, seed=seed, first_block=done_blocks, blocks=blocks,
+                            batches=batches, max_depth=max_depth, absorption=absorption,
+                            sampler=sampler, progress=report)
+        if store is None:
+            store = part
+        else:
+            store.extend(part)
+        done_blocks += blocks
+        if target_error is None:
+            break
+        store.near_field = near_field
+        achieved, measured = _error_estimate(store)
+        if not achieved > target_error or done_blocks >= max_blocks:
+            break
+        need = math.ceil(done_blocks * (achieved / target_error) ** 2 * 1.1)
+        blocks = max(1, min(need, max_blocks) - done_blocks)
+        planned = done_blocks + blocks
+    store.near_field = near_field
+    store.provenance = {
+        "solver": "lsadphoto.solver", "version": __version__,
+        "chains": int(store.chains), "batches": batches, "seed": int(seed),
+        "max_depth": max_depth, "absorption": absorption, "nodes": int(store.nodes),
+        "total_flux_lm": float(scene.total_flux), "simulation_time_s": time.perf_counter() - t0,
+        "target_error": target_error, "achieved_relative_error": achieved,
+        "error_measured_on": measured,
+        "target_reached": None if target_error is None else bool(achieved <= target_error),
+    }
+    if progress is not None:
+        progress(1.0, 0.0)
+    return store

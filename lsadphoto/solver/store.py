@@ -1,0 +1,174 @@
+"""The view-independent LSAD store: light-chain nodes plus the scene they were traced in.
+
+For a Lambertian scene the nodes of the light chains (position, normal, incident-flux
+coefficient, kind, batch) are all a renderer needs: any view is rendered from them by
+tracing only its primary rays and the visibility rays to the nodes (the double local
+estimate, :func:`lsadphoto.solver.render`). This is the "view independence" of the seed
+paper: one simulation serves every observer.
+
+The file is a NumPy ``.npz`` archive (written atomically: temporary file + rename) with the
+node arrays, the triangulated scene and a JSON header (``meta``) holding luminaires,
+views, materials and provenance.
+
+References
+----------
+Budak, V. P., Chembaev, V. D., Meshkova, A. V., Zheltov, V. S. (2020). Luminance
+spatial-angular distribution and the quality criterion of lighting. GraphiCon 2020 (§2:
+storage of the computed LSAD). Keller, A. (1997). Instant radiosity. *SIGGRAPH '97*.
+"""
+
+import json
+import zipfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .._version import __version__
+from ..errors import BadInputError, UnsupportedFileError
+from ..geometry.base import projection_from_dict
+from ..io._atomic import atomic_path
+from .intensity import IntensityTable
+from .scene import AreaLuminaire, PointLuminaire, Scene, View
+
+__all__ = ["STORE_FORMAT", "LsadStore", "load_store"]
+
+#: Identifier and version of the store file layout.
+STORE_FORMAT = "lsadphoto-lsad-store/1"
+
+#: Node kinds: 0 = cosine lobe (Lambertian surface or emitter), 1 = intensity distribution
+#: of a point luminaire (index in ``luminaire``).
+KIND_COSINE, KIND_POINT = 0, 1
+
+_NODE_FIELDS = ("position", "normal", "coefficient", "kind", "luminaire", "batch", "depth", "triangle")
+
+
+@dataclass
+class LsadStore:
+    """Nodes of ``chains`` light chains traced in ``scene``.
+
+    Attributes
+    ----------
+    scene : Scene
+    position, normal : ndarray, shape (k, 3)
+        Node position [m] and the unit normal of the side the node was reached from.
+    coefficient : ndarray, shape (k,)
+        For cosine nodes, W·ρ/π (W·1/π at an emitter) [lm·sr⁻¹]; for point nodes
+        Φ_total/Φ_luminaire [–]. Both before division by the chains per batch.
+    kind, luminaire, batch, depth, triangle : ndarray of int, shape (k,)
+        Node kind, point-luminaire index (−1 otherwise), batch index, bounce number
+        (0 at the source) and triangle id (−1 for point luminaires).
+    chains : int
+        Number of light chains; each of the ``batches`` batches holds ``chains/batches``.
+    """
+
+    scene: Scene
+    position: np.ndarray
+    normal: np.ndarray
+    coefficient: np.ndarray
+    kind: np.ndarray
+    luminaire: np.ndarray
+    batch: np.ndarray
+    depth: np.ndarray
+    triangle: np.ndarray
+    chains: int
+    batches: int
+    seed: int = 0
+    near_field: str = "unbiased"
+    provenance: dict = field(default_factory=dict)
+
+    def __repr__(self):
+        return (f"LsadStore({self.scene!r}, {self.chains} chains in {self.batches} batches, "
+                f"{self.nodes} nodes, seed {self.seed})")
+
+    @property
+    def nodes(self):
+        """Number of stored nodes."""
+        return len(self.coefficient)
+
+    @property
+    def chains_per_batch(self):
+        """Light chains in each batch."""
+        return self.chains // self.batches
+
+    def extend(self, other):
+        """Append the nodes and chains of another store of the same scene (in place)."""
+        for name in _NODE_FIELDS:
+            setattr(self, name, np.concatenate([getattr(self, name), getattr(other, name)]))
+        self.chains += other.chains
+
+    def save(self, path):
+        """Write the store to ``path`` (``.npz``) atomically."""
+        path = Path(path)
+        scene = self.scene
+        meta = {
+            "format": STORE_FORMAT,
+            "version": __version__,
+            "chains": int(self.chains),
+            "batches": int(self.batches),
+            "seed": int(self.seed),
+            "near_field": self.near_field,
+            "provenance": self.provenance,
+            "scene": {
+                "name": scene.name,
+                "material_names": list(scene.material_names),
+                "area_luminaires": [{"name": l.name, "flux": l.flux} for l in scene.area_luminaires],
+                "point_luminaires": [
+                    {"name": l.name, "position": l.position.tolist(), "frame": l.frame.tolist(),
+                     "extent": list(l.extent), "multiplier": l.multiplier}
+                    for l in scene.point_luminaires],
+                "views": [
+                    {"name": v.name, "position": v.position.tolist(), "rotation": v.rotation.tolist(),
+                     "projection": v.projection.to_dict()} for v in scene.views],
+            },
+        }
+        arrays = {name: getattr(self, name) for name in _NODE_FIELDS}
+        arrays.update(
+            triangles=scene.triangles, material=scene.material, reflectance=scene.reflectance,
+            emitter=scene.emitter,
+        )
+        for k, lum in enumerate(scene.point_luminaires):
+            c, g, i = lum.table.to_arrays()
+            arrays[f"table{k}_c"], arrays[f"table{k}_gamma"], arrays[f"table{k}_intensity"] = c, g, i
+        arrays["meta"] = np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)
+        with atomic_path(path) as temp, open(temp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+
+
+def load_store(path):
+    """Read a store written by :meth:`LsadStore.save`."""
+    path = Path(path)
+    if not path.is_file():
+        raise BadInputError(f"LSAD store {path} does not exist")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            arrays = {k: data[k] for k in data.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise UnsupportedFileError(f"{path}: not a readable LSAD store ({exc})") from None
+    try:
+        meta = json.loads(arrays.pop("meta").tobytes().decode("utf-8"))
+    except (KeyError, ValueError, UnicodeDecodeError):
+        raise UnsupportedFileError(f"{path}: not an LSAD store (no header)") from None
+    if meta.get("format") != STORE_FORMAT:
+        raise UnsupportedFileError(f"{path}: unknown store format {meta.get('format')!r}")
+    try:
+        s = meta["scene"]
+        emitter = arrays["emitter"]
+        area = [AreaLuminaire(l["name"], l["flux"], np.flatnonzero(emitter == k))
+                for k, l in enumerate(s["area_luminaires"])]
+        points = []
+        for k, l in enumerate(s["point_luminaires"]):
+            table = IntensityTable(arrays[f"table{k}_c"], arrays[f"table{k}_gamma"],
+                                   arrays[f"table{k}_intensity"])
+            points.append(PointLuminaire(l["name"], np.asarray(l["position"]), table,
+                                         np.asarray(l["frame"]), tuple(l["extent"]), l["multiplier"]))
+        views = [View(v["name"], np.asarray(v["position"]), np.asarray(v["rotation"]),
+                      projection_from_dict(v["projection"])) for v in s["views"]]
+        scene = Scene(arrays["triangles"], arrays["material"], s["material_names"],
+                      arrays["reflectance"], emitter, area, points, views, name=s["name"])
+        nodes = {name: arrays[name] for name in _NODE_FIELDS}
+    except KeyError as exc:
+        raise UnsupportedFileError(f"{path}: LSAD store lacks {exc.args[0]!r}") from None
+    return LsadStore(scene, **nodes, chains=meta["chains"], batches=meta["batches"],
+                     seed=meta["seed"], near_field=meta["near_field"],
+                     provenance=meta.get("provenance", {}))

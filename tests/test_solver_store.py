@@ -1,0 +1,202 @@
+"""Reproducibility, the view-independent store, accuracy control and input checks."""
+
+import math
+
+import numpy as np
+import pytest
+
+from lsadphoto.errors import BadInputError, UnsupportedFileError
+from lsadphoto.solver import (
+    camera_to_world,
+    load_store,
+    render,
+    render_path_traced,
+    simulate,
+)
+from lsadphoto.solver.chains import trace_chains
+from lsadphoto.solver.examples import canonical_room
+from lsadphoto.solver.rendering import _engine_for
+
+NODE_FIELDS = ("position", "normal", "coefficient", "kind", "luminaire", "batch", "depth", "triangle")
+
+
+@pytest.fixture(scope="module")
+def room():
+    return canonical_room(size=16)
+
+
+@pytest.fixture(scope="module")
+def store(room):
+    return simulate(room, samples=2048, seed=9)
+
+
+def view_args(room):
+    v = room.views[0]
+    return v.projection, {"position": v.position, "rotation": v.rotation}
+
+
+#: A 32² fisheye has ~800 valid pixels: several 256-pixel blocks, so chunking matters.
+BIG = canonical_room(size=32).views[0].projection
+
+
+@pytest.mark.parametrize("nodes_per_pixel", [None, 16])
+def test_chunk_size_does_not_change_a_render(room, nodes_per_pixel):
+    small = simulate(room, samples=256, seed=8)
+    _, pose = view_args(room)
+    a = render(small, BIG, **pose, chunk_pixels=1, nodes_per_pixel=nodes_per_pixel, seed=4)
+    b = render(small, BIG, **pose, chunk_pixels=4096, nodes_per_pixel=nodes_per_pixel, seed=4)
+    assert np.array_equal(a.luminance, b.luminance, equal_nan=True)
+    assert np.array_equal(a.uncertainty, b.uncertainty, equal_nan=True)
+
+
+def test_simulation_in_rounds_equals_one_run(room):
+    engine = _engine_for(room)
+    whole = trace_chains(room, engine, seed=5, first_block=0, blocks=4, batches=16)
+    part = trace_chains(room, engine, seed=5, first_block=0, blocks=1, batches=16)
+    part.extend(trace_chains(room, engine, seed=5, first_block=1, blocks=3, batches=16))
+    for name in NODE_FIELDS:
+        assert np.array_equal(getattr(whole, name), getattr(part, name)), name
+    assert whole.chains == part.chains == 1024
+
+
+def test_seeds_differ_and_repeat(room):
+    a = simulate(room, samples=256, seed=1)
+    b = simulate(room, samples=256, seed=1)
+    c = simulate(room, samples=256, seed=2)
+    assert np.array_equal(a.position, b.position)
+    assert not np.array_equal(a.position[: min(a.nodes, c.nodes)], c.position[: min(a.nodes, c.nodes)])
+
+
+def test_store_round_trip_renders_identically(room, store, tmp_path):
+    path = tmp_path / "room.lsad.npz"
+    store.save(path)
+    assert [p.name for p in tmp_path.iterdir()] == ["room.lsad.npz"]  # no temporary left
+    loaded = load_store(path)
+    for name in NODE_FIELDS:
+        assert np.array_equal(getattr(loaded, name), getattr(store, name))
+    assert loaded.chains == store.chains and loaded.batches == store.batches
+    assert loaded.scene.views[0].projection == room.views[0].projection
+    proj, pose = view_args(room)
+    a = render(store, proj, **pose, seed=2)
+    b = render(loaded, proj, **pose, seed=2)
+    assert np.array_equal(a.luminance, b.luminance, equal_nan=True)
+    assert np.array_equal(a.uncertainty, b.uncertainty, equal_nan=True)
+
+
+def test_one_store_many_views(room, store):
+    # view independence: a second observer needs no new simulation
+    proj, _ = view_args(room)
+    lmap = render(store, proj, position=[5.0, 1.0, 1.6], rotation=camera_to_world([-1, 0.5, 0], [0, 0, 1]))
+    assert lmap.provenance["chains"] == store.chains
+    assert np.nanmean(lmap.luminance) > 0
+
+
+def test_render_provenance_and_errors(room, store):
+    proj, pose = view_args(room)
+    lmap = render(store, proj, **pose)
+    p = lmap.provenance
+    assert p["estimator"] == "double local estimate"
+    assert p["near_field"] == "unbiased" and p["near_field_biased"] is False
+    assert p["batches"] == 16 and p["chains"] == 2048
+    assert 0 < p["achieved_relative_error"] < 1
+    valid = np.isfinite(lmap.luminance)
+    assert np.all(lmap.uncertainty[valid] >= 0)
+    assert np.all(np.isnan(lmap.luminance[~valid]))  # outside the fisheye circle
+    clamp = render(store, proj, **pose, near_field="clamp")
+    assert clamp.provenance["near_field_biased"] is True
+
+
+def test_target_error_is_reached(room):
+    calls = []
+    store = simulate(room, target_error=0.001, samples=256, seed=3,
+                     progress=lambda f, eta: calls.append((f, eta)))
+    p = store.provenance
+    assert p["target_reached"] is True
+    assert p["achieved_relative_error"] <= 0.001
+    assert store.chains > 256  # it needed more than the first round
+    assert calls and all(0 <= f <= 1 for f, _ in calls) and calls[-1][0] == 1.0
+
+
+def test_progress_of_render(room, store):
+    proj, pose = view_args(room)
+    seen = []
+    render(store, proj, **pose, progress=lambda f, eta: seen.append(f))
+    assert seen[-1] == 1.0
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    ({"near_field": "soft"}, "unknown near_field 'soft'"),
+    ({"batches": 7}, "batches"),
+    ({"samples": 0}, "samples"),
+    ({"max_depth": 0}, "max_depth"),
+    ({"target_error": 2.0}, "target_error"),
+    ({"absorption": "none"}, "unknown absorption"),
+])
+def test_bad_simulation_options(room, kwargs, message):
+    with pytest.raises(BadInputError, match=message):
+        simulate(room, **kwargs)
+
+
+def test_bad_render_options(room, store):
+    proj, pose = view_args(room)
+    with pytest.raises(BadInputError, match="orthonormal"):
+        render(store, proj, position=pose["position"], rotation=np.eye(3) * 2)
+    with pytest.raises(BadInputError, match="Projection"):
+        render(store, "fisheye", **pose)
+    with pytest.raises(BadInputError, match="nodes_per_pixel"):
+        render(store, proj, **pose, nodes_per_pixel=0)
+    with pytest.raises(BadInputError, match="nodes_per_pixel"):
+        render(store, proj, **pose, nodes_per_pixel="most")
+    with pytest.raises(BadInputError, match="multiple of batches"):
+        render_path_traced(room, proj, **pose, samples=20)
+
+
+def test_bad_store_files(tmp_path):
+    with pytest.raises(BadInputError, match="does not exist"):
+        load_store(tmp_path / "none.npz")
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a zip")
+    with pytest.raises(UnsupportedFileError):
+        load_store(bad)
+    np.savez(tmp_path / "other.npz", x=np.zeros(3))
+    with pytest.raises(UnsupportedFileError, match="no header"):
+        load_store(tmp_path / "other.npz")
+
+
+def test_max_depth_truncates(room):
+    one = simulate(room, samples=256, seed=1, max_depth=1)
+    assert one.depth.max() == 1
+    assert one.provenance["max_depth"] == 1
+    full = simulate(room, samples=256, seed=1)
+    assert full.depth.max() > 1
+    assert math.isclose(one.provenance["total_flux_lm"], 12000.0)
+
+
+def test_chunk_size_does_not_change_a_path_traced_render(room):
+    _, pose = view_args(room)
+    a = render_path_traced(room, BIG, **pose, samples=16, seed=3, chunk_pixels=1)
+    b = render_path_traced(room, BIG, **pose, samples=16, seed=3, chunk_pixels=10_000)
+    assert np.array_equal(a.luminance, b.luminance, equal_nan=True)
+    assert np.array_equal(a.uncertainty, b.uncertainty, equal_nan=True)
+
+
+def test_worker_threads_do_not_change_results(room):
+    small = simulate(room, samples=256, seed=8)
+    _, pose = view_args(room)
+    a = render(small, BIG, **pose, chunk_pixels=256, nodes_per_pixel=16, seed=4, workers=1)
+    b = render(small, BIG, **pose, chunk_pixels=256, nodes_per_pixel=16, seed=4, workers=2)
+    assert np.array_equal(a.luminance, b.luminance, equal_nan=True)
+    assert np.array_equal(a.uncertainty, b.uncertainty, equal_nan=True)
+    c = render_path_traced(room, BIG, **pose, samples=16, chunk_pixels=256, workers=1)
+    e = render_path_traced(room, BIG, **pose, samples=16, chunk_pixels=256, workers=2)
+    assert np.array_equal(c.luminance, e.luminance, equal_nan=True)
+
+
+def test_auto_gather_chooses_by_cost(room, store, monkeypatch):
+    import lsadphoto.solver.rendering as render_module
+
+    proj, pose = view_args(room)
+    assert render(store, proj, **pose).provenance["nodes_per_pixel"] == "all"
+    monkeypatch.setattr(render_module, "FULL_GATHER_PAIRS", 10)
+    lmap = render(store, proj, **pose)
+    assert lmap.provenance["nodes_per_pixel"] == render_module.AUTO_NODES_PER_PIXEL
