@@ -100,7 +100,11 @@ _SCORE_KEYS = _SCORE_VECTORS + _SCORE_TEXT + _SCORE_NUMBERS + _SCORE_INTEGERS + 
 #: Metrics of a Score without an uncertainty (counts and geometry, not luminance scale).
 _NO_UNCERTAINTY = ("n_sources", "source_solid_angle")
 
-MODEL_COMPARISON_PENDING = "not available yet"
+#: Keys of a view's ``[view.model]`` table.
+_MODEL_KEYS = ("scene", "position", "direction", "up", "samples", "nodes_per_pixel", "seed")
+#: Metrics of the model map copied into the table (``model_<name>``).
+_MODEL_METRICS = ("ugr_pixel", "ugr_grouped", "q", "dgp", "vertical_illuminance",
+                  "background_luminance", "mean_luminance")
 
 #: A Dask scheduler address: ``tcp://host:port``, ``tls://…``, ``ws(s)://…``, ``ucx://…``,
 #: or ``host:port`` (tcp).
@@ -325,10 +329,22 @@ def _model(value, base, where):
         raise where.error("model", f"must be a table {{scene = ..., position = [...], ...}}, got {value!r}")
     if "scene" not in value:
         raise where.error("model", "lacks scene (the scene model file)")
+    unknown = sorted(set(value) - set(_MODEL_KEYS))
+    if unknown:
+        raise where.error("model", f"unknown key(s) {', '.join(unknown)}; valid: {', '.join(_MODEL_KEYS)}")
+    for key in ("position", "direction"):
+        if key not in value:
+            raise where.error("model", f"lacks {key} (the camera's {'eye position [m]' if key == 'position' else 'optical axis in the scene'})")
     model = dict(value)
     model["scene"] = str(_file(base, value["scene"], where, "model.scene", "scene model"))
-    if "position" in value:
-        model["position"] = list(_vector(value["position"], where, "model.position"))
+    for key in ("position", "direction", "up"):
+        if key in value:
+            model[key] = list(_vector(value[key], where, f"model.{key}"))
+    for key, default in (("samples", 20000), ("nodes_per_pixel", 16), ("seed", 0)):
+        number = value.get(key, default)
+        if not isinstance(number, int) or isinstance(number, bool) or number < (0 if key == "seed" else 1):
+            raise where.error("model", f"{key} must be a {'non-negative' if key == 'seed' else 'positive'} integer, got {number!r}")
+        model[key] = number
     return model
 
 
@@ -502,12 +518,17 @@ def _clean(value):
     return value if math.isfinite(value) else None
 
 
-def _outputs(view_dir, view_id):
+def _outputs(view_dir, view_id, *, with_model=False):
     """Output paths of one view, by kind (the done marker last)."""
     names = {"exr": f"{view_id}.exr", "hdr": f"{view_id}.hdr",
              "falsecolour": f"{view_id}-falsecolour.png", "sources": f"{view_id}-sources.png",
              "contrast": f"{view_id}-contrast.png", "score": f"{view_id}-score.json",
              "done": f"{view_id}-done.json"}
+    if with_model:
+        names = {**{k: v for k, v in names.items() if k != "done"},
+                 "model_exr": f"{view_id}-model.exr", "model_ratio": f"{view_id}-model-ratio.png",
+                 "model_json": f"{view_id}-model-comparison.json",
+                 "model_report": f"{view_id}-model-comparison.html", "done": names["done"]}
     return {kind: view_dir / name for kind, name in names.items()}
 
 
@@ -536,7 +557,13 @@ def _row(task, summary, scalars, record, warning_lines):
     ratings = task["ratings"]
     row["rating_mean"] = float(np.mean([r for _, r in ratings])) if ratings else None
     row["rating_n"] = len(ratings) if ratings else None
-    row["model_comparison"] = MODEL_COMPARISON_PENDING if task["model"] is not None else None
+    comparison = record.get("model_comparison")
+    if comparison is not None:
+        row["model_ratio_median"] = _clean(comparison["field"]["median_ratio"])
+        row["model_rms_relative_error"] = _clean(comparison["field"]["rms_relative_error"])
+        row["model_mc_uncertainty"] = _clean(comparison["uncertainty"]["model_monte_carlo_relative"])
+        for key in _MODEL_METRICS:
+            row[f"model_{key}"] = _clean(comparison["metrics"].get(key, {}).get("model"))
     los = record["settings"]["line_of_sight"]
     row.update({
         "line_of_sight": ",".join(f"{float(v):.6g}" for v in los),
@@ -594,8 +621,9 @@ def _process_view_outputs(task, caught):
         "ratings": None if task["ratings"] is None else
         [{"observer": o, "rating": r} for o, r in task["ratings"]],
         "model": task["model"],
-        "model_comparison": MODEL_COMPARISON_PENDING if task["model"] is not None else None,
     }
+    if task["model"] is not None:
+        record["model_comparison"] = _compare_with_model(task, lmap, outputs, options)
     warning_lines = _warning_lines(caught)
     record["warnings"] = warning_lines
     atomic_text(outputs["score"], json.dumps(record, indent=2, default=_json_default))
@@ -605,6 +633,34 @@ def _process_view_outputs(task, caught):
     # Written last: its presence means every other output of the view is complete.
     atomic_text(outputs["done"], json.dumps(marker, indent=1, default=_json_default))
     return row
+
+
+def _compare_with_model(task, photo, outputs, options):
+    """Render the view's scene model through the photo's camera and compare (issue: model vs photo)."""
+    from .compare import compare_maps
+    from .io import write_exr
+    from .io._atomic import atomic_text
+    from .report import write_comparison_report, write_ratio_png
+    from .solver import camera_to_world, load_scene, render, simulate
+
+    spec = task["model"]
+    scene = load_scene(spec["scene"])
+    store = simulate(scene, samples=spec["samples"], seed=spec["seed"])
+    rotation = camera_to_world(spec["direction"], spec.get("up", [0.0, 0.0, 1.0]))
+    model = render(store, photo.projection, position=spec["position"], rotation=rotation,
+                   nodes_per_pixel=spec["nodes_per_pixel"], seed=spec["seed"])
+    if photo.line_of_sight is not None:
+        model = dataclasses.replace(model, line_of_sight=photo.line_of_sight)
+    write_exr(model, outputs["model_exr"])
+    score_options = {k: v for k, v in options.items() if k != "line_of_sight"}
+    comparison = compare_maps(photo, model, **score_options)
+    write_ratio_png(comparison.ratio, outputs["model_ratio"], title=f"{task['view']}: model / photo")
+    record = comparison.to_dict()
+    record["model"] = {k: (str(v) if k == "scene" else v) for k, v in spec.items()}
+    atomic_text(outputs["model_json"], json.dumps(record, indent=2, default=_json_default))
+    write_comparison_report(comparison, outputs["model_report"], photo=photo, model=model,
+                            title=f"{task['view']}: model against photo")
+    return record
 
 
 def _warning_lines(caught):
@@ -727,7 +783,8 @@ def _task(manifest, view, outdir, score_options):
     identity["profile_sha256"] = None if profile is None else _file_digest(profile)
     text = json.dumps(identity, sort_keys=True, default=_json_default)
     task["fingerprint"] = hashlib.sha256(text.encode("utf-8")).hexdigest()
-    task["outputs"] = {k: str(v) for k, v in _outputs(Path(outdir) / "views" / view.id, view.id).items()}
+    task["outputs"] = {k: str(v) for k, v in _outputs(Path(outdir) / "views" / view.id, view.id,
+                                                        with_model=view.model is not None).items()}
     return task
 
 
@@ -888,6 +945,8 @@ def _write_tables(manifest, tasks, failures, outdir):
 
     rows = [row for row in (_read_done(task) for task in tasks) if row is not None]
     columns = list(dict.fromkeys(["view", *(c for row in rows for c in row)]))
+    # Every row gets every column (None where a view has no value, e.g. no model).
+    rows = [{c: row.get(c) for c in columns} for row in rows]
     metadata = {"schema": SCHEMA, "manifest": str(manifest.path), "name": manifest.name,
                 "lsadphoto_version": __version__,
                 "written": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")}

@@ -16,7 +16,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from lsadphoto.errors import BadInputError
-from lsadphoto.survey import MODEL_COMPARISON_PENDING, SWEEP, load_manifest, run_survey
+from lsadphoto.survey import SWEEP, load_manifest, run_survey
 
 ROOT = Path(__file__).resolve().parents[1]
 OFFICE = ROOT / "data_samples" / "office"
@@ -50,6 +50,9 @@ note = "one frame, one spot"
 [view.model]
 scene = "model.toml"
 position = [1.0, 2.0, 1.6]
+direction = [1.0, 0.0, 0.0]
+samples = 2000
+nodes_per_pixel = 2
 
 [[view]]
 id = "uncalibrated"
@@ -63,6 +66,21 @@ raw = "broken.dng"
 """
 
 
+MODEL = """
+[materials]
+wall = { reflectance = 0.5 }
+[[surfaces]]
+type = "box"
+min = [0, 0, 0]
+max = [6, 4, 3]
+material = "wall"
+[[luminaires]]
+type = "area"
+flux = 3000
+shape = { type = "polygon", vertices = [[2.7, 1.7, 2.99], [2.7, 2.3, 2.99], [3.3, 2.3, 2.99], [3.3, 1.7, 2.99]] }
+"""
+
+
 def make_survey(folder, text=MANIFEST):
     """A survey folder: manifest, RAW files, profile, ratings, model; returns the manifest."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -70,7 +88,7 @@ def make_survey(folder, text=MANIFEST):
         shutil.copytree(OFFICE, folder / "office")
     shutil.copy(PROFILE, folder / "camera.toml")
     (folder / "single-ratings.csv").write_text("observer,rating\nanna,6\nboris,7.5\n")
-    (folder / "model.toml").write_text("# a scene model (not read yet: the comparison comes later)\n")
+    (folder / "model.toml").write_text(MODEL)
     # Garbage with a RAW suffix, as a truncated copy from a memory card gives.
     (folder / "broken.dng").write_bytes(np.random.default_rng(1).bytes(4096))
     path = folder / "survey.toml"
@@ -108,8 +126,12 @@ def approx_rows(table):
 
 
 def output_names(view):
-    return {f"{view}.exr", f"{view}.hdr", f"{view}-falsecolour.png", f"{view}-sources.png",
-            f"{view}-contrast.png", f"{view}-score.json", f"{view}-done.json"}
+    names = {f"{view}.exr", f"{view}.hdr", f"{view}-falsecolour.png", f"{view}-sources.png",
+             f"{view}-contrast.png", f"{view}-score.json", f"{view}-done.json"}
+    if view == "single":  # the view with a scene model
+        names |= {f"{view}-model.exr", f"{view}-model-ratio.png", f"{view}-model-comparison.json",
+                  f"{view}-model-comparison.html"}
+    return names
 
 
 def mtimes(outdir):
@@ -158,8 +180,10 @@ def test_table_columns_metrics_sweep_ratings_and_provenance(surveyed):
     assert bracket["q_n50"] == pytest.approx(bracket["q"], rel=1e-12)
     assert bracket["rating_mean"] == 4.0 and bracket["rating_n"] == 3
     assert rows["single"]["rating_mean"] == 6.75 and rows["uncalibrated"]["rating_mean"] is None
-    assert rows["single"]["model_comparison"] == MODEL_COMPARISON_PENDING
-    assert bracket["model_comparison"] is None
+    # The model of the office view is a different room: the comparison runs and says so.
+    assert float(rows["single"]["model_ratio_median"]) > 0
+    assert float(rows["single"]["model_mc_uncertainty"]) > 0
+    assert bracket.get("model_ratio_median") is None
     assert bracket["calibrated"] is True and bracket["calibration_method"] == "spot"
     assert rows["uncalibrated"]["calibrated"] is False
     assert rows["uncalibrated"]["calibration_method"] == "exposure-equation"
@@ -204,7 +228,7 @@ def test_survey_values_match_the_single_view_pipeline(surveyed):
     record = json.loads((outdir / "views" / "single" / "single-score.json").read_text())
     assert record["survey"]["ratings"] == [{"observer": "anna", "rating": 6.0},
                                            {"observer": "boris", "rating": 7.5}]
-    assert record["survey"]["model_comparison"] == MODEL_COMPARISON_PENDING
+    assert record["model_comparison"]["metrics"]["ugr_grouped"]["photo"] == record["ugr_grouped"]
     assert record["survey"]["note"] == "one frame, one spot"
     assert record["settings"]["line_of_sight"] == pytest.approx(
         [0.0, 0.1 / np.hypot(0.1, 1.0), 1.0 / np.hypot(0.1, 1.0)])
@@ -402,7 +426,8 @@ def test_manifest_resolves_paths_against_its_folder(tmp_path):
     assert [(s.row, s.col, s.luminance) for s in bracket.spots] == [(263, 320, 60), (360, 96, 28.5)]
     assert single.ratings == (("anna", 6.0), ("boris", 7.5))
     assert single.model == {"scene": str((tmp_path / "model.toml").resolve()),
-                            "position": [1.0, 2.0, 1.6]}
+                            "position": [1.0, 2.0, 1.6], "direction": [1.0, 0.0, 0.0],
+                            "samples": 2000, "nodes_per_pixel": 2, "seed": 0}
     assert manifest.profile == (tmp_path / "camera.toml").resolve()
     assert manifest.score == {"n_thresholds": 50.0, "size_arcmin": 10.0}
 
