@@ -314,6 +314,140 @@ def cmd_survey(args):
     return 1 if result.failures else 0
 
 
+def _load_any_scene(path):
+    """Our TOML scene, or a Radiance scene (.rad) converted with 179 lm/W."""
+    from .solver import load_scene, read_radiance_scene
+
+    if Path(path).suffix.lower() == ".rad":
+        return read_radiance_scene(Path(path))
+    return load_scene(path)
+
+
+def cmd_simulate(args):
+    from ._progress import progress_callback
+    from .solver import simulate
+
+    if args.samples is None and args.target_error is None:
+        args.samples = 65536
+    scene = _load_any_scene(args.scene)
+    callback, close = progress_callback("simulating", enabled=False if args.quiet else None)
+    try:
+        store = simulate(scene, samples=args.samples, target_error=args.target_error, seed=args.seed,
+                         near_field=args.near_field, progress=callback)
+    finally:
+        close()
+    store.save(args.output)
+    record = {"output": str(args.output), "scene": str(args.scene), "chains": store.chains,
+              "nodes": store.nodes, "provenance": store.provenance}
+    if args.json:
+        _print_json(record)
+    else:
+        achieved = store.provenance.get("achieved_relative_error")
+        extra = "" if achieved is None else f"; relative error of the first view's mean luminance {achieved:.2%}"
+        print(f"wrote {args.output}: {store.chains} light chains, {store.nodes} nodes{extra}")
+    return 0
+
+
+def _render_pose(args, scene):
+    """Projection, eye position and camera-to-world rotation from the render options."""
+    from .io.hdr import parse_view, projection_from_view
+    from .solver import camera_to_world
+
+    if args.view:
+        if not args.size:
+            raise BadInputError("--view needs --size WxH")
+        width, height = _size(args.size)
+        view = parse_view(args.view)
+        projection = projection_from_view(view, width, height)
+        position = view.get("vp", [0.0, 0.0, 0.0])
+        rotation = camera_to_world(view.get("vd", [0.0, 1.0, 0.0]), view.get("vu", [0.0, 0.0, 1.0]))
+        return projection, position, rotation
+    if args.profile:
+        profile = _load_profile(args.profile)
+        projection = profile.lens_projection
+        if projection is None:
+            raise BadInputError(f"profile {args.profile} has no lens model")
+        if args.size:
+            width, height = _size(args.size)
+            factor = projection.width // width
+            if factor < 1 or projection.width != factor * width or projection.height // factor != height:
+                raise BadInputError(f"--size {args.size} is not the profile's {projection.width}×"
+                                    f"{projection.height} binned by a whole factor")
+            projection = projection.binned(factor)
+        if args.position is None or args.line_of_sight is None:
+            raise BadInputError("--profile needs --position X,Y,Z and --line-of-sight X,Y,Z (world)")
+        up = _vector(args.up, "--up") if args.up else [0.0, 0.0, 1.0]
+        return (projection, _vector(args.position, "--position"),
+                camera_to_world(_vector(args.line_of_sight, "--line-of-sight"), up))
+    views = scene.views
+    if not views:
+        raise BadInputError("give --view, --profile or a scene with [[views]] (then --view-name)")
+    if args.view_name:
+        chosen = [v for v in views if v.name == args.view_name]
+        if not chosen:
+            raise BadInputError(f"no view {args.view_name!r}; views: {', '.join(v.name for v in views)}")
+        v = chosen[0]
+    else:
+        v = views[0]
+    return v.projection, v.position, v.rotation
+
+
+def _size(text):
+    try:
+        width, height = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise BadInputError(f"--size must be WIDTHxHEIGHT, got {text!r}") from None
+    if width < 1 or height < 1:
+        raise BadInputError(f"--size must be positive, got {text!r}")
+    return width, height
+
+
+def cmd_render(args):
+    from ._progress import progress_callback
+    from .io import atomic_outputs, write_exr, write_hdr
+    from .solver import load_store, render
+
+    source = Path(args.source)
+    if source.suffix.lower() == ".npz":
+        store_or_scene = load_store(source)
+        scene = store_or_scene.scene
+    else:
+        store_or_scene = scene = _load_any_scene(source)
+    projection, position, rotation = _render_pose(args, scene)
+    outputs = {"exr": Path(args.output)}
+    if outputs["exr"].suffix.lower() != ".exr":
+        raise BadInputError(f"output {args.output} must end in .exr")
+    if args.hdr:
+        outputs["hdr"] = Path(args.hdr)
+    nodes = args.nodes_per_pixel
+    if nodes not in ("auto", "all"):
+        try:
+            nodes = int(nodes)
+        except ValueError:
+            raise BadInputError(f"--nodes-per-pixel must be a positive integer, 'all' or 'auto', got {nodes!r}") from None
+    callback, close = progress_callback("rendering", enabled=False if args.quiet else None)
+    try:
+        lmap = render(store_or_scene, projection, position=position, rotation=rotation,
+                      samples=args.samples, seed=args.seed, nodes_per_pixel=None if nodes == "all" else nodes,
+                      progress=callback)
+    finally:
+        close()
+    writers = {"exr": write_exr, "hdr": write_hdr}
+    with atomic_outputs(*outputs.values()) as temps:
+        for (kind, _), temp in zip(outputs.items(), temps):
+            writers[kind](lmap, temp)
+    record = {"outputs": {k: str(v) for k, v in outputs.items()}, "provenance": lmap.provenance}
+    if args.json:
+        _print_json(record)
+    else:
+        p = lmap.provenance
+        print(f"wrote {args.output}: {projection.width}×{projection.height} px, field-mean luminance "
+              f"{_format(p.get('field_mean_luminance'), 4)} cd/m², relative Monte Carlo error "
+              f"{_format(p.get('achieved_relative_error'), 4)}"
+              f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}")
+    return 0
+
+
 def build_parser():
     from .raw.colour import COLOUR_METHODS
     from .raw.decode import DEMOSAIC_METHODS
@@ -433,6 +567,37 @@ def build_parser():
     sv.add_argument("--no-report", action="store_true", help="do not write OUTPUT/report.html")
     sv.add_argument("--json", action="store_true", help="print the JSON summary")
     sv.set_defaults(func=cmd_survey)
+
+    sim = sub.add_parser("simulate", help="Monte Carlo light chains of a scene model → view-independent store")
+    sim.add_argument("scene", help="scene model: our TOML, or a Radiance scene (.rad)")
+    sim.add_argument("-o", "--output", required=True, help="store to write (.npz)")
+    sim.add_argument("--samples", type=int, help="light chains (default 65536 unless --target-error)")
+    sim.add_argument("--target-error", type=float,
+                     help="stop at this relative standard error of the scene's mean luminance (e.g. 0.01)")
+    sim.add_argument("--seed", type=int, default=0)
+    sim.add_argument("--near-field", choices=("unbiased", "clamp"), default="unbiased",
+                     help="near-field treatment (clamp is biased and reported as such)")
+    sim.add_argument("--quiet", action="store_true", help="no progress bar")
+    sim.add_argument("--json", action="store_true")
+    sim.set_defaults(func=cmd_simulate)
+
+    ren = sub.add_parser("render", help="render a luminance map of a view from a store or a scene")
+    ren.add_argument("source", help="store (.npz) from 'simulate', or a scene (TOML or Radiance .rad)")
+    ren.add_argument("--profile", help="camera profile (TOML) whose lens model is the projection")
+    ren.add_argument("--view", metavar="RADIANCE_VIEW", help='Radiance view, e.g. "-vta -vp 1 2 1.2 -vd 1 0 0 -vu 0 0 1 -vh 180 -vv 180"')
+    ren.add_argument("--view-name", help="a [[views]] entry of the scene (default: its first)")
+    ren.add_argument("--size", metavar="WxH", help="image size (with --view; with --profile a binning of its size)")
+    ren.add_argument("--position", metavar="X,Y,Z", help="eye position [m] (with --profile)")
+    ren.add_argument("--line-of-sight", metavar="X,Y,Z", help="optical axis in the scene (with --profile)")
+    ren.add_argument("--up", metavar="X,Y,Z", help="up in the scene (with --profile; default 0,0,1)")
+    ren.add_argument("--samples", type=int, help="light chains when rendering a scene directly")
+    ren.add_argument("--nodes-per-pixel", default="auto", help="nodes connected per pixel and batch: a number, 'all' or 'auto'")
+    ren.add_argument("--seed", type=int, default=0)
+    ren.add_argument("-o", "--output", required=True, help="output OpenEXR map (.exr)")
+    ren.add_argument("--hdr", help="also write a Radiance HDR map")
+    ren.add_argument("--quiet", action="store_true", help="no progress bar")
+    ren.add_argument("--json", action="store_true")
+    ren.set_defaults(func=cmd_render)
     return parser
 
 
