@@ -5,7 +5,11 @@
    fitted profile and calibrates with the two spot readings of ``spots.csv``;
 3. the result is compared with the scene's true luminance (known: the samples are synthetic);
 4. ``lsadphoto score`` scores the map: pixel-wise and grouped UGR, Q, DGP and the rest, with
-   the glare-source and contrast maps.
+   the glare-source and contrast maps;
+5. the main job: ``lsadphoto survey`` processes the bundled survey of six station halls
+   (luminance maps, metrics, and each view's scene model rendered by the Monte Carlo solver
+   and compared with the photo), then ``lsadphoto study`` correlates the synthetic observers'
+   ratings with the metrics and writes the HTML report with the paper's figures.
 
 Outputs go to ``demo_output/`` (EXR, HDR, false-colour PNG, fitted profile, scores JSON and
 figures).
@@ -68,6 +72,16 @@ def run(out=Path("demo_output")):
         return code
     print(f"scores: {out / 'office-score.json'}; glare sources: {out / 'office-sources.png'}; "
           f"contrasts: {out / 'office-contrast.png'}")
+    survey = out / "stations"
+    code = cli(["survey", str(samples / "stations" / "survey.toml"), "-o", str(survey), "--no-report"])
+    if code:
+        return code
+    code = cli(["study", str(survey / "ratings.csv"), str(survey / "metrics.csv"), "--report", str(survey),
+                "--output-json", str(survey / "study.json")])
+    if code:
+        return code
+    print(f"model-vs-photo reports: {survey / 'views' / '<view>' / '<view>-model-comparison.html'}")
+    print(f"open the survey report: {survey / 'report.html'}")
     return 0
 
 

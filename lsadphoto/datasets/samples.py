@@ -8,7 +8,11 @@ Run ``python -m lsadphoto.datasets.samples data_samples`` (or ``make samples``).
   wall, computed from the true scene over the LS-100's 1° cone and rounded as its display does;
 - ``flat/flat_{1,2}.dng``: flat-field frames of a uniform 40 cd/m² field for
   ``lsadphoto calibrate vignetting``;
-- ``../calibration/synthetic-demo.toml``: the demo camera's profile.
+- ``../calibration/synthetic-demo.toml``: the demo camera's profile;
+- ``stations/``: the demo survey — six station halls (:mod:`~lsadphoto.datasets.stations`)
+  rendered by the Monte Carlo solver through the demo camera and written as 2–3-frame DNG
+  brackets, with two spot readings each, synthetic observers' ratings, the scene models
+  (``models/*.toml``) and the survey manifest ``survey.toml``.
 """
 
 import sys
@@ -78,5 +82,92 @@ def make_samples(folder):
     save_profile(demo_profile(), folder.parent / "calibration" / "synthetic-demo.toml")
 
 
+#: Station views: (view id, layout, observer position [m], optical axis) — two views look
+#: across the hall so that the survey has positions as well as layouts to compare.
+STATION_VIEWS = [
+    ("coves", "coves", None, None),
+    ("panels", "panels", None, None),
+    ("rows", "rows", None, None),
+    ("mixed", "mixed", None, None),
+    ("downlights", "downlights", None, None),
+    ("sparse", "sparse", None, None),
+]
+#: Synthetic observers per view and their rating model (10-point scale): a comfort score
+#: rising with Q and falling with pixel-UGR, plus each observer's own offset and noise.
+N_OBSERVERS = 12
+STATION_SPOTS = [(0.85, 0.5), (0.55, 0.08)]  # floor ahead, left wall (fractions of rows, cols)
+
+
+def _bracket_times(luminance, *, f_number=4.0, iso=100, step=64.0):
+    """Exposure times [s]: the longest puts the median at 20 % of full scale, then shorter
+    by ``step`` until the brightest pixel stays below 80 %."""
+    gain = iso / f_number**2 / DEMO_CAMERA.calibration_constant
+    t = 0.2 / (float(np.median(luminance)) * gain)
+    times = [t]
+    while float(np.max(luminance)) * gain * times[-1] > 0.8:
+        times.append(times[-1] / step)
+    return times
+
+
+def make_station_samples(folder, *, chains=60000, nodes_per_pixel=32, seed=20261123):
+    """The demo survey of station halls (see the module notes); minutes of solver time."""
+    import tomli_w
+
+    from ..metrics.score import score_map
+    from ..solver import camera_to_world, render, scene_from_dict, simulate
+    from .stations import OBSERVER, station_scene
+
+    folder = Path(folder) / "stations"
+    cam = DEMO_CAMERA
+    rng = np.random.default_rng(seed)
+    projection = PinholeProjection.from_sensor(focal_length=cam.focal_length, sensor_width=cam.sensor_width,
+                                               sensor_height=cam.sensor_height, width=cam.width, height=cam.height)
+    half = projection.binned(2)
+    rows_out, views = [], []
+    for index, (view_id, layout, position, direction) in enumerate(STATION_VIEWS):
+        spec = station_scene(layout)
+        (folder / "models").mkdir(parents=True, exist_ok=True)
+        (folder / "models" / f"{layout}.toml").write_text(tomli_w.dumps(spec))
+        position = position or OBSERVER["position"]
+        direction = direction or OBSERVER["direction"]
+        store = simulate(scene_from_dict(spec), samples=chains, seed=seed + index)
+        truth = render(store, half, position=position, rotation=camera_to_world(direction, OBSERVER["up"]),
+                       nodes_per_pixel=nodes_per_pixel, seed=seed + index)
+        # The render is at the superpixel resolution; each value covers its 2 × 2 sensor block.
+        sensor = np.repeat(np.repeat(np.asarray(truth.luminance, np.float64), 2, axis=0), 2, axis=1)
+        raws = []
+        for k, t in enumerate(_bracket_times(sensor), start=1):
+            raw = cam.expose(sensor, exposure_time=t, f_number=4.0, iso=100, rng=rng)
+            name = f"{view_id}/{view_id}_{k}.dng"
+            write_dng(folder / name, raw, cam, exposure_time=t, f_number=4.0, iso=100)
+            raws.append(name)
+        spots = []
+        for fr, fc in STATION_SPOTS:
+            row, col = round(fr * cam.height), round(fc * cam.width)
+            spots.append({"row": row, "col": col, "cd_m2": meter_reading(sensor, projection, row, col)})
+        score = score_map(truth)
+        rows_out.append((view_id, score.values["q"], score.values["ugr_pixel"]))
+        views.append({"id": view_id, "raw": raws, "spots": spots,
+                      "ratings": f"{view_id}/ratings.csv",
+                      "model": {"scene": f"models/{layout}.toml", "position": list(position),
+                                "direction": list(direction), "up": list(OBSERVER["up"]),
+                                "samples": 20000, "nodes_per_pixel": 8, "seed": 1}})
+    q = np.array([r[1] for r in rows_out])
+    ugr = np.array([np.nan_to_num(r[2], nan=10.0) for r in rows_out])
+    comfort = 5.5 + 1.5 * (q - q.mean()) / q.std() - 0.8 * (ugr - ugr.mean()) / ugr.std()
+    offsets = rng.normal(0.0, 0.5, N_OBSERVERS)
+    for (view_id, _, _), c in zip(rows_out, comfort, strict=True):
+        ratings = np.clip(np.round(2 * (c + offsets + rng.normal(0.0, 0.8, N_OBSERVERS))) / 2, 1, 10)
+        lines = ["observer,rating"] + [f"observer{j + 1:02d},{r:g}" for j, r in enumerate(ratings)]
+        (folder / view_id / "ratings.csv").write_text("\n".join(lines) + "\n")
+    manifest = {"schema": "lsadphoto.survey/1", "name": "demo: six station halls",
+                "description": "synthetic station halls rendered by the lsadphoto solver, photographed "
+                               "by the synthetic demo camera; ratings from synthetic observers",
+                "profile": "../../calibration/synthetic-demo.toml", "view": views}
+    (folder / "survey.toml").write_text(tomli_w.dumps(manifest))
+
+
 if __name__ == "__main__":
-    make_samples(sys.argv[1] if len(sys.argv) > 1 else "data_samples")
+    target = sys.argv[1] if len(sys.argv) > 1 else "data_samples"
+    make_samples(target)
+    make_station_samples(target)

@@ -28,6 +28,15 @@ from .tables import rated_scenes_only, read_metrics, read_ratings, scene_ratings
 
 __all__ = ["MIN_SCENES", "StudyResult", "run_study"]
 
+#: Columns of a survey table that are not metrics to correlate with ratings: the ratings
+#: themselves and their count, calibration bookkeeping, and standard uncertainties (``*_u``).
+_BOOKKEEPING = frozenset({"rating_mean", "rating_n", "mean_rating", "calibration_factor",
+                          "calibration_uncertainty", "saturated_fraction", "model_mc_uncertainty"})
+
+
+def _bookkeeping(column):
+    return column in _BOOKKEEPING or column.endswith("_u")
+
 #: Fewest scenes a study can have: a correlation needs 3 (and its Fisher interval and the
 #: leave-one-out check need 4; they are reported as undefined for 3).
 MIN_SCENES = 3
@@ -268,6 +277,8 @@ def run_study(ratings_csv, metrics_csv, *, metric="q", sweep_prefix="q_n", jitte
     correlations, between = {}, {}
     for column, values in metrics.values.items():
         if column in sweep_names and column != metric:
+            continue
+        if column != metric and _bookkeeping(column):
             continue
         given = np.isfinite(values)
         if given.sum() < MIN_SCENES:
