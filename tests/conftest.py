@@ -4,6 +4,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import settings
+
+# Property tests draw the same examples on every run (CI reproducible, no flaky draws);
+# set HYPOTHESIS_PROFILE=explore for fresh random examples while developing.
+settings.register_profile("reproducible", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile(__import__("os").environ.get("HYPOTHESIS_PROFILE", "reproducible"))
 
 from lsadphoto.calibrate import CameraProfile
 from lsadphoto.datasets import SyntheticCamera, interior_scene, write_dng
