@@ -15,6 +15,7 @@ __all__ = [
     "MisalignmentWarning",
     "NonUniformSpotWarning",
     "MetadataWarning",
+    "SolverWarning",
 ]
 
 
@@ -56,3 +57,8 @@ class NonUniformSpotWarning(LsadWarning):
 
 class MetadataWarning(LsadWarning):
     """Two metadata sources disagree, or a value looks like a placeholder."""
+
+
+class SolverWarning(LsadWarning):
+    """A simulation or view is legal but probably not what was meant (target error not
+    reached, an eye on a surface, a view that sees no light)."""

@@ -17,7 +17,7 @@ singularities. Veach, E. (1997). PhD thesis, Stanford.
 
 from .intensity import IntensityTable
 from .radiance import read_radiance_scene
-from .rendering import render, render_path_traced
+from .rendering import SolverWarning, render, render_path_traced
 from .scene import (
     AreaLuminaire,
     PointLuminaire,
@@ -36,6 +36,7 @@ __all__ = [
     "LsadStore",
     "PointLuminaire",
     "Scene",
+    "SolverWarning",
     "View",
     "camera_to_world",
     "load_scene",

@@ -47,12 +47,13 @@ with next-event estimation used for cross-checks).
 
 import math
 import time
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
 from .._validation import check_choice
-from ..errors import BadInputError
+from ..errors import BadInputError, SolverWarning
 from ..geometry.base import Projection
 from ..luminance_map import LuminanceMap
 from ._sampling import cosine_directions, stream
@@ -62,7 +63,7 @@ from .scene import Scene
 from .store import KIND_COSINE, KIND_POINT, LsadStore
 
 __all__ = ["AUTO_NODES_PER_PIXEL", "FULL_GATHER_PAIRS", "NEAR_FIELD_TREATMENTS",
-           "RELATIVE_NEAR_DISTANCE", "render", "render_path_traced"]
+           "RELATIVE_NEAR_DISTANCE", "SolverWarning", "render", "render_path_traced"]
 
 NEAR_FIELD_TREATMENTS = ("unbiased", "clamp")
 
@@ -117,6 +118,34 @@ def _primary(scene, engine, projection, position, rotation):
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     prim, dist = engine.closest_hit(np.broadcast_to(position, d.shape), d)
     return valid, prim, dist, d
+
+
+#: Primary hits closer than this many ray offsets count as "the eye lies on a surface".
+_ON_SURFACE_OFFSETS = 10
+#: … and the view is flagged when more than this fraction of its hits are that close.
+_ON_SURFACE_FRACTION = 0.01
+
+
+def _check_view(scene, engine, prim, dist, lum_b, position):
+    """Warn about views that are legal but probably wrong (an eye on or in a wall).
+
+    An eye within a few ray offsets of a surface (in the plane of a wall) makes the rays
+    that start there ambiguous in float32; an eye outside a closed room or inside a solid
+    sees only surfaces that no light reaches, so the whole view is black.
+    """
+    hit = prim >= 0
+    close = hit & (dist < _ON_SURFACE_OFFSETS * engine.epsilon)
+    where = f"eye at ({', '.join(f'{v:g}' for v in position)}) m"
+    if hit.any() and close.sum() > _ON_SURFACE_FRACTION * hit.sum():
+        warnings.warn(f"{where} lies on a surface ({close.sum()} of {hit.sum()} primary rays "
+                      f"hit within {_ON_SURFACE_OFFSETS * engine.epsilon:.2g} m): move it into "
+                      "the room", SolverWarning, stacklevel=3)
+    elif (scene.total_flux > 0 and np.any(scene.triangle_reflectance[prim[hit]] > 0)
+          and not np.any(lum_b > 0)):
+        # (a view that hits nothing, e.g. out of an open model into the sky, or only black
+        # surfaces, is legal and black)
+        warnings.warn(f"{where} sees surfaces but no light at all: is it outside the room "
+                      "or inside a solid?", SolverWarning, stacklevel=3)
 
 
 def _emitted(scene, prim, towards):
@@ -430,6 +459,14 @@ def render(store_or_scene, projection, *, position, rotation, samples=None, seed
         ``provenance`` with estimator, samples, seed, near-field treatment and the
         achieved relative standard error of the field-mean luminance.
 
+    Warns
+    -----
+    SolverWarning
+        When the eye lies on a surface (more than 1 % of the primary rays hit within 10 ray
+        offsets), or when it sees lit-able surfaces but no light at all (an eye outside a
+        closed room or inside a solid). A view that hits nothing (out of an open model) or
+        only black surfaces is legal and silent.
+
     References
     ----------
     Budak, Zheltov & Kalakutsky (2012); Marchuk et al. (1980); Kollig & Keller (2004).
@@ -518,6 +555,8 @@ def render(store_or_scene, projection, *, position, rotation, samples=None, seed
 
     _run_chunks(work, range(0, hit.size, chunk), lum_b, workers, progress, t0, hit.size)
     openings = _luminous_openings(scene, position, d, dist)
+    _check_view(scene, engine, prim, dist, np.where(np.isfinite(openings)[:, None], 1.0, lum_b),
+                position)
     return _finish(projection, valid, lum_b, store_or_scene=store, estimator="double local estimate",
                    openings=openings,
                    extra={"samples": int(store.chains), "chains": int(store.chains),
@@ -716,6 +755,8 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
 
     _run_chunks(work, range(0, hit.size, chunk), lum_b, workers, progress, t0, hit.size)
     openings = _luminous_openings(scene, position, d, dist)
+    _check_view(scene, engine, prim, dist, np.where(np.isfinite(openings)[:, None], 1.0, lum_b),
+                position)
     return _finish(projection, valid, lum_b, store_or_scene=scene, estimator="path tracing (NEE)",
                    openings=openings,
                    extra={"samples": samples, "samples_per_pixel": samples, "seed": int(seed),

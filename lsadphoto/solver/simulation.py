@@ -8,6 +8,7 @@ Budak, Zheltov & Kalakutsky (2012); Marchuk et al. (1980). See
 
 import math
 import time
+import warnings
 
 import numpy as np
 
@@ -15,7 +16,7 @@ from .._validation import check_choice
 from .._version import __version__
 from ..errors import BadInputError
 from .chains import ABSORPTION_MODES, CHAIN_BLOCK, EmissionSampler, trace_chains
-from .rendering import NEAR_FIELD_TREATMENTS, _engine_for, render
+from .rendering import NEAR_FIELD_TREATMENTS, SolverWarning, _engine_for, render
 from .scene import Scene
 
 __all__ = ["DEFAULT_BATCHES", "DEFAULT_CHAINS", "MAX_CHAINS", "simulate"]
@@ -82,7 +83,9 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
     batches : int
         Independent batches (8 … 256, a divisor of 256).
     max_samples : int
-        Cap on chains for ``target_error`` runs.
+        Cap on chains for ``target_error`` runs; when it stops a run before the target is
+        reached, a :class:`~lsadphoto.solver.SolverWarning` gives the achieved error (also
+        in the provenance, ``target_reached = False``).
     progress : callable, optional
         ``progress(done_fraction, eta_s)``.
 
@@ -154,6 +157,10 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
         "error_measured_on": measured,
         "target_reached": None if target_error is None else bool(achieved <= target_error),
     }
+    if target_error is not None and not achieved <= target_error:
+        warnings.warn(f"target_error {target_error:g} not reached: achieved {achieved:.3g} "
+                      f"with {store.chains} chains (max_samples = {int(max_samples)}; "
+                      f"{measured})", SolverWarning, stacklevel=2)
     if progress is not None:
         progress(1.0, 0.0)
     return store
