@@ -2,7 +2,14 @@
 
 Run: ``.venv/bin/python benchmarks/bench_geometry.py [--size 6000x4000] [--repeat 3]
 [--baseline]``; ``--profile MODEL`` prints a pyinstrument profile of one first call instead
-(single-threaded, so that the profile shows where the time goes).
+(single-threaded, so that the profile shows where the time goes; the compiled kernels
+appear as single entries).
+
+The fisheye maps come from numba kernels (``lsadphoto/geometry/_kernels.py``) that run on
+all CPUs; ``NUMBA_NUM_THREADS=1`` times them on one thread (wall ≈ CPU). The first call in
+a process also loads the compiled kernels from numba's on-disk cache (0.3–0.4 s; it is the
+"worst" of the repeats); with an empty cache (``NUMBA_CACHE_DIR=$(mktemp -d)``) it
+includes compiling them (≈ 15 s once). On a shared machine compare the CPU column.
 
 For each camera model it times, best and worst of ``--repeat`` runs (``time.perf_counter``,
 plus the process CPU time of the best run, which shows how much of the two cores was used):
@@ -98,9 +105,12 @@ def main(argv=None):
     if args.profile:
         from pyinstrument import Profiler
 
+        import numba
+
         from lsadphoto.geometry import field
 
-        field.os.cpu_count = lambda: 1
+        field.os.cpu_count = lambda: 1  # the numpy path of the other models
+        numba.set_num_threads(1)  # the compiled fisheye kernels
         camera = list(cameras.values())[0 if args.profile == "equidistant" else 1]
         profiler = Profiler()
         profiler.start()

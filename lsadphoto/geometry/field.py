@@ -17,8 +17,14 @@ How the maps are computed (FORMULAS.md §2.4.2):
   single ``arctan2``; the triple products are taken of the edge vectors (b − a, c − a),
   which keeps full relative precision for tiny pixels; and, for the small pixels of real images (tan(Ω/2) < 10⁻³), the arc
   tangent is its series ``t − t³/3 + t⁵/5`` (relative error < t⁶/7 < 2·10⁻¹⁹).
-* The image is processed in blocks of rows small enough to stay in the processor cache, on
-  as many threads as there are CPUs (numpy releases the GIL inside its loops).
+* For the fisheye models (:class:`IdealFisheyeProjection`, :class:`OpenCVFisheyeProjection`)
+  everything is computed per pixel in one compiled pass (:mod:`._kernels`, numba, rows on
+  all CPUs), and σ, τ, cos σ and the position index in a second one; IEEE float64, no
+  fast-math. The ideal fisheye's maps equal its methods bit for bit. Other models evaluate
+  their own (numpy) ``directions`` in blocks of rows on threads, with the compiled
+  solid-angle kernel.
+* The kernels are compiled on first use and cached on disk (numba ``cache=True``): the
+  first call in a fresh installation takes some seconds more (see docs/performance.md).
 
 References
 ----------
@@ -54,6 +60,10 @@ CACHE_SIZE = 4
 #: Pixels per block of work: 192 kB per float64 temporary, so a block's working set stays
 #: in the L2 cache (measured best of 2¹²…2¹⁷ on the 2-core test machine).
 _BLOCK_PIXELS = 24_000
+#: Pixels per band of rows of the compiled fisheye kernel (bands are shared out among the
+#: threads; each recomputes the row of corners above it: 21-row bands at 6000 columns,
+#: 5 % more corner directions).
+_KERNEL_BLOCK_PIXELS = 1 << 17
 #: Below this tan(Ω/2) the arc tangent is replaced by its 3-term series (error < t⁶/7).
 _SERIES_LIMIT = 1e-3
 
@@ -221,107 +231,97 @@ class PixelGeometry:
     valid: np.ndarray
 
 
-def _opencv_fisheye_grid(cam):
-    """Fast direction grid for :class:`OpenCVFisheyeProjection` (Kannala–Brandt).
+def _fisheye_kernel_parameters(projection):
+    """Model code, parameters and table of :func:`._kernels.fisheye_geometry`, or None for a
+    model without a compiled kernel."""
+    from . import _kernels
+    from .fisheye import IdealFisheyeProjection
+    from .opencv import OpenCVFisheyeProjection
 
-    θ(ρ) is inverted from a table of θd(θ) (linear interpolation on a uniform grid of 4096
-    steps of ρ, error ≈ Δρ²/8·|θ″| ≲ 10⁻⁷ rad) followed by two Newton steps, which converge
-    quadratically to rounding (10⁻⁷ → 10⁻¹⁴ → 10⁻²⁸) except close to the fold of the
-    mapping (dθd/dθ → 0), where the few points still above a residual of 10⁻¹³ are finished by the model's own
-    safeguarded solver (:meth:`theta`). :meth:`directions` runs that solver from θ = ρ
-    over whole arrays, to a residual below 10⁻¹², about 20 times slower. Directions beyond
-    ``theta_max`` are NaN, as there.
+    if type(projection) is IdealFisheyeProjection:
+        cam = projection
+        tm, scale = cam.theta_max, 1.0 / cam.radius
+        # The radial coefficient exactly as IdealFisheyeProjection._unclipped_components has it.
+        coefficient = {"equidistant": tm * scale, "equisolid": math.sin(tm / 2.0) * scale,
+                       "orthographic": math.sin(tm) * scale,
+                       "stereographic": math.tan(tm / 2.0) * scale}[cam.kind]
+        p = [cam.cx, cam.cy, _kernels.FISHEYE_KINDS.index(cam.kind), coefficient,
+             cam.radius * (1.0 + 1e-12)]
+        return _kernels.IDEAL_FISHEYE, np.array(p, dtype=np.float64), np.zeros(2)
+    if type(projection) is OpenCVFisheyeProjection:
+        table, step = _kannala_brandt_table(projection)
+        cam = projection
+        p = [cam.cx, cam.cy, cam.fx, cam.fy, *cam.distortion, float(cam.theta_max),
+             _kannala_brandt_rho_max(cam), step]
+        return _kernels.OPENCV_FISHEYE, np.array(p, dtype=np.float64), table
+    return None
+
+
+def _kannala_brandt_rho_max(cam):
+    k1, k2, k3, k4 = cam.distortion
+    t = float(cam.theta_max)
+    t2 = t * t
+    return float(t * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4)))))
+
+
+def _kannala_brandt_table(cam, n=4096):
+    """θ on a uniform grid of n + 1 values of ρ = θd(θ) from 0 to ρmax, and the grid step.
+
+    The kernel interpolates it linearly (error ≈ Δρ²/8·|θ″| ≲ 10⁻⁷ rad) and takes two Newton
+    steps, which converge quadratically to rounding (10⁻⁷ → 10⁻¹⁴ → 10⁻²⁸) except close to the
+    fold of the mapping (dθd/dθ → 0), where the few points still above a residual of 10⁻¹³
+    are finished by the model's own safeguarded solver (:meth:`OpenCVFisheyeProjection.theta`,
+    ported point by point). :meth:`~OpenCVFisheyeProjection.directions` runs that solver
+    from θ = ρ for every point, to a residual below 10⁻¹².
     """
     k1, k2, k3, k4 = cam.distortion
     theta_max = float(cam.theta_max)
-
-    def theta_d(t):
-        t2 = t * t
-        return t * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
-
-    def dtheta_d(t):
-        t2 = t * t
-        return 1.0 + t2 * (3.0 * k1 + t2 * (5.0 * k2 + t2 * (7.0 * k3 + t2 * 9.0 * k4)))
-
-    rho_max = float(theta_d(theta_max))
-    n = 4096
-    theta_table = np.linspace(0.0, theta_max, 8 * n + 1)
-    rho_grid = np.linspace(0.0, rho_max, n + 1)
-    table = np.interp(rho_grid, theta_d(theta_table), theta_table)
-    step = rho_max / n
-
-    def grid(rows, cols, *, corners=False):
-        with np.errstate(divide="ignore", invalid="ignore"):  # beyond the fold: NaN, no warning
-            return _grid(rows, cols)
-
-    def _grid(rows, cols):
-        rows = np.asarray(rows, float)[:, None]
-        cols = np.asarray(cols, float)[None, :]
-        xd = np.broadcast_to((cols - cam.cx) / cam.fx, (rows.shape[0], cols.shape[1]))
-        yd = np.broadcast_to((rows - cam.cy) / cam.fy, xd.shape)
-        rho = np.sqrt(xd * xd + yd * yd)
-        ok = rho < rho_max
-        u = np.minimum(rho, rho_max) / step
-        i = np.minimum(u.astype(np.intp), n - 1)
-        f = u - i
-        theta = table[i] * (1.0 - f) + table[i + 1] * f
-        for _ in range(2):
-            theta = np.clip(theta - (theta_d(theta) - rho) / dtheta_d(theta), 0.0, theta_max)
-        # Near the fold (dθd/dθ → 0) Newton converges slowly: finish the few points whose
-        # residual is not yet at the model's own tolerance with its safeguarded solver.
-        slow = ok & ~(np.abs(theta_d(theta) - rho) < 1e-13)
-        if slow.any():
-            theta[slow] = cam.theta(rho[slow])
-        half = np.tan(0.5 * theta)
-        h2 = half * half
-        s = 2.0 * half / (1.0 + h2)
-        c = (1.0 - h2) / (1.0 + h2)
-        q = np.divide(s, rho, out=np.ones_like(rho), where=rho > 0)
-        nan = np.where(ok, 1.0, np.nan)
-        return q * xd * nan, q * yd * nan, c * nan
-
-    return grid
-
-
-def _grid_function(projection):
-    from .opencv import OpenCVFisheyeProjection
-
-    if type(projection) is OpenCVFisheyeProjection:
-        return _opencv_fisheye_grid(projection)
-    return projection._grid_direction_components
+    theta = np.linspace(0.0, theta_max, 8 * n + 1)
+    t2 = theta * theta
+    rho = theta * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))))
+    rho_max = _kannala_brandt_rho_max(cam)
+    table = np.interp(np.linspace(0.0, rho_max, n + 1), rho, theta)
+    return table, rho_max / n
 
 
 def _compute_pixel_geometry(projection):
+    from . import _kernels
+
     rows, cols = projection.shape
     directions = np.empty((rows, cols, 3))
     solid_angle = np.empty((rows, cols))
     valid = np.empty((rows, cols), dtype=bool)
+    compiled = _fisheye_kernel_parameters(projection)
+    if compiled is not None:
+        model, p, table = compiled
+        band_rows = max(1, min(rows, _KERNEL_BLOCK_PIXELS // max(cols, 1)))
+        _kernels.fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
+        return PixelGeometry(_read_only(directions), _read_only(solid_angle), _read_only(valid))
+
+    # Other models: their own (numpy) directions on the corner and centre grids, in blocks on
+    # threads; the solid-angle kernel releases the GIL.
     centre_cols = np.arange(cols, dtype=float)
     corner_cols = np.arange(cols + 1, dtype=float) - 0.5
-    grid = _grid_function(projection)
+    grid = projection._grid_direction_components
 
     def task(r0, r1):
         corner_rows = np.arange(r0, r1 + 1, dtype=float) - 0.5
-        g = grid(corner_rows, corner_cols, corners=True)
-        g = tuple(np.ascontiguousarray(v) for v in g)
+        g = tuple(np.ascontiguousarray(v) for v in grid(corner_rows, corner_cols, corners=True))
+        omega = solid_angle[r0:r1]
+        _kernels.quad_solid_angle_grid(*g, omega)
+        d = grid(np.arange(r0, r1, dtype=float), centre_cols)
         with np.errstate(invalid="ignore"):
-            omega = quad_solid_angle_components(
-                tuple(v[:-1, :-1] for v in g), tuple(v[:-1, 1:] for v in g),
-                tuple(v[1:, 1:] for v in g), tuple(v[1:, :-1] for v in g),
-            )
-            d = grid(np.arange(r0, r1, dtype=float), centre_cols)
             ok = np.isfinite(omega) & (omega > 0)
-            for component in d:
-                ok &= np.isfinite(component)
+        for component in d:
+            ok &= np.isfinite(component)
         block = directions[r0:r1]
         for k in range(3):
             block[..., k] = d[k]
-        solid_angle[r0:r1] = omega
         valid[r0:r1] = ok
         if not ok.all():
             bad = ~ok
             block[bad] = np.nan
-            solid_angle[r0:r1][bad] = 0.0
+            omega[bad] = 0.0
 
     _run(task, _blocks(rows, cols))
     return PixelGeometry(_read_only(directions), _read_only(solid_angle), _read_only(valid))
@@ -330,9 +330,10 @@ def _compute_pixel_geometry(projection):
 def pixel_geometry(projection):
     """Directions, solid angles and validity of all pixels of ``projection`` (cached).
 
-    The first call for a camera model and image size computes the maps (2–4 s of CPU time for
-    24 megapixels on the 2-core test machine; see docs/performance.md); later calls
-    with an equal projection (same :meth:`to_dict`) return the same object.
+    The first call for a camera model and image size computes the maps (for a 24-megapixel
+    fisheye about 1 s of CPU time for the ideal and 3 s for the OpenCV model on the 2-core
+    test machine; see benchmarks/bench_geometry.py); later calls with an equal projection
+    (same :meth:`to_dict`) return the same object.
 
     Parameters
     ----------
@@ -399,38 +400,16 @@ class VisualField:
 
 
 def _compute_visual_field(geometry, axes, method):
-    from .position_index import position_index_from_components
+    from . import _kernels
+    from .position_index import POSITION_INDEX_CAP
 
-    v, u, h = axes
+    v, u, h = (np.ascontiguousarray(a, dtype=np.float64) for a in axes)
     rows, cols = geometry.valid.shape
     out = {name: np.empty((rows, cols)) for name in ("sigma", "tau", "position_index", "cos_sigma")}
-    d = geometry.directions
-
-    def task(r0, r1):
-        block = d[r0:r1]
-        dx, dy, dz = block[..., 0], block[..., 1], block[..., 2]
-        forward = dx * v[0] + dy * v[1] + dz * v[2]
-        up = dx * u[0] + dy * u[1] + dz * u[2]
-        side = dx * h[0] + dy * h[1] + dz * h[2]
-        sigma, tau = _angles(forward, up, side)
-        out["sigma"][r0:r1] = sigma
-        out["tau"][r0:r1] = tau
-        out["position_index"][r0:r1] = position_index_from_components(
-            forward, up, side, sigma, tau, method=method)
-        out["cos_sigma"][r0:r1] = np.where(geometry.valid[r0:r1], forward, 0.0)
-
-    _run(task, _blocks(rows, cols))
+    _kernels.visual_field_maps(geometry.directions, geometry.valid, v, u, h,
+                               _kernels.POSITION_INDEX_METHODS.index(method), POSITION_INDEX_CAP,
+                               out["sigma"], out["tau"], out["position_index"], out["cos_sigma"])
     return VisualField(**{name: _read_only(array) for name, array in out.items()})
-
-
-def _angles(forward, up, side):
-    """σ and τ [rad] from the components of unit directions along v̂, û and ĥ."""
-    lateral = np.sqrt(up * up + side * side)
-    sigma = np.arctan2(lateral, forward)
-    tau = np.arctan2(np.abs(side), up)
-    # On the line of sight τ is undefined; rounding in the components would give any value.
-    # Fix it at 0 where the lateral component is at rounding level (σ < 1e-15 rad).
-    return sigma, np.where(lateral < 1e-15, 0.0 * tau, tau)
 
 
 def visual_field(projection, frame, *, position_index_method="evalglare"):

@@ -14,14 +14,18 @@ CIE 117:1995 *Discomfort glare in interior lighting* (L_b = E_ind/π). Radiance
 """
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
+from numba import njit, prange
 
 from .._validation import check_choice
 
 __all__ = [
     "BACKGROUND_METHODS",
+    "FieldSums",
     "evaluated_field",
+    "field_sums",
     "vertical_illuminance",
     "mean_luminance",
     "background_luminance",
@@ -31,9 +35,26 @@ __all__ = [
 BACKGROUND_METHODS = ("CIE", "mean", "Ev")
 
 
+@njit(parallel=True, cache=True, error_model="numpy", nogil=True)
+def _evaluated_field_kernel(luminance, solid_angle, cos_sigma, out):
+    n = out.size
+    step = 1 << 16
+    for k in prange((n + step - 1) // step):
+        for i in range(k * step, min(n, (k + 1) * step)):
+            out[i] = (np.abs(luminance[i]) < np.inf) & (solid_angle[i] > 0) & (cos_sigma[i] >= 0)
+
+
 def evaluated_field(luminance, solid_angle, cos_sigma):
-    """Mask of the pixels that take part in field integrals (finite L, ω > 0, cos σ ≥ 0)."""
-    return np.isfinite(luminance) & (solid_angle > 0) & (cos_sigma >= 0)
+    """Mask of the pixels that take part in field integrals (finite L, ω > 0, cos σ ≥ 0).
+
+    Arrays of one shape are tested in one compiled pass; others broadcast (numpy).
+    """
+    arrays = [np.asarray(a) for a in (luminance, solid_angle, cos_sigma)]
+    if arrays[0].ndim == 0 or any(a.shape != arrays[0].shape or a.dtype.kind != "f" for a in arrays):
+        return np.isfinite(arrays[0]) & (arrays[1] > 0) & (arrays[2] >= 0)
+    out = np.empty(arrays[0].shape, dtype=bool)
+    _evaluated_field_kernel(*(np.ascontiguousarray(a).reshape(-1) for a in arrays), out.reshape(-1))
+    return out
 
 
 def _masked(values, mask):
@@ -115,3 +136,112 @@ def background_luminance(luminance, solid_angle, cos_sigma, source_mask, *, meth
     if math.isnan(background):
         return mean_luminance(luminance, solid_angle, cos_sigma)
     return background
+
+
+# --- all field sums in one pass ----------------------------------------------------------------
+
+#: Pixels per chunk of :func:`field_sums`; chunks are summed separately (in parallel) and the
+#: chunk sums added in order, so that the result does not depend on the number of threads.
+_CHUNK = 1 << 16
+
+
+@dataclass(frozen=True)
+class FieldSums:
+    """Sums over the evaluated field (finite L, ω > 0, cos σ ≥ 0), split by a source mask.
+
+    Attributes
+    ----------
+    n_pixels, n_sources : int
+        Pixels of the field; of them, source pixels.
+    solid_angle, luminance_solid_angle, illuminance : float
+        Σω [sr], ΣL·ω [cd·m⁻²·sr], ΣL·cos σ·ω = E_v [lx] over the field.
+    source_illuminance : float
+        ΣL·cos σ·ω over the source pixels, E_dir [lx].
+    background_solid_angle, background_luminance_solid_angle, background_illuminance : float
+        Σω, ΣL·ω and ΣL·cos σ·ω over the non-source pixels.
+    ugr_sum : float
+        ΣL²·ω/P² over the source pixels whose term is finite [cd²·m⁻⁴·sr] (as
+        :func:`~lsadphoto.metrics.ugr.ugr_sum`: P = NaN counts as P = ∞).
+    """
+
+    n_pixels: int
+    n_sources: int
+    solid_angle: float
+    luminance_solid_angle: float
+    illuminance: float
+    source_illuminance: float
+    background_solid_angle: float
+    background_luminance_solid_angle: float
+    background_illuminance: float
+    ugr_sum: float
+
+
+@njit(parallel=True, cache=True, error_model="numpy", nogil=True)
+def _field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask, chunk):
+    n = luminance.size
+    n_chunks = (n + chunk - 1) // chunk
+    sums = np.zeros((n_chunks, 8))
+    counts = np.zeros((n_chunks, 2), np.int64)
+    for k in prange(n_chunks):
+        s = np.zeros(8)
+        n_field, n_source = 0, 0
+        for i in range(k * chunk, min(n, (k + 1) * chunk)):
+            L = float(luminance[i])
+            w = float(solid_angle[i])
+            c = float(cos_sigma[i])
+            if not (math.isfinite(L) and w > 0 and c >= 0):
+                continue
+            n_field += 1
+            lw = L * w
+            e = L * c * w
+            s[0] += w
+            s[1] += lw
+            s[2] += e
+            if source_mask[i]:
+                n_source += 1
+                s[3] += e
+                P = float(position_index[i])
+                term = L * L * w / (P * P)
+                if math.isfinite(term):
+                    s[7] += term
+            else:
+                s[4] += w
+                s[5] += lw
+                s[6] += e
+        sums[k] = s
+        counts[k, 0] = n_field
+        counts[k, 1] = n_source
+    return sums, counts
+
+
+def field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask):
+    """Every field sum that :func:`~lsadphoto.metrics.score.score_map` needs, in one pass.
+
+    The evaluated field is that of :func:`evaluated_field`; sums are float64, taken in
+    chunks of 2¹⁶ pixels (in parallel) whose sums are added in order.
+
+    Parameters
+    ----------
+    luminance, solid_angle, cos_sigma, position_index : ndarray
+        Per pixel (any shape, all the same): L [cd·m⁻²], ω [sr], cos σ [–], P [–].
+    source_mask : ndarray of bool
+        Glare-source pixels.
+
+    Returns
+    -------
+    FieldSums
+
+    Examples
+    --------
+    >>> s = field_sums(np.array([50.0, 4000.0]), np.array([1.0, 0.01]), np.array([0.5, 1.0]),
+    ...                np.array([2.0, 1.0]), np.array([False, True]))
+    >>> s.illuminance, s.source_illuminance, s.ugr_sum
+    (65.0, 40.0, 160000.0)
+    """
+    arrays = [np.ascontiguousarray(a).ravel() for a in (luminance, solid_angle, cos_sigma,
+                                                        position_index)]
+    mask = np.ascontiguousarray(source_mask, dtype=bool).ravel()
+    sums, counts = _field_sums(*arrays, mask, _CHUNK)
+    total = sums.sum(axis=0)
+    n_field, n_source = (int(v) for v in counts.sum(axis=0))
+    return FieldSums(n_field, n_source, *(float(v) for v in total[[0, 1, 2, 3, 4, 5, 6, 7]]))

@@ -28,11 +28,11 @@ Wienold, J., Christoffersen, J. (2006), Energy and Buildings 38, 743–757; Radi
 ``src/util/evalglare.c`` (find_near_pgs, find_split, peak extraction); FORMULAS.md §2.4.5–6.
 """
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy import ndimage, sparse
-from scipy.sparse.csgraph import connected_components
+from numba import njit
 from scipy.spatial import cKDTree
 
 from .._validation import check_positive
@@ -44,9 +44,6 @@ __all__ = ["GlareSource", "group_sources_evalglare", "DEFAULT_SEARCH_ANGLE",
 DEFAULT_SEARCH_ANGLE = 0.2
 #: evalglare's peak-extraction limit ``-Y`` [cd·m⁻²].
 DEFAULT_PEAK_LUMINANCE = 50000.0
-
-_EIGHT = np.ones((3, 3), dtype=bool)
-
 
 @dataclass(frozen=True)
 class GlareSource:
@@ -86,72 +83,157 @@ def _chord(angle):
     return 2.0 * np.sin(angle / 2.0)
 
 
+_OPTIONS = {"cache": True, "error_model": "numpy", "nogil": True}
+
+
+@njit(**_OPTIONS)
+def _nodes(mask):
+    """Node number of each ``mask`` pixel in column-major order (−1 elsewhere), the nodes'
+    rows and columns, and whether each node lies on the patch boundary (a pixel of its 8
+    neighbours, or the edge of the box, is not in the mask)."""
+    rows, cols = mask.shape
+    node = np.full((rows, cols), -1, np.int32)
+    n = 0
+    for c in range(cols):  # column-major order, like evalglare's scan
+        for r in range(rows):
+            if mask[r, c]:
+                node[r, c] = n
+                n += 1
+    node_rows = np.empty(n, np.int64)
+    node_cols = np.empty(n, np.int64)
+    boundary = np.zeros(n, np.bool_)
+    for c in range(cols):
+        for r in range(rows):
+            k = node[r, c]
+            if k < 0:
+                continue
+            node_rows[k] = r
+            node_cols[k] = c
+            edge = False
+            for dr in range(-1, 2):
+                for dc in range(-1, 2):
+                    rr, cc = r + dr, c + dc
+                    if rr < 0 or rr >= rows or cc < 0 or cc >= cols or not mask[rr, cc]:
+                        edge = True
+            boundary[k] = edge
+    return node, node_rows, node_cols, boundary
+
+
+@njit(inline="always", **_OPTIONS)
+def _find(parent, k):
+    root = k
+    while parent[root] != root:
+        root = parent[root]
+    while parent[k] != root:  # path compression
+        parent[k], k = root, parent[k]
+    return root
+
+
+@njit(inline="always", **_OPTIONS)
+def _union(parent, a, b):
+    ra, rb = _find(parent, a), _find(parent, b)
+    if ra != rb:
+        if ra < rb:
+            parent[rb] = ra
+        else:
+            parent[ra] = rb
+
+
+@njit(inline="always", **_OPTIONS)
+def _close(directions, r1, c1, r2, c2, chord):
+    """|d̂₁ − d̂₂| ≤ chord, in float64 (the sum of squares in the order of np.linalg.norm)."""
+    x = np.float64(directions[r1, c1, 0]) - np.float64(directions[r2, c2, 0])
+    y = np.float64(directions[r1, c1, 1]) - np.float64(directions[r2, c2, 1])
+    z = np.float64(directions[r1, c1, 2]) - np.float64(directions[r2, c2, 2])
+    return math.sqrt(x * x + y * y + z * z) <= chord
+
+
+@njit(**_OPTIONS)
+def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, labels):
+    """Union–find over the nodes: neighbouring pixels (right, down, down-right, down-left)
+    within ``chord``, and the given boundary pairs; writes labels 1…n numbered in the order of
+    each component's first node (column-major scan) and returns n."""
+    rows, cols = node.shape
+    n_nodes = node_rows.size
+    parent = np.arange(n_nodes)
+    for k in range(n_nodes):
+        r, c = node_rows[k], node_cols[k]
+        for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
+            r2, c2 = r + dr, c + dc
+            if r2 < rows and 0 <= c2 < cols:
+                m = node[r2, c2]
+                if m >= 0 and _close(directions, r, c, r2, c2, chord):
+                    _union(parent, k, m)
+    for i in range(pair_a.size):
+        _union(parent, pair_a[i], pair_b[i])
+    number = np.full(n_nodes, -1, np.int64)
+    n = 0
+    for k in range(n_nodes):
+        root = _find(parent, k)
+        if number[root] < 0:
+            number[root] = n
+            n += 1
+        labels[node_rows[k], node_cols[k]] = number[root] + 1
+    return n
+
+
 def _link(mask, directions, separation):
     """Single-linkage labels (1…n, 0 elsewhere) of ``mask`` pixels at angular ``separation``."""
     labels = np.zeros(mask.shape, dtype=np.int64)
-    index = np.flatnonzero(mask.T.ravel())  # column-major order, like evalglare's scan
-    if index.size == 0:
+    node, node_rows, node_cols, boundary = _nodes(np.ascontiguousarray(mask))
+    if node_rows.size == 0:
         return labels, 0
-    rows_t, cols_t = np.unravel_index(index, mask.T.shape)
-    rows, cols = cols_t, rows_t
-    node = np.full(mask.shape, -1, dtype=np.int64)
-    node[rows, cols] = np.arange(index.size)
-    pts = directions[rows, cols].astype(np.float64)
-    chord = _chord(separation)
-    edges_a, edges_b = [], []
-    # Neighbouring pixels (right, down, down-right, down-left), if close enough.
-    for dr, dc in ((0, 1), (1, 0), (1, 1), (1, -1)):
-        r2, c2 = rows + dr, cols + dc
-        ok = (r2 < mask.shape[0]) & (c2 >= 0) & (c2 < mask.shape[1])
-        a = np.flatnonzero(ok)
-        b = node[r2[ok], c2[ok]]
-        keep = b >= 0
-        a, b = a[keep], b[keep]
-        close = np.linalg.norm(pts[a] - pts[b], axis=-1) <= chord
-        edges_a.append(a[close])
-        edges_b.append(b[close])
-    # Boundary pixels of different patches within reach of each other.
-    boundary = mask & ~ndimage.binary_erosion(mask, structure=_EIGHT, border_value=0)
-    bnodes = node[boundary]
+    chord = float(_chord(separation))
+    # Boundary pixels of different patches within reach of each other (the closest pair of
+    # two patches always includes a boundary pixel).
+    bnodes = np.flatnonzero(boundary)
+    pairs = np.empty((0, 2), dtype=np.int64)
     if bnodes.size > 1:
-        pairs = cKDTree(pts[bnodes]).query_pairs(chord, output_type="ndarray")
-        edges_a.append(bnodes[pairs[:, 0]])
-        edges_b.append(bnodes[pairs[:, 1]])
-    a = np.concatenate(edges_a)
-    b = np.concatenate(edges_b)
-    graph = sparse.coo_matrix((np.ones(a.size, dtype=np.int8), (a, b)),
-                              shape=(index.size, index.size))
-    n, component = connected_components(graph, directed=False)
-    # Number sources in order of their first pixel in the column-major scan.
-    first = np.full(n, index.size, dtype=np.int64)
-    np.minimum.at(first, component, np.arange(index.size))
-    order = np.argsort(np.argsort(first))
-    labels[rows, cols] = order[component] + 1
+        pts = directions[node_rows[bnodes], node_cols[bnodes]].astype(np.float64)
+        pairs = cKDTree(pts).query_pairs(chord, output_type="ndarray")
+    n = _components(node, node_rows, node_cols, directions, chord,
+                    bnodes[pairs[:, 0]].astype(np.int64), bnodes[pairs[:, 1]].astype(np.int64),
+                    labels)
     return labels, n
+
+
+@njit(**_OPTIONS)
+def _source_sums(labels, n, luminance, directions, solid_angle):
+    """Per label 1…n, in row-major pixel order (as np.bincount): Σω, ΣL·ω, ΣL·ω·d̂,
+    ΣL·ω·row, ΣL·ω·col, max and min L and the pixel count."""
+    rows, cols = labels.shape
+    sums = np.zeros((n, 7))
+    lmax = np.full(n, -np.inf)
+    lmin = np.full(n, np.inf)
+    count = np.zeros(n, np.int64)
+    for r in range(rows):
+        for c in range(cols):
+            k = labels[r, c] - 1
+            if k < 0:
+                continue
+            L = np.float64(luminance[r, c])
+            w = np.float64(solid_angle[r, c])
+            lw = L * w
+            sums[k, 0] += w
+            sums[k, 1] += lw
+            for a in range(3):
+                sums[k, 2 + a] += lw * np.float64(directions[r, c, a])
+            sums[k, 5] += lw * r
+            sums[k, 6] += lw * c
+            lmax[k] = max(lmax[k], L)
+            lmin[k] = min(lmin[k], L)
+            count[k] += 1
+    return sums, lmax, lmin, count
 
 
 def _describe(labels, n, luminance, directions, solid_angle, peak_flags):
     if n == 0:
         return []
-    flat = labels.ravel()
-    sel = flat > 0
-    lab = flat[sel] - 1
-    L = luminance.ravel()[sel].astype(np.float64)
-    w = solid_angle.ravel()[sel].astype(np.float64)
-    d = directions.reshape(-1, 3)[sel].astype(np.float64)
-    rows, cols = np.divmod(np.flatnonzero(sel), labels.shape[1])
-    lw = L * w
-    omega = np.bincount(lab, w, n)
-    sum_lw = np.bincount(lab, lw, n)
-    dirs = np.stack([np.bincount(lab, lw * d[:, k], n) for k in range(3)], axis=-1)
-    dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
-    row_c = np.bincount(lab, lw * rows, n) / sum_lw
-    col_c = np.bincount(lab, lw * cols, n) / sum_lw
-    lmax = np.full(n, -np.inf)
-    lmin = np.full(n, np.inf)
-    np.maximum.at(lmax, lab, L)
-    np.minimum.at(lmin, lab, L)
-    count = np.bincount(lab, minlength=n)
+    sums, lmax, lmin, count = _source_sums(labels, n, luminance, directions, solid_angle)
+    omega, sum_lw = sums[:, 0], sums[:, 1]
+    dirs = sums[:, 2:5] / np.linalg.norm(sums[:, 2:5], axis=-1, keepdims=True)
+    row_c = sums[:, 5] / sum_lw
+    col_c = sums[:, 6] / sum_lw
     return [GlareSource(float(sum_lw[i] / omega[i]), float(omega[i]), tuple(map(float, dirs[i])),
                         float(row_c[i]), float(col_c[i]), float(lmax[i]), float(lmin[i]),
                         int(count[i]), bool(peak_flags[i]))

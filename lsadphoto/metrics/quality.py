@@ -81,6 +81,7 @@ from dataclasses import dataclass
 from dataclasses import field as dataclass_field
 
 import numpy as np
+from numba import njit, prange
 
 from .._validation import check_choice, check_positive
 from ..errors import BadInputError
@@ -121,8 +122,6 @@ _SCREEN_SAFETY = 0.5
 #: Smallest blur [px] applied; below it (pitch > 0.8·α) the gradient is taken by central
 #: differences at the pixel scale, as with ``blur="none"``.
 _MIN_SIGMA_PX = 0.5
-#: Pixels per chunk of the exact gradient computation.
-_CHUNK = 1 << 18
 _ARCMIN = math.pi / (180.0 * 60.0)
 
 
@@ -167,16 +166,25 @@ class QualityResult:
 
 # --- input checks ------------------------------------------------------------------------------
 
-def _check_inputs(luminance, directions, solid_angle, position_index, valid):
+def _numeric(array, message):
+    """``array`` as an ndarray of a numeric dtype (float32 where a conversion is needed)."""
     try:
-        L = np.asarray(luminance, dtype=np.float32)
+        out = np.asarray(array)
+        if out.dtype.kind not in "fiub":
+            out = out.astype(np.float32)
     except (TypeError, ValueError):
-        raise BadInputError("luminance is not a numeric array") from None
+        raise BadInputError(message) from None
+    return out
+
+
+def _check_inputs(luminance, directions, solid_angle, position_index, valid):
+    """Shapes and types of the inputs. The values (infinite luminance, negative or infinite
+    solid angle, P ≤ 0, all as float32) are checked by :func:`_field_kernel` in its pass;
+    :func:`_raise_for_values` raises the errors."""
+    L = _numeric(luminance, "luminance is not a numeric array")
     if L.ndim != 2:
         raise BadInputError(f"luminance must have shape (rows, cols), got {L.shape}")
     shape = L.shape
-    if np.isinf(L).any():
-        raise BadInputError("luminance contains infinite values (NaN marks unknown pixels)")
     d = np.asarray(directions)
     if d.dtype.kind not in "fiu":
         raise BadInputError("directions is not a numeric array")
@@ -187,24 +195,150 @@ def _check_inputs(luminance, directions, solid_angle, position_index, valid):
     norms = norms[np.isfinite(norms)]
     if norms.size and np.max(np.abs(norms - 1.0)) > _UNIT_TOLERANCE:
         raise BadInputError("directions must be unit vectors")
-    omega = np.asarray(solid_angle, dtype=np.float32)
+    omega = _numeric(solid_angle, "solid_angle is not a numeric array")
     if omega.shape != shape:
         raise BadInputError(f"solid_angle must have shape {shape}, got {omega.shape}")
-    if np.any(omega < 0) or np.isinf(omega).any():
-        raise BadInputError("solid_angle must be finite and ≥ 0 sr (NaN marks unknown pixels)")
     if position_index is None:
         P = None
     else:
-        P = np.asarray(position_index, dtype=np.float32)
+        P = _numeric(position_index, "position_index is not a numeric array")
         if P.shape != shape:
             raise BadInputError(f"position_index must have shape {shape}, got {P.shape}")
-        if np.any(P <= 0):
-            raise BadInputError("position_index must be > 0 (NaN: unknown, inf: weight 0)")
     if valid is not None:
         valid = np.asarray(valid)
         if valid.shape != shape or valid.dtype != bool:
             raise BadInputError(f"valid must be a boolean array of shape {shape}")
     return L, d, omega, P, valid
+
+
+def _raise_for_values(flags):
+    if flags[:, 0].any():
+        raise BadInputError("luminance contains infinite values (NaN marks unknown pixels)")
+    if flags[:, 1].any():
+        raise BadInputError("solid_angle must be finite and ≥ 0 sr (NaN marks unknown pixels)")
+    if flags[:, 2].any():
+        raise BadInputError("position_index must be > 0 (NaN: unknown, inf: weight 0)")
+
+
+# --- compiled passes over the image ------------------------------------------------------------
+
+_KERNEL_OPTIONS = {"cache": True, "error_model": "numpy", "nogil": True}
+
+
+@njit(inline="always", **_KERNEL_OPTIONS)
+def _weight(P, m):
+    """:func:`_weights` for one float32 P."""
+    if m == 1:
+        return np.float32(1.0) / P
+    if m == 2:
+        return np.float32(1.0) / (P * P)
+    return P ** np.float32(-m)
+
+
+@njit(parallel=True, **_KERNEL_OPTIONS)
+def _field_kernel(L, omega, P, valid, d, m, use_p, use_valid, weighted, field, filled, counts,
+                  sums, extent, flags):
+    """The field, the filled map and the field sums, row by row, in float32 as the numpy
+    version had them (L, ω and P converted to float32; products L·ω and ω·w in float32,
+    summed in float64).
+
+    field: finite L, ω > 0, P not NaN (``use_p``), ``valid`` (``use_valid``), finite direction.
+    filled: L on the field, 0 elsewhere (float32). Per row: ``counts`` field pixels, ``sums``
+    (Σω, ΣL·ω, Σω·w), ``extent`` first and last field column, ``flags`` infinite L, bad ω,
+    P ≤ 0.
+    """
+    rows, cols = field.shape
+    zero = np.float32(0.0)
+    for i in prange(rows):
+        n = 0
+        s_w, s_lw, s_ww = 0.0, 0.0, 0.0
+        first, last = cols, -1
+        bad_l, bad_w, bad_p = False, False, False
+        for j in range(cols):
+            lum = np.float32(L[i, j])
+            w = np.float32(omega[i, j])
+            bad_l |= np.isinf(lum)
+            bad_w |= (w < 0) | np.isinf(w)
+            ok = np.isfinite(lum) & (w > 0)
+            p = np.float32(1.0)
+            if use_p:
+                p = np.float32(P[i, j])
+                bad_p |= p <= 0
+                ok &= not np.isnan(p)
+            if use_valid:
+                ok &= valid[i, j]
+            ok &= np.isfinite(d[i, j, 0]) & np.isfinite(d[i, j, 1]) & np.isfinite(d[i, j, 2])
+            field[i, j] = ok
+            if ok:
+                filled[i, j] = lum
+                n += 1
+                s_w += np.float64(w)
+                s_lw += np.float64(lum * w)
+                if weighted:
+                    s_ww += np.float64(w * _weight(p, m))
+                first = min(first, j)
+                last = j
+            else:
+                filled[i, j] = zero
+        counts[i] = n
+        sums[i, 0] = s_w
+        sums[i, 1] = s_lw
+        sums[i, 2] = s_ww
+        extent[i, 0] = first
+        extent[i, 1] = last
+        flags[i, 0] = bad_l
+        flags[i, 1] = bad_w
+        flags[i, 2] = bad_p
+
+
+@njit(parallel=True, **_KERNEL_OPTIONS)
+def _candidate_counts(lu, lv, evaluated, omega, r0, c0, limit, candidate, counts, omega_sums):
+    """Per row of the box: the evaluated pixels whose screen bound |(L_u, L_v)| reaches
+    ``limit`` (marked in ``candidate``, counted in ``counts``), and Σω (float32 ω, float64
+    sum) over the evaluated pixels."""
+    rows, cols = evaluated.shape
+    for i in prange(rows):
+        n = 0
+        s = 0.0
+        for j in range(cols):
+            keep = False
+            if evaluated[i, j]:
+                s += np.float64(np.float32(omega[r0 + i, c0 + j]))
+                a = np.float64(lu[i, j])
+                b = np.float64(lv[i, j])
+                keep = math.sqrt(a * a + b * b) >= limit
+                n += keep
+            candidate[i, j] = keep
+        counts[i] = n
+        omega_sums[i] = s
+
+
+@njit(parallel=True, **_KERNEL_OPTIONS)
+def _candidate_fill(candidate, offsets, local):
+    """Flat box indices of the ``candidate`` pixels, in order (row ``i`` from ``offsets[i]``)."""
+    rows, cols = candidate.shape
+    for i in prange(rows):
+        k = offsets[i]
+        for j in range(cols):
+            if candidate[i, j]:
+                local[k] = i * cols + j
+                k += 1
+
+
+@njit(parallel=True, **_KERNEL_OPTIONS)
+def _contrast_background(evaluated, r0, c0, out):
+    """0 on the evaluated pixels of the box at (r0, c0), NaN elsewhere (float32)."""
+    rows, cols = out.shape
+    box_rows, box_cols = evaluated.shape
+    nan = np.float32(np.nan)
+    zero = np.float32(0.0)
+    for i in prange(rows):
+        inside_row = r0 <= i < r0 + box_rows
+        for j in range(cols):
+            if inside_row and c0 <= j < c0 + box_cols and evaluated[i - r0, j - c0]:
+                out[i, j] = zero
+            else:
+                out[i, j] = nan
 
 
 def _check_options(n_thresholds, size_arcmin, weight_exponent, threshold, cutoff, exposure_time, age,
@@ -246,24 +380,46 @@ class _Analysis:
     field_solid_angle: float = math.nan
 
 
+@njit(inline="always", **_KERNEL_OPTIONS)
 def _arc_over_chord(chord_squared):
     """θ/c for an arc θ = 2·arcsin(c/2) of chord c, from c²: 1 + c²/24 + 3c⁴/640 (error < 1e-7·c⁶)."""
     return 1.0 + chord_squared * (1.0 / 24.0 + chord_squared * (3.0 / 640.0))
 
 
-def _metric(index, directions, cols):
-    """E, F, G [rad²] of the per-pixel tangent vectors t_u, t_v at flat ``index`` (float64).
-
-    t_u = (d̂(col+1) − d̂(col−1))/2 rescaled from chord to arc, t_v likewise along rows.
-    """
-    a = directions[index + 1].astype(np.float64) - directions[index - 1]
-    b = directions[index + cols].astype(np.float64) - directions[index - cols]
-    e = np.einsum("ij,ij->i", a, a)
-    f = np.einsum("ij,ij->i", a, b)
-    g = np.einsum("ij,ij->i", b, b)
+@njit(inline="always", **_KERNEL_OPTIONS)
+def _metric(directions, i, cols):
+    """E, F, G [rad²] of the tangent vectors t_u, t_v at flat pixel ``i`` (float64), from the
+    flat directions (n, 3): t_u = (d̂(col+1) − d̂(col−1))/2 rescaled from chord to arc, t_v
+    likewise along rows."""
+    a0 = np.float64(directions[i + 1, 0]) - directions[i - 1, 0]
+    a1 = np.float64(directions[i + 1, 1]) - directions[i - 1, 1]
+    a2 = np.float64(directions[i + 1, 2]) - directions[i - 1, 2]
+    b0 = np.float64(directions[i + cols, 0]) - directions[i - cols, 0]
+    b1 = np.float64(directions[i + cols, 1]) - directions[i - cols, 1]
+    b2 = np.float64(directions[i + cols, 2]) - directions[i - cols, 2]
+    e = a0 * a0 + a1 * a1 + a2 * a2
+    f = a0 * b0 + a1 * b1 + a2 * b2
+    g = b0 * b0 + b1 * b1 + b2 * b2
     su = 0.5 * _arc_over_chord(e)
     sv = 0.5 * _arc_over_chord(g)
     return e * su * su, f * su * sv, g * sv * sv
+
+
+@njit(parallel=True, **_KERNEL_OPTIONS)
+def _gradient_kernel(index, local, directions, lu, lv, cols, out):
+    for k in prange(index.size):
+        e, f, g = _metric(directions, index[k], cols)
+        du = np.float64(lu[local[k]])
+        dv = np.float64(lv[local[k]])
+        det = e * g - f * f
+        value = (g * du * du - 2.0 * f * du * dv + e * dv * dv) / det
+        out[k] = math.sqrt(0.0 if value < 0 else value) if det > 0 else np.nan
+
+
+@njit(**_KERNEL_OPTIONS)
+def _metric_kernel(index, directions, cols, out):
+    for k in range(index.size):
+        out[k, 0], out[k, 1], out[k, 2] = _metric(directions, index[k], cols)
 
 
 def _angular_gradient(index, local, directions, lu, lv, cols):
@@ -274,16 +430,7 @@ def _angular_gradient(index, local, directions, lu, lv, cols):
     grid on the unit sphere. NaN where the metric is degenerate.
     """
     out = np.empty(index.size)
-    for start in range(0, index.size, _CHUNK):
-        i = index[start:start + _CHUNK]
-        j = local[start:start + _CHUNK]
-        e, f, g = _metric(i, directions, cols)
-        du = lu[j].astype(np.float64)
-        dv = lv[j].astype(np.float64)
-        det = e * g - f * f
-        with np.errstate(invalid="ignore", divide="ignore"):
-            value = (g * du * du - 2.0 * f * du * dv + e * dv * dv) / det
-        out[start:start + _CHUNK] = np.where(det > 0, np.sqrt(np.maximum(value, 0.0)), np.nan)
+    _gradient_kernel(index, local, directions, lu, lv, cols, out)
     return out
 
 
@@ -293,7 +440,9 @@ def _pitch_lower_bound(index, directions, cols):
     there is none."""
     if index.size == 0:
         return None
-    e, f, g = _metric(index, directions, cols)
+    metric = np.empty((index.size, 3))
+    _metric_kernel(index, directions, cols, metric)
+    e, f, g = metric.T
     smallest = 0.5 * (e + g) - np.sqrt(0.25 * (e - g) ** 2 + f * f)  # λ_min of the metric
     smallest = smallest[np.isfinite(smallest)]
     if smallest.size == 0 or not smallest.min() > 0:
@@ -328,34 +477,36 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
                 "cutoff": cutoff, "blur": blur, "k_th": k_th, **threshold_options}
     out = _Analysis(shape=shape, settings=settings)
 
-    # The field: finite L and direction, ω > 0, P not NaN, and ``valid``.
-    field = np.isfinite(L)
-    field &= omega > 0
-    if P is not None:
-        field &= ~np.isnan(P)
-    if valid is not None:
-        field &= valid
+    # The field: finite L and direction, ω > 0, P not NaN, and ``valid``; its filled map and
+    # sums, in one pass.
     settings.update(n_field=0, field_solid_angle_sr=0.0, n_evaluated=0, evaluated_solid_angle_sr=0.0,
                     weighted_solid_angle_sr=math.nan)
-    rows_used = np.flatnonzero(field.any(axis=1))
+    weighted = P is not None and weight_exponent != 0
+    rows = shape[0]
+    field = np.empty(shape, dtype=bool)
+    filled_image = np.empty(shape, dtype=np.float32)
+    counts = np.empty(rows, dtype=np.int64)
+    sums = np.empty((rows, 3))
+    extent = np.empty((rows, 2), dtype=np.int64)
+    flags = np.empty((rows, 3), dtype=bool)
+    _field_kernel(L, omega, L if P is None else P, field if valid is None else valid, d,
+                  float(weight_exponent), P is not None, valid is not None, weighted, field,
+                  filled_image, counts, sums, extent, flags)
+    _raise_for_values(flags)
+    rows_used = np.flatnonzero(counts)
     if rows_used.size == 0:
         out.reason = "no valid pixel (finite luminance and direction, ω > 0)"
         return out
     # Work on the bounding box of the field (a fisheye's circle leaves the frame's sides out).
-    cols_used = np.flatnonzero(field.any(axis=0))
-    r0, c0 = int(rows_used[0]), int(cols_used[0])
-    box = (slice(r0, int(rows_used[-1]) + 1), slice(c0, int(cols_used[-1]) + 1))
+    r0, c0 = int(rows_used[0]), int(extent[rows_used, 0].min())
+    box = (slice(r0, int(rows_used[-1]) + 1), slice(c0, int(extent[rows_used, 1].max()) + 1))
     out.box = box
-    field_box, omega_box = field[box], omega[box]
-    field_box &= _finite_directions(d[box])
-    n_field = int(np.count_nonzero(field_box))
-    if n_field == 0:
-        out.reason = "no valid pixel (finite luminance and direction, ω > 0)"
-        return out
-    total_omega = float(np.sum(omega_box, where=field_box, dtype=np.float64))
+    field_box = field[box]
+    n_field = int(counts.sum())
+    total_omega = float(np.sum(sums[:, 0]))
     settings.update(n_field=n_field, field_solid_angle_sr=total_omega)
-    filled = np.where(field_box, L[box], np.float32(0.0))
-    mean = float(np.sum(filled * omega_box, where=field_box, dtype=np.float64)) / total_omega
+    filled = filled_image[box]
+    mean = float(np.sum(sums[:, 1])) / total_omega
     out.mean_luminance = mean
     out.field_solid_angle = total_omega
     pitch = math.sqrt(total_omega / n_field)
@@ -372,11 +523,8 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
     out.k_th = k_th if k_th is not None else delta / (mean * alpha)
 
     # Σ w·ω over the field: the normalisation of Q.
-    weighted = P is not None and weight_exponent != 0
     if weighted:
-        with np.errstate(invalid="ignore"):
-            out.weighted_solid_angle = float(np.sum(omega_box * _weights(P[box], weight_exponent),
-                                                    where=field_box, dtype=np.float64))
+        out.weighted_solid_angle = float(np.sum(sums[:, 2]))
     else:
         out.weighted_solid_angle = total_omega
     settings["weighted_solid_angle_sr"] = out.weighted_solid_angle
@@ -397,8 +545,6 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
     if settings["n_evaluated"] == 0:
         out.reason = f"no pixel has a complete {size}×{size} stencil inside the field"
         return out
-    out.evaluated_solid_angle = float(np.sum(omega_box, where=evaluated, dtype=np.float64))
-    settings["evaluated_solid_angle_sr"] = out.evaluated_solid_angle
     # Pixel derivatives of the smoothed map (correlation; kernelX runs along columns). Borders
     # never reach an evaluated pixel, so the border rule does not matter.
     lu = cv2.sepFilter2D(filled, cv2.CV_32F, derivative, smooth)
@@ -412,6 +558,23 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
     def to_image(local):
         return (local // box_cols + r0) * cols + (local % box_cols + c0)
 
+    limit = -math.inf  # the screen: every evaluated pixel unless a bound is found below
+    if cutoff == "difference" and evaluated.size > _SCREEN_MIN_PIXELS and min_cut > 0:
+        sample = np.flatnonzero(evaluated[::_SCREEN_STRIDE, ::_SCREEN_STRIDE])
+        sample_cols = (box_cols + _SCREEN_STRIDE - 1) // _SCREEN_STRIDE
+        sample = (sample // sample_cols) * _SCREEN_STRIDE * box_cols + (sample % sample_cols) * _SCREEN_STRIDE
+        bound = _pitch_lower_bound(to_image(sample), flat_directions, cols)
+        if bound is not None:
+            # g ≤ |(L_u, L_v)|/p_min: pixels whose bound stays below the cut are cut (float32
+            # rounding of L_u, L_v is covered by the 1e-5 margin).
+            limit = float(min_cut / alpha * bound * (1.0 - 1e-5))
+    row_counts = np.empty(box_rows, dtype=np.int64)
+    omega_sums = np.empty(box_rows)
+    candidate = np.empty(evaluated.shape, dtype=bool)
+    _candidate_counts(lu, lv, evaluated, omega, r0, c0, limit, candidate, row_counts, omega_sums)
+    out.evaluated_solid_angle = float(np.sum(omega_sums))
+    settings["evaluated_solid_angle_sr"] = out.evaluated_solid_angle
+
     if cutoff == "luminance":
         smoothed = cv2.sepFilter2D(filled, cv2.CV_32F, smooth, smooth)
         level = mean + min_cut
@@ -423,55 +586,34 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
         index = to_image(local)
         grad = _angular_gradient(index, local, flat_directions, lu.ravel(), lv.ravel(), cols)
     else:
-        bound = None
-        if evaluated.size > _SCREEN_MIN_PIXELS and min_cut > 0:
-            sample = np.zeros(evaluated.shape, bool)
-            sample[::_SCREEN_STRIDE, ::_SCREEN_STRIDE] = True
-            sample &= evaluated
-            bound = _pitch_lower_bound(to_image(np.flatnonzero(sample)), flat_directions, cols)
-        if bound is None:
-            local = np.flatnonzero(evaluated)
-        else:
-            # g ≤ |(L_u, L_v)|/p_min: pixels whose bound stays below the cut are cut. (OpenCV's
-            # multithreaded arithmetic; float32 rounding is covered by the 1e-5 margin.)
-            limit = float(min_cut / alpha * bound * (1.0 - 1e-5))
-            candidates = cv2.compare(cv2.magnitude(lu, lv), limit, cv2.CMP_GE)
-            local = np.flatnonzero(cv2.bitwise_and(candidates, evaluated.view(np.uint8)))
+        offsets = np.zeros(box_rows, dtype=np.int64)
+        np.cumsum(row_counts[:-1], out=offsets[1:])
+        local = np.empty(int(row_counts.sum()), dtype=np.int64)
+        _candidate_fill(candidate, offsets, local)
         index = to_image(local)
         grad = _angular_gradient(index, local, flat_directions, lu.ravel(), lv.ravel(), cols)
         key = grad * alpha
     if weighted:
-        weight = _weights(P.ravel()[index], weight_exponent).astype(np.float64)
+        weight = _weights(P.ravel()[index].astype(np.float32), weight_exponent).astype(np.float64)
     else:
         weight = np.ones(index.size)
     out.index = index
     out.key = key
     out.contrast = weight * grad / mean
-    out.omega = omega.ravel()[index].astype(np.float64)
+    out.omega = omega.ravel()[index].astype(np.float32).astype(np.float64)
     out.weighted_contrast = out.contrast * out.omega
     if not out.weighted_solid_angle > 0:
         out.reason = "every field pixel has weight 0 (position index ∞)"
     return out
 
 
-def _finite_directions(d):
-    """True where all three components of ``d`` (rows, cols, 3) are finite."""
-    pixel_contiguous = d.strides[2] == d.itemsize and d.strides[1] == 3 * d.itemsize
-    if d.dtype in (np.float32, np.float64) and pixel_contiguous and d.shape[1] < (1 << 15):
-        import cv2
-
-        total = cv2.transform(d, np.ones((1, 3), d.dtype))  # one pass: d_x + d_y + d_z
-        return np.isfinite(total.reshape(d.shape[:2]))
-    return np.isfinite(d).all(axis=-1)
-
-
+@njit(**_KERNEL_OPTIONS)
 def _weights(P, m):
-    """w = P^(−m) (float32); exact IEEE operations for m = 1 and 2."""
-    if m == 1:
-        return np.float32(1.0) / P
-    if m == 2:
-        return np.float32(1.0) / (P * P)
-    return P ** np.float32(-m)
+    """:func:`_weight` of every element of a float32 array."""
+    out = np.empty_like(P)
+    for i in range(P.size):
+        out[i] = _weight(P[i], m)
+    return out
 
 
 def _q_value(kept_sum, analysis):
@@ -561,8 +703,8 @@ def q_Budak2021(luminance, directions, solid_angle, position_index, *, n_thresho
         contrast = np.full(analysis.shape, np.nan, np.float32)
         return QualityResult(math.nan, analysis.mean_luminance, analysis.threshold_difference, float(cut),
                              analysis.k_th, contrast, math.nan, settings, analysis.reason)
-    contrast = np.full(analysis.shape, np.nan, np.float32)
-    contrast[analysis.box] = np.where(analysis.evaluated, np.float32(0.0), np.float32(np.nan))
+    contrast = np.empty(analysis.shape, np.float32)
+    _contrast_background(analysis.evaluated, analysis.box[0].start, analysis.box[1].start, contrast)
     kept = analysis.key >= cut
     contrast.ravel()[analysis.index[kept]] = analysis.contrast[kept]
     kept_fraction = float(np.sum(analysis.omega[kept])) / analysis.field_solid_angle

@@ -19,16 +19,15 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit, prange
 
 from .._validation import check_choice, check_positive
 from .._version import __version__
 from ..errors import BadInputError
-from ..geometry import ObserverFrame
+from ..geometry import ObserverFrame, position_index
 from ..geometry.field import pixel_geometry, visual_field
 from ..geometry.position_index import METHODS as POSITION_INDEX_METHODS
-from ..geometry import position_index
-from .field import BACKGROUND_METHODS, background_luminance, mean_luminance
-from .field import vertical_illuminance as _vertical_illuminance
+from .field import BACKGROUND_METHODS, field_sums
 from .glare_indices import (
     DGP_COEFFICIENTS,
     cgi_Einhorn1979,
@@ -41,13 +40,47 @@ from .glare_indices import (
     ugr_exp_Fisekis2003,
     vcp_Guth1963,
 )
-from .grouping import DEFAULT_PEAK_LUMINANCE, DEFAULT_SEARCH_ANGLE, group_sources_evalglare
+from .grouping import (
+    DEFAULT_PEAK_LUMINANCE,
+    DEFAULT_SEARCH_ANGLE,
+    group_sources_evalglare,
+)
 from .quality import q_Budak2021, q_sweep
 from .sources import SOURCE_METHODS, select_source_pixels
 from .statistics import luminance_statistics
-from .ugr import ugr_CIE117, ugr_pixel
+from .ugr import ugr_CIE117
 
 __all__ = ["Score", "score_map"]
+
+
+#: Pixels per chunk of the compiled per-pixel passes.
+_CHUNK = 1 << 16
+
+
+@njit(parallel=True, cache=True, error_model="numpy", nogil=True)
+def _field_inputs_kernel(image, evaluated, solid_angle, cos_sigma, valid, luminance, omega):
+    n = image.size
+    for k in prange((n + _CHUNK - 1) // _CHUNK):
+        for i in range(k * _CHUNK, min(n, (k + 1) * _CHUNK)):
+            L = np.float64(image[i])
+            ok = evaluated[i] & (np.abs(L) < np.inf) & (cos_sigma[i] >= 0)
+            valid[i] = ok
+            luminance[i] = L if ok else np.nan
+            omega[i] = solid_angle[i] if ok else 0.0
+
+
+def _field_inputs(image, evaluated, solid_angle, cos_sigma):
+    """Valid pixels (``evaluated``, finite luminance, cos σ ≥ 0), the luminance [cd·m⁻²]
+    as float64 with NaN elsewhere and the solid angle [sr] with 0 elsewhere, in one pass.
+    (Outputs are allocated by numpy, which asks for huge pages: faulting in 400 MB of
+    small pages costs more than the pass itself.)"""
+    shape = evaluated.shape
+    valid = np.empty(shape, dtype=bool)
+    luminance = np.empty(shape)
+    omega = np.empty(shape)
+    flat = [np.ascontiguousarray(a).reshape(-1) for a in (image, evaluated, solid_angle, cos_sigma)]
+    _field_inputs_kernel(*flat, valid.reshape(-1), luminance.reshape(-1), omega.reshape(-1))
+    return valid, luminance, omega
 
 
 @dataclass
@@ -125,12 +158,20 @@ def _frame(lmap, line_of_sight, up):
                          (0.0, -1.0, 0.0) if up is None else tuple(map(float, up)))
 
 
-def _indices(sources_l, sources_w, sources_p, *, e_v, e_dir, l_b, mean_l, pixel_sum_args,
-             settings):
-    """Every source-based index for given source luminances (a function of scale)."""
+def _ugr_pixel(n_sources, total, l_b):
+    """Pixel-wise UGR from the number of source pixels and their ΣL²ω/P², with the undefined
+    cases of :func:`~lsadphoto.metrics.ugr.ugr_pixel` (no source, L_b ≤ 0, empty sum)."""
+    if n_sources == 0 or not l_b > 0 or total <= 0:
+        return math.nan
+    return 8.0 * math.log10(0.25 / l_b * total)
+
+
+def _indices(sources_l, sources_w, sources_p, *, e_v, e_dir, l_b, mean_l, pixel_sum, settings):
+    """Every source-based index for given source luminances (a function of scale);
+    ``pixel_sum`` is (number of source pixels, their ΣL²ω/P²)."""
     values = {
         "ugr_grouped": ugr_CIE117(sources_l, sources_w, sources_p, l_b),
-        "ugr_pixel": ugr_pixel(*pixel_sum_args, l_b),
+        "ugr_pixel": _ugr_pixel(*pixel_sum, l_b),
         "dgp": dgp_Wienold2006(e_v, sources_l, sources_w, sources_p,
                                coefficients=settings["dgp_coefficients"]),
         "dgp_low_light": dgp_Wienold2006(e_v, sources_l, sources_w, sources_p,
@@ -231,21 +272,17 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     frame = _frame(lmap, line_of_sight, up)
     geometry = pixel_geometry(lmap.projection)
     vf = visual_field(lmap.projection, frame, position_index_method=position_index_method)
-    luminance = np.asarray(lmap.luminance, dtype=np.float64)
-    valid = geometry.valid & np.isfinite(luminance) & (vf.cos_sigma >= 0)
-    if guth_field is not None:
+    if guth_field is None:
+        evaluated = geometry.valid
+    else:
         from ..geometry.position_index import guth_field_mask
 
-        valid &= guth_field_mask(vf.sigma, vf.tau, kind=guth_field)
-    luminance = np.where(valid, luminance, np.nan)
-    omega = np.where(valid, geometry.solid_angle, 0.0)
+        evaluated = geometry.valid & guth_field_mask(vf.sigma, vf.tau, kind=guth_field)
+    # One pass: the valid pixels (in the evaluated part of the picture, finite luminance, in
+    # front of the observer), the luminance (NaN elsewhere) and solid angle (0 elsewhere).
+    valid, luminance, omega = _field_inputs(np.asarray(lmap.luminance), evaluated,
+                                            geometry.solid_angle, vf.cos_sigma)
     pindex = vf.position_index
-    # Field sums run over the valid pixels only, gathered once into 1-D arrays.
-    flat = np.flatnonzero(valid)
-    f_l = luminance.ravel()[flat]
-    f_w = geometry.solid_angle.ravel()[flat]
-    f_c = vf.cos_sigma.ravel()[flat]
-    f_p = pindex.ravel()[flat]
     notes = []
     settings = {
         "line_of_sight": list(frame.axes()[0]), "up": list(frame.axes()[1]),
@@ -258,19 +295,17 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         "vcp_constant": float(vcp_constant),
     }
     task = None
-    f_d = None
     if source_method == "task":
         task = frame.axes()[0] if task_direction is None else task_direction
-        f_d = geometry.directions.reshape(-1, 3)[flat]
+    # Whole-picture arrays: the evaluated field of the selection rules is exactly the valid
+    # pixels (NaN luminance and zero solid angle elsewhere).
     selection = select_source_pixels(
-        f_l, f_w, f_c, method=source_method, value=source_threshold, directions=f_d,
-        task_direction=task,
+        luminance, omega, vf.cos_sigma, method=source_method, value=source_threshold,
+        directions=geometry.directions if task is not None else None, task_direction=task,
         task_opening=math.radians(check_positive(task_opening_deg, "task opening")),
         n_thresholds=n_thresholds, size_arcmin=size_arcmin)
     settings["source_selection"] = dict(selection.settings)
-    f_mask = selection.mask
-    mask = np.zeros(luminance.shape, dtype=bool)
-    mask.ravel()[flat[f_mask]] = True
+    mask = np.asarray(selection.mask, dtype=bool)
     groups, labels = group_sources_evalglare(luminance, geometry.directions, omega, mask,
                                              search_angle=search_angle,
                                              peak_luminance=peak_luminance)
@@ -284,17 +319,27 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     s_l = np.array([s.luminance for s in sources])
     s_w = np.array([s.solid_angle for s in sources])
     s_p = np.array([s.position_index for s in sources])
+    # Every field sum at once; a scale k of the luminances scales them by k (ΣL²ω/P² by k²).
+    sums = field_sums(luminance, omega, vf.cos_sigma, pindex, mask)
 
     def evaluate(scale):
-        L = f_l * scale
-        e_v = _vertical_illuminance(L, f_w, f_c)
-        e_dir = _vertical_illuminance(L, f_w, f_c, mask=f_mask)
-        l_b = background_luminance(L, f_w, f_c, f_mask, method=background_method)
-        mean_l = mean_luminance(L, f_w, f_c)
+        e_v = scale * sums.illuminance
+        e_dir = scale * sums.source_illuminance
+        mean_l = scale * sums.luminance_solid_angle / sums.solid_angle \
+            if sums.solid_angle > 0 else math.nan
+        if background_method == "CIE":  # (E_v − E_dir)/π, summed over the non-source pixels
+            l_b = scale * sums.background_illuminance / math.pi
+        elif background_method == "Ev":
+            l_b = e_v / math.pi
+        elif sums.background_solid_angle > 0:
+            l_b = scale * sums.background_luminance_solid_angle / sums.background_solid_angle
+        else:  # every pixel a source: the mean over the field (as background_luminance)
+            l_b = mean_l
         values = {"vertical_illuminance": e_v, "direct_illuminance": e_dir,
                   "background_luminance": l_b, "mean_luminance": mean_l}
         values.update(_indices(s_l * scale, s_w, s_p, e_v=e_v, e_dir=e_dir, l_b=l_b,
-                               mean_l=mean_l, pixel_sum_args=(L, f_w, f_p, f_mask),
+                               mean_l=mean_l,
+                               pixel_sum=(sums.n_sources, scale * scale * sums.ugr_sum),
                                settings=settings))
         return values
 
@@ -333,7 +378,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         notes.append("no glare sources: UGR, DGI, UGP, CGI, DGR and VCP have no value")
     elif not values["background_luminance"] > 0:
         notes.append("background luminance is zero: UGR-type indices diverge and are not given")
-    if flat.size == 0:
+    if sums.n_pixels == 0:
         notes.append("no valid pixel in the evaluated field")
     if not math.isfinite(quality.q):
         notes.append(f"Q undefined: {quality.reason}")
@@ -346,5 +391,5 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
                   "calibrated": lmap.calibrated, "projection": lmap.projection.to_dict()}
     return Score(values=values, uncertainty=uncertainty, sources=sources, source_mask=mask,
                  source_labels=labels, contrast=quality.contrast,
-                 statistics=luminance_statistics(f_l, f_w, f_c),
+                 statistics=luminance_statistics(luminance, omega, vf.cos_sigma),
                  settings=settings, provenance=provenance, notes=notes, q_sweep=sweep_record)

@@ -16,8 +16,7 @@ Hyndman, R. J., Fan, Y. (1996), Sample quantiles in statistical packages, Am. St
 import math
 
 import numpy as np
-
-from .field import evaluated_field
+from numba import njit, prange
 
 __all__ = ["DEFAULT_RING_EDGES_DEG", "DEFAULT_PERCENTILES", "QUANTILE_BINS_PER_DECADE",
            "luminance_statistics"]
@@ -33,21 +32,87 @@ DEFAULT_PERCENTILES = (5.0, 25.0, 50.0, 75.0, 95.0)
 QUANTILE_BINS_PER_DECADE = 2000
 
 
-def _histograms(luminance, solid_angle, group, n_groups):
-    """Solid angle per (group, log-luminance bin), per group at L = 0, and the bin origin."""
-    positive = luminance > 0
-    logs = np.log10(luminance[positive])
-    if logs.size:
-        origin = math.floor(float(logs.min()))
-        n_bins = int((math.floor(float(logs.max())) + 1 - origin) * QUANTILE_BINS_PER_DECADE)
-        bins = np.minimum(((logs - origin) * QUANTILE_BINS_PER_DECADE).astype(np.int64),
-                          n_bins - 1)
-        index = group[positive] * n_bins + bins
-        hist = np.bincount(index, solid_angle[positive], n_groups * n_bins).reshape(n_groups, -1)
-    else:
-        origin, n_bins, hist = 0, 1, np.zeros((n_groups, 1))
-    zero = np.bincount(group[~positive], solid_angle[~positive], n_groups)
-    return hist, zero, origin
+#: Stripes of the image summed separately (in parallel) and then added in order, so that
+#: results do not depend on the number of threads.
+_STRIPES = 16
+
+
+@njit(inline="always", cache=True, error_model="numpy", nogil=True)
+def _group(c, cos_edges, n_rings):
+    """Ring number of cos σ = ``c`` (``cos_edges`` decreasing; the last ring includes its
+    upper σ edge), ``n_rings`` outside every ring: ``n_rings − #{edges < c}``, as
+    ``np.searchsorted`` on the ascending edges, side "left"."""
+    if not (c <= cos_edges[0] and c >= cos_edges[n_rings]):
+        return n_rings
+    if c == cos_edges[n_rings]:
+        return n_rings - 1
+    below = 0
+    for k in range(n_rings + 1):
+        if cos_edges[k] < c:
+            below += 1
+    return n_rings - below
+
+
+@njit(parallel=True, cache=True, error_model="numpy", nogil=True)
+def _positive_range(luminance, solid_angle, cos_sigma, n_stripes):
+    """Per stripe: the smallest and largest positive L of the evaluated field (finite L,
+    ω > 0, cos σ ≥ 0); +inf and −inf where there is none."""
+    n = luminance.size
+    out = np.empty((n_stripes, 2))
+    step = (n + n_stripes - 1) // n_stripes
+    for k in prange(n_stripes):
+        lo, hi = np.inf, -np.inf
+        for i in range(k * step, min(n, (k + 1) * step)):
+            L = np.float64(luminance[i])
+            ok = (np.abs(L) < np.inf) & (solid_angle[i] > 0) & (cos_sigma[i] >= 0) & (L > 0)
+            lo = min(lo, L if ok else np.inf)
+            hi = max(hi, L if ok else -np.inf)
+        out[k, 0] = lo
+        out[k, 1] = hi
+    return out
+
+
+@njit(parallel=True, cache=True, error_model="numpy", nogil=True)
+def _accumulate(luminance, solid_angle, cos_sigma, cos_edges, n_stripes, origin, n_bins,
+                per_decade, count, sums, low, high, hist):
+    """Per stripe k and group g (ring, or outside every ring): pixel count ``count[k, g]``,
+    ``sums[k, :, g]`` = (Σω, ΣL·ω, Σω at L ≤ 0), min and max L, and Σω per bin of log10 L
+    (``hist[k, g, bin]``, positive L). Pixels outside the evaluated field are skipped."""
+    n = luminance.size
+    n_rings = cos_edges.size - 1
+    n_groups = n_rings + 1
+    step = (n + n_stripes - 1) // n_stripes
+    for k in prange(n_stripes):
+        # Accumulate locally (no false sharing of the small output rows between threads).
+        k_count = np.zeros(n_groups, np.int64)
+        k_sums = np.zeros((3, n_groups))
+        k_low = np.full(n_groups, np.inf)
+        k_high = np.full(n_groups, -np.inf)
+        k_hist = hist[k]
+        last_L, last_bin = np.nan, 0  # neighbours often share a value: one log10 for a run
+        for i in range(k * step, min(n, (k + 1) * step)):
+            L = np.float64(luminance[i])
+            w = np.float64(solid_angle[i])
+            c = np.float64(cos_sigma[i])
+            if not ((np.abs(L) < np.inf) & (w > 0) & (c >= 0)):
+                continue
+            g = _group(c, cos_edges, n_rings)
+            k_count[g] += 1
+            k_sums[0, g] += w
+            k_sums[1, g] += L * w
+            if L > 0:
+                if L != last_L:
+                    last_L = L
+                    last_bin = min(int((math.log10(L) - origin) * per_decade), n_bins - 1)
+                k_hist[g, last_bin] += w
+            else:
+                k_sums[2, g] += w
+            k_low[g] = min(k_low[g], L)
+            k_high[g] = max(k_high[g], L)
+        count[k] = k_count
+        sums[k] = k_sums
+        low[k] = k_low
+        high[k] = k_high
 
 
 def _quantiles(hist, zero, origin, percentiles, low, high):
@@ -95,32 +160,33 @@ def luminance_statistics(luminance, solid_angle, cos_sigma, *,
     >>> s["field"]["mean"], {k: round(v, 2) for k, v in s["field"]["percentiles"].items()}
     (505.0, {'50': 10.01, '95': 1000.0})
     """
-    field = evaluated_field(luminance, solid_angle, cos_sigma)
-    everything = field.all()
-    L = np.asarray(luminance, dtype=np.float64).ravel()
-    w = np.asarray(solid_angle, dtype=np.float64).ravel()
-    c = np.asarray(cos_sigma, dtype=np.float64).ravel()
-    if not everything:
-        keep = field.ravel()
-        L, w, c = L[keep], w[keep], c[keep]
+    L = np.ascontiguousarray(luminance).ravel()
+    w = np.ascontiguousarray(solid_angle).ravel()
+    c = np.ascontiguousarray(cos_sigma).ravel()
     edges = [float(e) for e in ring_edges_deg]
-    # Ring number per pixel from cos σ (decreasing in σ; the last ring includes its upper
-    # edge); pixels in no ring go to an extra group, which only the field statistics use.
+    # Ring per pixel from cos σ (decreasing in σ); pixels in no ring go to an extra group,
+    # which only the field statistics use.
     cos_edges = np.cos(np.radians(edges))
-    n_rings = len(edges) - 1
-    ring = n_rings - np.searchsorted(cos_edges[::-1], c, side="left")
-    ring[c == cos_edges[-1]] = n_rings - 1
-    group = np.where((c <= cos_edges[0]) & (c >= cos_edges[-1]), ring, n_rings)
-    n_groups = n_rings + 1
-    hist, zero, origin = _histograms(L, w, group, n_groups)
-    omega = np.bincount(group, w, n_groups)
-    lw = np.bincount(group, L * w, n_groups)
-    count = np.bincount(group, minlength=n_groups)
-    low = np.full(n_groups, np.inf)
-    high = np.full(n_groups, -np.inf)
-    for k in np.flatnonzero(count):
-        values = L[group == k]
-        low[k], high[k] = values.min(), values.max()
+    n_groups = len(edges)
+    stripes = max(1, min(_STRIPES, L.size))
+    positive = _positive_range(L, w, c, stripes)
+    smallest, largest = positive[:, 0].min(), positive[:, 1].max()
+    if smallest <= largest:  # some positive luminance: bins of log10 L from its decade
+        origin = math.floor(math.log10(smallest))
+        n_bins = int((math.floor(math.log10(largest)) + 1 - origin) * QUANTILE_BINS_PER_DECADE)
+    else:
+        origin, n_bins = 0, 1
+    count = np.empty((stripes, n_groups), np.int64)
+    sums = np.empty((stripes, 3, n_groups))
+    low = np.empty((stripes, n_groups))
+    high = np.empty((stripes, n_groups))
+    hist = np.zeros((stripes, n_groups, n_bins))
+    _accumulate(L, w, c, cos_edges, stripes, float(origin), n_bins,
+                float(QUANTILE_BINS_PER_DECADE), count, sums, low, high, hist)
+    # Stripes added in order: the result does not depend on the number of threads.
+    count = count.sum(axis=0)
+    omega, lw, zero = sums.sum(axis=0)
+    low, high, hist = low.min(axis=0), high.max(axis=0), hist.sum(axis=0)
 
     def summary(select):
         sel = np.asarray(select)
