@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from lsadphoto.datasets import disk_sources_scene
 from lsadphoto.geometry import IdealFisheyeProjection, ObserverFrame, position_index
 from lsadphoto.metrics.field import background_luminance, mean_luminance, vertical_illuminance
+from lsadphoto.metrics.glare_indices import dgp_Wienold2006
 from lsadphoto.metrics.grouping import group_sources_evalglare
 from lsadphoto.metrics.sources import select_source_pixels, task_luminance
 from lsadphoto.metrics.ugr import ugr_CIE117, ugr_pixel
@@ -96,6 +97,13 @@ def test_uniform_disk_source_matches_closed_form(fisheye, sigma_deg):
     pixel_exact = 8 * math.log10(0.25 / l_b_exact * L_s**2
                                  * _cap_integral_of_inverse_p2(_up_direction(s0), rho))
     assert ugr_pixel(L, w, P, sel.mask, l_b) == pytest.approx(pixel_exact, abs=0.05)
+    # DGP (Wienold & Christoffersen 2006, evalglare's coefficients) from the same closed forms.
+    dgp_exact = (5.87e-5 * e_v_exact + 0.092 * math.log10(
+        1 + L_s**2 * omega / (e_v_exact**1.87 * p_exact**2)) + 0.159)
+    dgp = dgp_Wienold2006(vertical_illuminance(L, w, cos_sigma), [groups[0].luminance],
+                          [groups[0].solid_angle], [source_p])
+    assert dgp == pytest.approx(dgp_exact, abs=0.05)
+    assert dgp == pytest.approx(dgp_exact, abs=2e-3)  # what the 1 % solid angle allows
 
 
 def test_pixel_minus_grouped_ugr_is_8_log_one_plus_cv2(fisheye):
