@@ -23,9 +23,10 @@ A survey is described by a TOML manifest (schema ``lsadphoto.survey/1``, documen
     profile = "other-camera.toml"              # override
     [view.score]                               # per-view score options (override)
     source_threshold = 1500
-    [view.model]                               # model of the same view (comparison: later)
-    scene = "models/b2.toml"
+    [view.model]                               # scene model of the same view: rendered
+    scene = "models/b2.toml"                   # through the photo's camera and compared
     position = [1.2, 3.4, 1.6]
+    direction = [1.0, 0.0, -0.05]
 
 :func:`run_survey` processes every view — luminance map (OpenEXR, Radiance HDR, false
 colour), scores (:func:`~lsadphoto.metrics.score.score_map` with the Q(N) sweep N = 1…100),
