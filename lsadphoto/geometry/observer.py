@@ -40,6 +40,27 @@ def _finite_angle(value, name):
     return number
 
 
+def orthonormal_pair(axis, second, *,
+                    zero_message="line_of_sight must not be the zero vector",
+                    parallel_message="up vector must not be parallel to the line of sight"):
+    """Unit ``axis`` and the unit part of ``second`` perpendicular to it (Gram–Schmidt).
+
+    Used for every frame of the package: the observer's line of sight and up, a camera's
+    optical axis and up (:func:`lsadphoto.solver.camera_to_world`), a luminaire's nadir and
+    C = 0 axis. Raises :class:`BadInputError` with ``zero_message`` for a zero ``axis`` and
+    ``parallel_message`` when ``second`` is (nearly) parallel to it.
+    """
+    axis = np.asarray(axis, dtype=float)
+    second = np.asarray(second, dtype=float)
+    if np.linalg.norm(axis) == 0:
+        raise BadInputError(zero_message)
+    axis = axis / np.linalg.norm(axis)
+    second = second - (second @ axis) * axis
+    if np.linalg.norm(second) < 1e-9:
+        raise BadInputError(parallel_message)
+    return axis, second / np.linalg.norm(second)
+
+
 @dataclass(frozen=True)
 class ObserverFrame:
     """Line of sight and up vector in the camera frame (x right, y down, z forward).
@@ -183,13 +204,7 @@ class ObserverFrame:
         """Unit vectors (v̂, û, ĥ) of the frame."""
         v = check_array(self.line_of_sight, "line_of_sight", shape=(3,), finite=True, dtype=float)
         u = check_array(self.up, "up", shape=(3,), finite=True, dtype=float)
-        if np.linalg.norm(v) == 0:
-            raise BadInputError("line_of_sight must not be the zero vector")
-        v = v / np.linalg.norm(v)
-        u = u - (u @ v) * v
-        if np.linalg.norm(u) < 1e-9:
-            raise BadInputError("up vector must not be parallel to the line of sight")
-        u = u / np.linalg.norm(u)
+        v, u = orthonormal_pair(v, u)
         return v, u, np.cross(v, u)
 
     def _components(self, directions):

@@ -27,6 +27,7 @@ import numpy as np
 
 from .._validation import check_array
 from ..errors import BadInputError
+from ..geometry.observer import orthonormal_pair
 
 __all__ = ["IntensityTable", "luminaire_frame"]
 
@@ -39,13 +40,9 @@ def luminaire_frame(nadir, length_axis):
     """
     n = check_array(nadir, "nadir", shape=(3,), finite=True, dtype=float)
     a = check_array(length_axis, "length_axis", shape=(3,), finite=True, dtype=float)
-    if np.linalg.norm(n) == 0:
-        raise BadInputError("luminaire nadir axis must not be the zero vector")
-    n = n / np.linalg.norm(n)
-    a = a - (a @ n) * n
-    if np.linalg.norm(a) < 1e-9:
-        raise BadInputError("luminaire length axis must not be parallel to its nadir axis")
-    a = a / np.linalg.norm(a)
+    n, a = orthonormal_pair(n, a, zero_message="luminaire nadir axis must not be the zero vector",
+                            parallel_message="luminaire length axis must not be parallel to its "
+                                             "nadir axis")
     b = np.cross(-n, a)  # zenith × C0
     return np.stack([a, b, n])
 

@@ -27,6 +27,7 @@ import numpy as np
 
 from ..errors import BadInputError
 from ..geometry.base import Projection, projection_from_dict
+from ..geometry.observer import orthonormal_pair
 from .intensity import IntensityTable, luminaire_frame
 
 __all__ = [
@@ -60,15 +61,7 @@ def camera_to_world(line_of_sight, up=(0.0, 0.0, 1.0)):
     >>> (r @ [0, 0, 1]).tolist(), (r @ [1, 0, 0]).tolist(), (r @ [0, 1, 0]).tolist()
     ([1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0])
     """
-    v = _vector(line_of_sight, "line_of_sight")
-    u = _vector(up, "up")
-    if np.linalg.norm(v) == 0:
-        raise BadInputError("line_of_sight must not be the zero vector")
-    v = v / np.linalg.norm(v)
-    u = u - (u @ v) * v
-    if np.linalg.norm(u) < 1e-9:
-        raise BadInputError("up vector must not be parallel to the line of sight")
-    u = u / np.linalg.norm(u)
+    v, u = orthonormal_pair(_vector(line_of_sight, "line_of_sight"), _vector(up, "up"))
     right = np.cross(v, u)
     out = np.stack([right, -u, v], axis=1)
     return out + 0.0  # no negative zeros in printed examples
