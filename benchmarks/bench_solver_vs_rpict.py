@@ -47,24 +47,10 @@ from lsadphoto.solver import (
     render,
     simulate,
 )
+from lsadphoto.solver.examples import canonical_room_rad
 
-PANEL = 3000 / (math.pi * 0.36) / 179
-ROOM_RAD = f"""# Canonical validation room (FORMULAS.md Part A)
-void plastic wall 0 0 5 0.5 0.5 0.5 0 0
-void plastic ceiling 0 0 5 0.7 0.7 0.7 0 0
-void plastic floor 0 0 5 0.2 0.2 0.2 0 0
-void light panel 0 0 3 {PANEL:.9g} {PANEL:.9g} {PANEL:.9g}
-floor polygon f 0 0 12 0 0 0  0 4 0  6 4 0  6 0 0
-ceiling polygon c 0 0 12 0 0 3  6 0 3  6 4 3  0 4 3
-wall polygon w1 0 0 12 0 0 0  6 0 0  6 0 3  0 0 3
-wall polygon w2 0 0 12 0 4 0  0 4 3  6 4 3  6 4 0
-wall polygon w3 0 0 12 0 0 0  0 0 3  0 4 3  0 4 0
-wall polygon w4 0 0 12 6 0 0  6 4 0  6 4 3  6 0 3
-panel polygon p1 0 0 12 1.2 0.7 2.99  1.2 1.3 2.99  1.8 1.3 2.99  1.8 0.7 2.99
-panel polygon p2 0 0 12 1.2 2.7 2.99  1.2 3.3 2.99  1.8 3.3 2.99  1.8 2.7 2.99
-panel polygon p3 0 0 12 4.2 0.7 2.99  4.2 1.3 2.99  4.8 1.3 2.99  4.8 0.7 2.99
-panel polygon p4 0 0 12 4.2 2.7 2.99  4.2 3.3 2.99  4.8 3.3 2.99  4.8 2.7 2.99
-"""
+#: The canonical room as a Radiance scene (the same file goes to our reader and to oconv).
+ROOM_RAD = canonical_room_rad()
 VIEW = ["-vta", "-vp", "1", "2", "1.2", "-vd", "1", "0", "0", "-vu", "0", "0", "1",
         "-vh", "180", "-vv", "180"]
 COMMON = ["-ps", "1", "-pj", "0", "-lr", "-10", "-dj", "0"]

@@ -1,6 +1,5 @@
 """The Radiance scene reader, and the solver against Radiance's rpict (pyradiance binaries)."""
 
-import math
 import os
 import re
 import subprocess
@@ -10,28 +9,11 @@ import pytest
 
 from lsadphoto.errors import BadInputError
 from lsadphoto.solver import render, simulate
-from lsadphoto.solver.examples import canonical_room
+from lsadphoto.solver.examples import canonical_room, canonical_room_rad
 from lsadphoto.solver.radiance import read_radiance_scene
 
-#: The canonical room in Radiance's language: grey plastic (ρ = R = G = B, so both
-#: Radiance 5 and 6 luminance weights give ρ), panels of luminance 3000/(π·0.36) cd/m²
-#: = 179 × 14.8189 W·sr⁻¹·m⁻² (one-sided light sources, facing down).
-ROOM_RAD = """
-void plastic wall 0 0 5 0.5 0.5 0.5 0 0
-void plastic ceiling 0 0 5 0.7 0.7 0.7 0 0
-void plastic floor 0 0 5 0.2 0.2 0.2 0 0
-void light panel 0 0 3 {r} {r} {r}
-floor polygon f 0 0 12 0 0 0  0 4 0  6 4 0  6 0 0
-ceiling polygon c 0 0 12 0 0 3  6 0 3  6 4 3  0 4 3
-wall polygon w1 0 0 12 0 0 0  6 0 0  6 0 3  0 0 3
-wall polygon w2 0 0 12 0 4 0  0 4 3  6 4 3  6 4 0
-wall polygon w3 0 0 12 0 0 0  0 0 3  0 4 3  0 4 0
-wall polygon w4 0 0 12 6 0 0  6 4 0  6 4 3  6 0 3
-panel polygon p1 0 0 12 1.2 0.7 2.99  1.2 1.3 2.99  1.8 1.3 2.99  1.8 0.7 2.99
-panel polygon p2 0 0 12 1.2 2.7 2.99  1.2 3.3 2.99  1.8 3.3 2.99  1.8 2.7 2.99
-panel polygon p3 0 0 12 4.2 0.7 2.99  4.2 1.3 2.99  4.8 1.3 2.99  4.8 0.7 2.99
-panel polygon p4 0 0 12 4.2 2.7 2.99  4.2 3.3 2.99  4.8 3.3 2.99  4.8 2.7 2.99
-""".format(r=3000 / (math.pi * 0.36) / 179)
+#: The canonical room as a Radiance scene (the same file goes to our reader and to oconv).
+ROOM_RAD = canonical_room_rad()
 
 
 def test_reader_gives_the_canonical_room():

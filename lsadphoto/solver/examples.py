@@ -8,9 +8,11 @@ looking along +x, horizontal, up +z; a 180° equidistant fisheye view. The lumin
 first hit ambiguous in float32; their backs are black.
 """
 
+import math
+
 from .scene import scene_from_dict
 
-__all__ = ["canonical_room", "canonical_room_toml"]
+__all__ = ["canonical_room", "canonical_room_rad", "canonical_room_toml"]
 
 _LUMINAIRE = """
 [[luminaires]]
@@ -66,3 +68,30 @@ def canonical_room(*, size=256):
     import tomllib
 
     return scene_from_dict(tomllib.loads(canonical_room_toml(size=size)))
+
+
+def canonical_room_rad():
+    """The canonical room in Radiance's scene language (the Lambertian subset).
+
+    Grey ``plastic`` (R = G = B = ρ, so Radiance 5 and 6 luminance weights both give ρ) and
+    one-sided ``light`` panels facing down, of luminance 3000 lm/(π·0.36 m²) — in Radiance
+    units 3000/(π·0.36)/179 = 14.8189 W·sr⁻¹·m⁻² (179 lm/W, FORMULAS.md §2.4.1). The same
+    file is read by :func:`~lsadphoto.solver.read_radiance_scene` and by Radiance's oconv.
+    """
+    r = repr(3000 / (math.pi * 0.36) / 179)
+    return f"""# Canonical validation room (FORMULAS.md Part A)
+void plastic wall 0 0 5 0.5 0.5 0.5 0 0
+void plastic ceiling 0 0 5 0.7 0.7 0.7 0 0
+void plastic floor 0 0 5 0.2 0.2 0.2 0 0
+void light panel 0 0 3 {r} {r} {r}
+floor polygon f 0 0 12 0 0 0  0 4 0  6 4 0  6 0 0
+ceiling polygon c 0 0 12 0 0 3  6 0 3  6 4 3  0 4 3
+wall polygon w1 0 0 12 0 0 0  6 0 0  6 0 3  0 0 3
+wall polygon w2 0 0 12 0 4 0  0 4 3  6 4 3  6 4 0
+wall polygon w3 0 0 12 0 0 0  0 0 3  0 4 3  0 4 0
+wall polygon w4 0 0 12 6 0 0  6 4 0  6 4 3  6 0 3
+panel polygon p1 0 0 12 1.2 0.7 2.99  1.2 1.3 2.99  1.8 1.3 2.99  1.8 0.7 2.99
+panel polygon p2 0 0 12 1.2 2.7 2.99  1.2 3.3 2.99  1.8 3.3 2.99  1.8 2.7 2.99
+panel polygon p3 0 0 12 4.2 0.7 2.99  4.2 1.3 2.99  4.8 1.3 2.99  4.8 0.7 2.99
+panel polygon p4 0 0 12 4.2 2.7 2.99  4.2 3.3 2.99  4.8 3.3 2.99  4.8 2.7 2.99
+"""
