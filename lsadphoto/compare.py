@@ -18,6 +18,7 @@ References
 JCGM 100:2008 (GUM) §5.1.2 (combination of uncorrelated uncertainties).
 """
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -163,13 +164,11 @@ def compare_maps(photo, model, *, line_of_sight=None, up=None, grid=(4, 4),
             blocks.append({"rows": [r0, r1], "cols": [c0, c1], **stats})
     options = dict(score_options, line_of_sight=frame.line_of_sight, up=frame.up)
     score_p = score_map(photo, **options)
-    score_m = score_map(model, **options)
     u_model = model_scale_uncertainty(model)
     if u_model > 0 and model.calibration_uncertainty == 0:
-        model = LuminanceMap(model.luminance, model.uncertainty, model.projection,
-                             model.line_of_sight, model.calibration_factor, u_model,
-                             model.calibrated, model.provenance)
-        score_m = score_map(model, **options)
+        # The model's Monte Carlo scale uncertainty enters its metrics like a calibration's.
+        model = dataclasses.replace(model, calibration_uncertainty=u_model)
+    score_m = score_map(model, **options)
     metrics = {}
     for key in COMPARED_METRICS:
         a, b = score_p.values.get(key), score_m.values.get(key)
