@@ -47,7 +47,7 @@ def best_index(r, *, direction="positive"):
 
     Examples
     --------
-    >>> best_index([0.2, 0.6, -0.7]), best_index([0.2, 0.6, -0.7], direction="either")
+    >>> int(best_index([0.2, 0.6, -0.7])), int(best_index([0.2, 0.6, -0.7], direction="either"))
     (1, 2)
     """
     _check_direction(direction)
