@@ -519,9 +519,8 @@ def render(store_or_scene, projection, *, position, rotation, samples=None, seed
     if nodes_per_pixel == "all":
         nodes_per_pixel = None
     elif nodes_per_pixel == "auto":
-        pixels = int(np.isfinite(projection.directions(*projection.pixel_grid())[..., 0]).sum()) \
-            if isinstance(projection, Projection) else 0
-        nodes_per_pixel = None if pixels * store.nodes <= FULL_GATHER_PAIRS else AUTO_NODES_PER_PIXEL
+        # The valid pixels are those _primary traced: no second pass over the projection.
+        nodes_per_pixel = None if valid.size * store.nodes <= FULL_GATHER_PAIRS else AUTO_NODES_PER_PIXEL
     elif nodes_per_pixel is not None and (isinstance(nodes_per_pixel, (str, bool))
                                           or int(nodes_per_pixel) != nodes_per_pixel or nodes_per_pixel < 1):
         raise BadInputError("nodes_per_pixel must be a positive integer, 'all' or 'auto', "
