@@ -30,8 +30,19 @@ def _json_default(value):
     return str(value)
 
 
+def _json_text(record):
+    return json.dumps(record, indent=2, default=_json_default)
+
+
 def _print_json(record):
-    print(json.dumps(record, indent=2, default=_json_default))
+    print(_json_text(record))
+
+
+def _write_json(path, record):
+    """Write ``record`` as JSON to ``path``, atomically (``--output-json``)."""
+    from .io._atomic import atomic_text
+
+    atomic_text(path, _json_text(record))
 
 
 def _load_profile(path):
@@ -162,7 +173,6 @@ def _format(value, digits=3):
 
 def cmd_score(args):
     from .io import read_map
-    from .io._atomic import atomic_text
     from .metrics.score import score_map
     from .report import write_contrast_png, write_glare_source_png
 
@@ -189,7 +199,7 @@ def cmd_score(args):
     if args.contrast_png:
         write_contrast_png(score.contrast, args.contrast_png)
     if args.output_json:
-        atomic_text(args.output_json, json.dumps(record, indent=2, default=_json_default))
+        _write_json(args.output_json, record)
     if args.json:
         _print_json(record)
     else:
@@ -212,7 +222,6 @@ def cmd_score(args):
 def cmd_compare(args):
     from .compare import compare_maps
     from .io import read_map
-    from .io._atomic import atomic_text
     from .report import write_ratio_png
 
     photo, model = read_map(args.photo), read_map(args.model)
@@ -227,7 +236,7 @@ def cmd_compare(args):
 
         record["report"] = str(write_comparison_report(result, args.report, photo=photo, model=model))
     if args.output_json:
-        atomic_text(args.output_json, json.dumps(record, indent=2, default=_json_default))
+        _write_json(args.output_json, record)
     if args.json:
         _print_json(record)
     else:
@@ -242,7 +251,6 @@ def cmd_compare(args):
 
 
 def cmd_study(args):
-    from .io._atomic import atomic_text
     from .study import run_study
 
     result = run_study(args.ratings, args.metrics, metric=args.metric,
@@ -258,7 +266,7 @@ def cmd_study(args):
 
         record["report"] = str(write_survey_report(args.report, study=result))
     if args.output_json:
-        atomic_text(args.output_json, json.dumps(record, indent=2, default=_json_default))
+        _write_json(args.output_json, record)
     if args.json:
         _print_json(record)
         return 0
