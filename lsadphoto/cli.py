@@ -6,6 +6,7 @@ Every error lsadphoto raises on purpose becomes one line on stderr and a non-zer
 
 import argparse
 import json
+import os
 import sys
 import warnings
 from pathlib import Path
@@ -344,6 +345,8 @@ def cmd_simulate(args):
                          near_field=args.near_field, progress=callback)
     finally:
         close()
+    if args.surface_cache:
+        store.surface_cache = _build_cache(store, args)
     store.save(args.output)
     record = {"output": str(args.output), "scene": str(args.scene), "chains": store.chains,
               "nodes": store.nodes, "provenance": store.provenance}
@@ -354,6 +357,18 @@ def cmd_simulate(args):
         extra = "" if achieved is None else f"; relative error of the first view's mean luminance {achieved:.2%}"
         print(f"wrote {args.output}: {store.chains} light chains, {store.nodes} nodes{extra}")
     return 0
+
+
+def _build_cache(store, args):
+    from ._progress import progress_callback
+    from .solver.surface_cache import build_surface_cache
+
+    callback, close = progress_callback("surface cache", enabled=False if args.quiet else None)
+    try:
+        return build_surface_cache(store, spacing=args.cache_spacing, nodes=args.cache_nodes,
+                                   seed=args.seed, workers=os.cpu_count() or 1, progress=callback)
+    finally:
+        close()
 
 
 def _render_pose(args, scene):
@@ -413,7 +428,7 @@ def _size(text):
 def cmd_render(args):
     from ._progress import progress_callback
     from .io import atomic_outputs, write_exr, write_hdr
-    from .solver import load_store, render
+    from .solver import LsadStore, load_store, render
 
     source = Path(args.source)
     if source.suffix.lower() == ".npz":
@@ -433,11 +448,24 @@ def cmd_render(args):
             nodes = int(nodes)
         except ValueError:
             raise BadInputError(f"--nodes-per-pixel must be a positive integer, 'all' or 'auto', got {nodes!r}") from None
+    if args.estimator == "cache":
+        from .solver import simulate
+        from .solver.surface_cache import render_cached
+
+        store = store_or_scene
+        if not isinstance(store, LsadStore):
+            store = simulate(scene, samples=args.samples or 65536, seed=args.seed)
+        if store.surface_cache is None:
+            store.surface_cache = _build_cache(store, args)
     callback, close = progress_callback("rendering", enabled=False if args.quiet else None)
     try:
-        lmap = render(store_or_scene, projection, position=position, rotation=rotation,
-                      samples=args.samples, seed=args.seed, nodes_per_pixel=None if nodes == "all" else nodes,
-                      progress=callback)
+        if args.estimator == "cache":
+            lmap = render_cached(store, projection, position=position, rotation=rotation,
+                                 seed=args.seed, workers=os.cpu_count() or 1, progress=callback)
+        else:
+            lmap = render(store_or_scene, projection, position=position, rotation=rotation,
+                          samples=args.samples, seed=args.seed,
+                          nodes_per_pixel=None if nodes == "all" else nodes, progress=callback)
     finally:
         close()
     writers = {"exr": write_exr, "hdr": write_hdr}
@@ -454,6 +482,13 @@ def cmd_render(args):
               f"{_format(p.get('achieved_relative_error'), 4)}"
               f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}")
     return 0
+
+
+def _add_cache_options(sub):
+    sub.add_argument("--cache-spacing", type=float, metavar="M",
+                     help="surface-cache point spacing [m] (default 1/24 of the scene's diagonal)")
+    sub.add_argument("--cache-nodes", type=int, default=8192, metavar="N",
+                     help="node draws per surface-cache point (default 8192)")
 
 
 def build_parser():
@@ -585,6 +620,9 @@ def build_parser():
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--near-field", choices=("unbiased", "clamp"), default="unbiased",
                      help="near-field treatment (clamp is biased and reported as such)")
+    _add_cache_options(sim)
+    sim.add_argument("--surface-cache", action="store_true",
+                     help="also store the indirect illuminance on the surfaces (render --estimator cache)")
     sim.add_argument("--quiet", action="store_true", help="no progress bar")
     sim.add_argument("--json", action="store_true")
     sim.set_defaults(func=cmd_simulate)
@@ -599,7 +637,12 @@ def build_parser():
     ren.add_argument("--line-of-sight", metavar="X,Y,Z", help="optical axis in the scene (with --profile)")
     ren.add_argument("--up", metavar="X,Y,Z", help="up in the scene (with --profile; default 0,0,1)")
     ren.add_argument("--samples", type=int, help="light chains when rendering a scene directly")
+    ren.add_argument("--estimator", choices=("local", "cache"), default="local",
+                     help="local: the double local estimate per pixel (unbiased reference); cache: direct "
+                          "light per pixel, indirect interpolated from the store's surface cache (built if "
+                          "missing) — far faster, with a small interpolation bias (docs/accuracy.md)")
     ren.add_argument("--nodes-per-pixel", default="auto", help="nodes connected per pixel and batch: a number, 'all' or 'auto'")
+    _add_cache_options(ren)
     ren.add_argument("--seed", type=int, default=0)
     ren.add_argument("-o", "--output", required=True, help="output OpenEXR map (.exr)")
     ren.add_argument("--hdr", help="also write a Radiance HDR map")

@@ -597,14 +597,21 @@ def _run_chunks(work, starts, lum_b, workers, progress, t0, total):
 
 
 def _finish(projection, valid, lum_b, *, store_or_scene, estimator, extra, elapsed,
-            openings=None):
+            openings=None, shared_variance=None):
+    """The LuminanceMap of per-batch pixel values ``lum_b`` (valid pixels × batches).
+
+    ``shared_variance`` (per valid pixel) is the variance of a component that all batches
+    share (added to the batches' squared standard error; independent between pixels).
+    """
     rows, cols = projection.shape
+    shared = np.zeros(len(valid)) if shared_variance is None else shared_variance
     if openings is not None:
         seen = np.isfinite(openings)
         lum_b[seen] = openings[seen, None]  # luminous openings in front of the surfaces
+        shared[seen] = 0.0
     B = lum_b.shape[1]
     mean = lum_b.mean(axis=1)
-    se = lum_b.std(axis=1, ddof=1) / math.sqrt(B)
+    se = np.sqrt(lum_b.var(axis=1, ddof=1) / B + shared)
     lum = np.full(rows * cols, np.nan)
     unc = np.full(rows * cols, np.nan)
     lum[valid] = mean
@@ -613,7 +620,7 @@ def _finish(projection, valid, lum_b, *, store_or_scene, estimator, extra, elaps
     omega = projection.solid_angles(r, c)
     field_b = (omega[:, None] * lum_b).sum(axis=0) / omega.sum()
     field_mean = float(field_b.mean())
-    field_se = float(field_b.std(ddof=1) / math.sqrt(B))
+    field_se = float(math.sqrt(field_b.var(ddof=1) / B + (omega ** 2 * shared).sum() / omega.sum() ** 2))
     provenance = {
         "solver": "lsadphoto.solver",
         "estimator": estimator,

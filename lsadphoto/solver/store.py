@@ -60,6 +60,9 @@ class LsadStore:
         (0 at the source) and triangle id (−1 for point luminaires).
     chains : int
         Number of light chains; each of the ``batches`` batches holds ``chains/batches``.
+    surface_cache : SurfaceCache or None
+        Indirect illuminance on the scene's surfaces
+        (:func:`~lsadphoto.solver.surface_cache.build_surface_cache`), saved with the store.
     """
 
     scene: Scene
@@ -76,6 +79,7 @@ class LsadStore:
     seed: int = 0
     near_field: str = "unbiased"
     provenance: dict = field(default_factory=dict)
+    surface_cache: object = None
 
     def __repr__(self):
         return (f"LsadStore({self.scene!r}, {self.chains} chains in {self.batches} batches, "
@@ -92,10 +96,12 @@ class LsadStore:
         return self.chains // self.batches
 
     def extend(self, other):
-        """Append the nodes and chains of another store of the same scene (in place)."""
+        """Append the nodes and chains of another store of the same scene (in place); a
+        surface cache built from the old nodes is dropped."""
         for name in _NODE_FIELDS:
             setattr(self, name, np.concatenate([getattr(self, name), getattr(other, name)]))
         self.chains += other.chains
+        self.surface_cache = None
 
     def save(self, path):
         """Write the store to ``path`` (``.npz``) atomically."""
@@ -127,6 +133,14 @@ class LsadStore:
             triangles=scene.triangles, material=scene.material, reflectance=scene.reflectance,
             emitter=scene.emitter,
         )
+        cache = self.surface_cache
+        if cache is not None:
+            meta["surface_cache"] = {"spacing": cache.spacing, "provenance": cache.provenance}
+            arrays.update(cache_level=cache.level, cache_offset=cache.offset,
+                          cache_values=cache.values, cache_positions=cache.positions,
+                          cache_refined_key=cache.refined_key,
+                          cache_refined_offset=cache.refined_offset)
+            meta["surface_cache"]["refine"] = cache.refine
         for k, lum in enumerate(scene.point_luminaires):
             c, g, i = lum.table.to_arrays()
             arrays[f"table{k}_c"], arrays[f"table{k}_gamma"], arrays[f"table{k}_intensity"] = c, g, i
@@ -167,8 +181,17 @@ def load_store(path):
         scene = Scene(arrays["triangles"], arrays["material"], s["material_names"],
                       arrays["reflectance"], emitter, area, points, views, name=s["name"])
         nodes = {name: arrays[name] for name in _NODE_FIELDS}
+        cache = None
+        if "surface_cache" in meta:
+            from .surface_cache import SurfaceCache
+
+            c = meta["surface_cache"]
+            cache = SurfaceCache(c["spacing"], arrays["cache_level"], arrays["cache_offset"],
+                                 arrays["cache_values"], arrays["cache_positions"],
+                                 arrays["cache_refined_key"], arrays["cache_refined_offset"],
+                                 c["refine"], c.get("provenance", {}))
     except KeyError as exc:
         raise UnsupportedFileError(f"{path}: LSAD store lacks {exc.args[0]!r}") from None
     return LsadStore(scene, **nodes, chains=meta["chains"], batches=meta["batches"],
                      seed=meta["seed"], near_field=meta["near_field"],
-                     provenance=meta.get("provenance", {}))
+                     provenance=meta.get("provenance", {}), surface_cache=cache)

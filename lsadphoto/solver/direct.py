@@ -1,0 +1,269 @@
+"""Direct illuminance at surface points: the first local estimate from the luminaires.
+
+For a point x with unit normal n, the illuminance from an area luminaire of uniform
+luminance L over triangles A (Lambertian, emitting from their front side) is
+
+    E_l(x) = L · ∫_A V(x, y) · cos⁺θ_x · cos θ_y / |y − x|² dA_y = L · (Π_l − ∫_A (1 − V)·g dA),
+
+with g = cos⁺θ_x·cos θ_y/r². Π_l = ∫_A g dA, the projected solid angle of the unoccluded
+triangles (clipped to the horizon of x), has a closed form (Lambert's polygon formula:
+Π = ½ Σ_edges γ_e · n·m̂_e, γ_e the angle an edge subtends at x and m̂_e the unit normal of
+the plane through x and the edge). Only the occluded part is sampled, with ``samples``
+points per luminaire distributed by area (stratified over the luminaire's triangles), each
+with a shadow ray:
+
+    Ê_l = L · (Π_l − (A_l/s) Σ_j (1 − V_j)·g_j).
+
+The estimate is unbiased and exact (zero variance) wherever the luminaire is fully visible —
+the control-variate form of next-event estimation. Point luminaires (an intensity
+distribution I, emitted from a point or uniformly from a luminous rectangle) contribute
+I(ω_{y→x})·cos⁺θ_x·V/r², averaged over ``samples`` points of the rectangle (one for a point).
+
+Each estimate comes with its sampling variance: the sample variance of the terms over s,
+which ignores the stratification and so overstates the true variance (conservative; 2.3×
+in the half-shadow test of tests/test_solver_cache.py).
+
+References
+----------
+Lambert, J. H. (1760). *Photometria*, §§ 170–176 (the polygon formula); in modern form
+Arvo, J. (1995). Applications of irradiance tensors to the simulation of non-Lambertian
+phenomena. *SIGGRAPH '95*, eq. (6). Marchuk et al. (1980), §3.3 (local estimate).
+Glasserman, P. (2004). *Monte Carlo Methods in Financial Engineering*, §4.1 (control
+variates). FORMULAS.md §6.1.
+"""
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..errors import BadInputError
+from ._sampling import stream, triangle_points
+
+__all__ = ["DIRECT_SAMPLES", "direct_illuminance", "projected_solid_angle"]
+
+#: Default shadow-ray samples per luminaire and point.
+DIRECT_SAMPLES = 4
+
+_NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
+
+
+@njit(**_NUMBA)
+def _triangle_projected_solid_angle(x, n, a, b, c):
+    """Π [sr] of triangle a, b, c seen from x (normal n), clipped to the half-space n·v ≥ 0."""
+    verts = np.empty((3, 3))
+    for k in range(3):
+        src = a if k == 0 else (b if k == 1 else c)
+        for i in range(3):
+            verts[k, i] = src[i] - x[i]
+    clipped = np.empty((4, 3))
+    m = 0
+    for k in range(3):
+        p = verts[k]
+        q = verts[(k + 1) % 3]
+        hp = p[0] * n[0] + p[1] * n[1] + p[2] * n[2]
+        hq = q[0] * n[0] + q[1] * n[1] + q[2] * n[2]
+        if hp >= 0.0:
+            clipped[m] = p
+            m += 1
+        if (hp > 0.0 and hq < 0.0) or (hp < 0.0 and hq > 0.0):
+            t = hp / (hp - hq)
+            for i in range(3):
+                clipped[m, i] = p[i] + t * (q[i] - p[i])
+            m += 1
+    if m < 3:
+        return 0.0
+    total = 0.0
+    for k in range(m):
+        p = clipped[k]
+        q = clipped[(k + 1) % m]
+        cx = p[1] * q[2] - p[2] * q[1]
+        cy = p[2] * q[0] - p[0] * q[2]
+        cz = p[0] * q[1] - p[1] * q[0]
+        norm = math.sqrt(cx * cx + cy * cy + cz * cz)
+        if norm == 0.0:
+            continue  # a vertex at x or a degenerate edge subtends no angle
+        gamma = math.atan2(norm, p[0] * q[0] + p[1] * q[1] + p[2] * q[2])
+        total += gamma * (cx * n[0] + cy * n[1] + cz * n[2]) / norm
+    return abs(0.5 * total)
+
+
+@njit(**_NUMBA)
+def _projected_solid_angles(points, normals, triangles, front, out):
+    """``out[i, l]`` += Π of triangle l (vertices ``triangles[l]``, front normal ``front[l]``)
+    seen from point i, where i lies in front of it (one-sided emitters). Serial: callers
+    work on chunks of points in threads."""
+    for i in range(points.shape[0]):
+        x = points[i]
+        n = normals[i]
+        for t in range(triangles.shape[0]):
+            tri = triangles[t]
+            side = ((x[0] - tri[0, 0]) * front[t, 0] + (x[1] - tri[0, 1]) * front[t, 1]
+                    + (x[2] - tri[0, 2]) * front[t, 2])
+            if side > 0.0:
+                out[i, t] = _triangle_projected_solid_angle(x, n, tri[0], tri[1], tri[2])
+
+
+def projected_solid_angle(points, normals, triangles):
+    """Projected solid angle Π = ∫ cos⁺θ_x dω [sr] of triangles seen from points.
+
+    Lambert's polygon formula after clipping each triangle to the horizon of the point;
+    a triangle counts only where the point lies on its front side (the side its normal,
+    ``(b − a) × (c − a)``, points to).
+
+    Parameters
+    ----------
+    points, normals : array_like, shape (P, 3)
+        Points [m] and their unit normals.
+    triangles : array_like, shape (T, 3, 3)
+        Triangle vertices [m].
+
+    Returns
+    -------
+    numpy.ndarray, shape (P, T)
+        Π [sr] (π for a plane filling the whole hemisphere).
+
+    Examples
+    --------
+    A 2 × 2 m square 1 m above a point, facing it. By the corner-rectangle form factor
+    F = (1/2π)·[X/√(1+X²)·atan(Y/√(1+X²)) + Y/√(1+Y²)·atan(X/√(1+Y²))] with X = Y = 1 for each
+    of its four quadrants, F = Π/π = (4/π)·atan(1/√2)/√2 = 0.5541.
+
+    >>> sq = np.array([[[-1, -1, 1], [1, 1, 1], [1, -1, 1]], [[-1, -1, 1], [-1, 1, 1], [1, 1, 1]]], float)
+    >>> pi_ = projected_solid_angle([[0, 0, 0]], [[0, 0, 1]], sq).sum()
+    >>> round(float(pi_ / np.pi), 4)
+    0.5541
+    """
+    tris = np.ascontiguousarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+    return _projected_solid_angle(points, normals, tris, _front_normals(tris))
+
+
+def _front_normals(tris):
+    front = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    length = np.linalg.norm(front, axis=1)
+    return np.ascontiguousarray(front / np.where(length > 0, length, 1.0)[:, None])
+
+
+def _projected_solid_angle(points, normals, tris, front):
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    nrm = np.ascontiguousarray(normals, dtype=np.float64).reshape(-1, 3)
+    out = np.zeros((len(pts), len(tris)))
+    _projected_solid_angles(pts, nrm, tris, front, out)
+    return out
+
+
+class _LuminaireSampler:
+    """Area-stratified points on one area luminaire's triangles."""
+
+    def __init__(self, scene, lum):
+        self.triangles = np.ascontiguousarray(scene.triangles[lum.triangles], dtype=np.float64)
+        self.front = _front_normals(self.triangles)
+        self.normals = scene.normals[lum.triangles]
+        self.luminance = lum.luminance(scene)
+        areas = scene.areas[lum.triangles]
+        self.area = float(areas.sum())
+        self.cdf = np.cumsum(areas) / self.area
+        self.cdf[-1] = 1.0
+
+    def sample(self, u):
+        """Points and normals for uniforms ``u`` ``(k, s, 3)``, stratified in the first one."""
+        k, s, _ = u.shape
+        strat = (np.arange(s)[None, :] + u[..., 0]) / s
+        t = np.minimum(np.searchsorted(self.cdf, strat.ravel(), side="right"), len(self.cdf) - 1)
+        pts = triangle_points(self.triangles[t], u[..., 1:].reshape(-1, 2))
+        return pts.reshape(k, s, 3), self.normals[t].reshape(k, s, 3)
+
+
+def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES, seed=0,
+                       block_ids=None, purpose_key=0):
+    """Direct illuminance [lx] at surface points, and its sampling variance [lx²].
+
+    Parameters
+    ----------
+    scene : Scene
+    engine : RayEngine
+        Ray engine of ``scene`` (shadow rays).
+    points, normals : ndarray, shape (P, 3)
+        Points [m] and unit normals (of the side that receives light).
+    samples : int
+        Shadow-ray samples per luminaire and point (≥ 1): area luminaires sample only their
+        occluded part (module docstring); points luminaires with a luminous rectangle
+        sample the rectangle; a point luminaire needs one ray.
+    seed : int
+        Seed of the samples' random streams.
+    block_ids : ndarray of int, shape (P,), optional
+        Block key of each point (default: all 0); each block draws from its own stream
+        ``(seed, "direct", purpose_key, block)``, so results do not depend on chunking.
+    purpose_key : int
+        Distinguishes independent uses (e.g. pixels and cache points) within one seed.
+
+    Returns
+    -------
+    (E, variance) : tuple of ndarray, shape (P,)
+        The estimate is unbiased; in a partial shadow, with few samples, a single estimate
+        can come out slightly negative (it is not clamped, which would bias the mean).
+    """
+    if isinstance(samples, bool) or int(samples) != samples or samples < 1:
+        raise BadInputError(f"direct samples must be a positive integer, got {samples!r}")
+    s = int(samples)
+    x = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    n = np.ascontiguousarray(normals, dtype=np.float64).reshape(-1, 3)
+    P = len(x)
+    E = np.zeros(P)
+    var = np.zeros(P)
+    if P == 0:
+        return E, var
+    blocks = np.zeros(P, dtype=np.int64) if block_ids is None else np.asarray(block_ids)
+    n_lum = len(scene.area_luminaires) + len(scene.point_luminaires)
+    u = np.empty((P, n_lum, s, 3))
+    for j in np.unique(blocks):
+        m = blocks == j
+        u[m] = stream(seed, "direct", purpose_key, j).random((int(m.sum()), n_lum, s, 3))
+    origins = x + engine.epsilon * n
+    samplers = getattr(scene, "_luminaire_samplers", None)
+    if samplers is None:  # built once per scene (scenes are not modified after loading)
+        samplers = scene._luminaire_samplers = [_LuminaireSampler(scene, lum)
+                                                for lum in scene.area_luminaires]
+    for li, sampler in enumerate(samplers):
+        L = sampler.luminance
+        pi_l = _projected_solid_angle(x, n, sampler.triangles, sampler.front).sum(axis=1)
+        lit = np.flatnonzero(pi_l > 0)
+        E[lit] += L * pi_l[lit]
+        if lit.size == 0:
+            continue
+        y, ny = sampler.sample(u[lit, li])
+        r = y - x[lit, None, :]
+        r2 = np.einsum("psk,psk->ps", r, r)
+        g = (np.maximum(np.einsum("psk,pk->ps", r, n[lit]), 0.0)
+             * np.maximum(-np.einsum("psk,psk->ps", r, ny), 0.0) / (r2 * r2))
+        terms = np.zeros_like(g)
+        cand = np.flatnonzero(g.ravel() > 0)
+        if cand.size:
+            p_of = lit[cand // s]
+            vis = engine.visible(origins[p_of], (y + engine.epsilon * ny).reshape(-1, 3)[cand])
+            terms.ravel()[cand] = np.where(vis, 0.0, L * sampler.area * g.ravel()[cand])
+        E[lit] -= terms.mean(axis=1)
+        if s > 1:
+            var[lit] += terms.var(axis=1, ddof=1) / s
+    for k, lum in enumerate(scene.point_luminaires):
+        li = len(scene.area_luminaires) + k
+        length, width = lum.extent
+        ns = s if (length > 0 and width > 0) else 1
+        offs = (u[:, li, :ns, :2] - 0.5) * np.asarray([length, width])
+        y = (lum.position + offs[..., :1] * lum.frame[0] + offs[..., 1:] * lum.frame[1])
+        r = y - x[:, None, :]
+        r2 = np.einsum("psk,psk->ps", r, r)
+        cos_x = np.einsum("psk,pk->ps", r, n) / np.sqrt(r2)
+        terms = np.zeros((P, ns))
+        cand = np.flatnonzero((cos_x.ravel() > 0) & (r2.ravel() > 0))
+        if cand.size:
+            p_of = cand // ns
+            rr = r.reshape(-1, 3)[cand]
+            dist = np.sqrt(r2.ravel()[cand])
+            value = lum.intensity(-rr / dist[:, None]) * cos_x.ravel()[cand] / r2.ravel()[cand]
+            vis = engine.visible(origins[p_of], y.reshape(-1, 3)[cand])
+            terms.ravel()[cand] = np.where(vis, value, 0.0)
+        E += terms.mean(axis=1)
+        if ns > 1:
+            var += terms.var(axis=1, ddof=1) / ns
+    return E, var

@@ -1,0 +1,681 @@
+"""Per-surface indirect illuminance of a Lambertian scene, and rendering from it.
+
+The per-pixel double local estimate (:func:`~lsadphoto.solver.render`) connects every
+pixel to chain nodes: its cost grows with pixels × nodes, and a few thousand nodes per
+pixel are needed for a per-pixel error of a few per cent. In a Lambertian scene the light
+that reaches a surface point after at least one reflection — the *indirect* illuminance —
+varies smoothly over each surface, while the *direct* illuminance carries the sharp
+shadows and the near-luminaire gradients. This module splits the two:
+
+    L(x_p) = L_e(x_p) + ρ_p/π · (E_dir(x_p) + E_ind(x_p)).
+
+* **E_dir per pixel**, by the first local estimate from the luminaires with Lambert's
+  closed form as control variate (:func:`~lsadphoto.solver.direct.direct_illuminance`):
+  exact where a luminaire is fully visible, sampled only in its shadows.
+* **E_ind on a cache of surface points**, by the double local estimate restricted to the
+  nodes of depth ≥ 1 (the nodes that carry reflected flux): each point draws ``nodes``
+  nodes per batch-group uniformly from the store (independent draws per point), connects
+  those farther than ε with a visibility ray, and estimates the part within ε without
+  bias by cosine-sampled rays (at a near hit y it adds ρ_y·(E_dir(y) + E_ind(y)), E_ind(y)
+  again by far nodes and a further near ray, continued by Russian roulette with
+  probability ρ_y) — the near-field split of :mod:`~lsadphoto.solver.rendering`, with
+  emission left out because the direct part is counted separately.
+* The cache points are the vertices of a regular subdivision of every reflecting triangle
+  (level m = ⌈longest edge/spacing⌉; one point at the centroid for triangles shorter than
+  the spacing), one set per side. A pixel's E_ind is the **linear interpolation** of its
+  sub-triangle's three vertices, per batch group, so per-pixel standard errors still come
+  from independent groups.
+
+What this costs and gives: the cache is view-independent (it is saved in the store, and a
+further view needs only its primary rays, its direct shadow rays and the interpolation);
+the estimate of E_ind at every cache point is unbiased, the interpolation adds a bias of
+order spacing² × (curvature of E_ind) — largest next to concave edges — which the reported
+standard errors do not include. It is measured against per-pixel estimates in
+docs/accuracy.md; halve ``spacing`` to quarter it.
+
+References
+----------
+Budak, Zheltov & Kalakutsky (2012), *Computer Research and Modeling* 4(1), 75–84 (double
+local estimate). Marchuk et al. (1980), *The Monte Carlo Methods in Atmospheric Optics*,
+§3.3. Ward, G. J., Rubinstein, F. M., Clear, R. D. (1988). A ray tracing solution for diffuse
+interreflection. *SIGGRAPH '88*, 85–92 (indirect irradiance is smooth and can be cached and
+interpolated; direct light is computed per pixel). Keller, A. (1997). Instant radiosity.
+"""
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+from numba import njit
+
+from ..errors import BadInputError
+from ._sampling import cosine_directions, stream
+from .direct import DIRECT_SAMPLES, direct_illuminance
+from .rendering import (
+    PIXEL_BLOCK,
+    _check_pose,
+    _check_view,
+    _emitted,
+    _engine_for,
+    _finish,
+    _luminous_openings,
+    _primary,
+    _run_chunks,
+)
+from .store import LsadStore
+
+__all__ = ["CACHE_NODES", "RELATIVE_CACHE_SPACING", "SurfaceCache", "build_surface_cache",
+           "indirect_illuminance", "render_cached"]
+
+#: Default cache spacing as a fraction of the scene's bounding-box diagonal.
+RELATIVE_CACHE_SPACING = 1 / 24
+#: Default node draws per cache point (over all batch groups).
+CACHE_NODES = 8192
+#: Independent groups of node draws (the per-pixel standard error comes from their spread).
+GROUPS = 16
+#: Cosine-sampled near-field paths per point and group.
+NEAR_RAYS = 4
+#: Default ε of the indirect estimate as a fraction of the scene's bounding-box diagonal:
+#: larger than the per-pixel renderer's, which bounds the far terms (c/ε²) and moves the
+#: neighbourhood of concave edges to the cosine-sampled near paths.
+RELATIVE_CACHE_NEAR_DISTANCE = 0.04
+#: Subdivision level of refined cells, and the relative contrast that triggers it.
+REFINE, REFINE_CONTRAST = 4, 0.2
+#: Cache points per random-stream block.
+POINT_BLOCK = 256
+
+_NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
+
+
+def _alias_table(weights):
+    """Walker's alias table (Vose's construction) of a discrete distribution ∝ ``weights``:
+    draw i = ⌊u₁·n⌋, keep it if u₂ < prob[i], else take alias[i] (O(1) per draw)."""
+    n = weights.size
+    scaled = weights * (n / weights.sum())
+    prob = np.ones(n)
+    alias = np.arange(n, dtype=np.int64)
+    small = list(np.flatnonzero(scaled < 1.0))
+    large = list(np.flatnonzero(scaled >= 1.0))
+    while small and large:
+        s, g = small.pop(), large.pop()
+        prob[s], alias[s] = scaled[s], g
+        scaled[g] -= 1.0 - scaled[s]
+        (small if scaled[g] < 1.0 else large).append(g)
+    return prob, alias  # leftovers keep prob 1 (rounding)
+
+
+@njit(**_NUMBA)
+def _far_terms(points, normals, node_pos, node_nrm, pool, prob, alias, u, eps2, tiny, choice,
+               out):
+    """cos θ_n·cos θ_x/r² of the pairs (point i, node choice[i, j]) farther than ε; 0 for
+    pairs closer than ε, behind either surface or grazing (|r|·cos < tiny). The nodes are
+    drawn from ``pool`` by its alias table with the uniforms u[i, j] (one uniform: its
+    integer part picks the slot, its fraction decides slot or alias)."""
+    P, k = choice.shape
+    n = pool.size
+    for i in range(P):
+        px, py, pz = points[i, 0], points[i, 1], points[i, 2]
+        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+        for j in range(k):
+            v = u[i, j] * n
+            slot = min(int(v), n - 1)
+            q = pool[slot] if v - slot < prob[slot] else pool[alias[slot]]
+            choice[i, j] = q
+            dx = node_pos[q, 0] - px
+            dy = node_pos[q, 1] - py
+            dz = node_pos[q, 2] - pz
+            r2 = dx * dx + dy * dy + dz * dz
+            a_p = dx * nx + dy * ny + dz * nz
+            a_n = -(dx * node_nrm[q, 0] + dy * node_nrm[q, 1] + dz * node_nrm[q, 2])
+            if a_p > tiny and a_n > tiny and r2 >= eps2:
+                out[i, j] = a_n * a_p / (r2 * r2)
+            else:
+                out[i, j] = 0.0
+
+
+class _IndirectEstimator:
+    """E_ind at points from the depth ≥ 1 nodes of a store, per group of draws."""
+
+    def __init__(self, store, engine, *, nodes, near_distance, direct_samples, seed, key,
+                 near_rays=NEAR_RAYS):
+        self.store = store
+        self.scene = store.scene
+        self.engine = engine
+        self.eps2 = near_distance ** 2
+        self.near_distance = near_distance
+        self.tiny = 1e-9 * store.scene.size
+        self.direct_samples = direct_samples
+        self.seed = seed
+        self.key = key
+        surface = np.flatnonzero(store.depth > 0)
+        self.groups = min(GROUPS, store.batches)
+        # Group g takes the surface nodes of batches b ≡ g (mod groups): independent chains.
+        group_of = store.batch[surface] % self.groups
+        self.pools = [surface[group_of == g] for g in range(self.groups)]
+        # Nodes are drawn in proportion to their coefficient c (importance sampling: the
+        # estimate Σc/k·Σ_draws g·V has no variance from the spread of chain weights).
+        self.tables, self.totals = [], []
+        for pool in self.pools:
+            c = store.coefficient[pool]
+            self.totals.append(float(c.sum()))
+            self.tables.append(_alias_table(c) if self.totals[-1] > 0 else None)
+        self.draws = max(1, int(nodes) // self.groups)
+        self.chains_per_group = store.chains / self.groups
+        self.near_rays = int(near_rays)
+        self.near_draws = max(1, self.draws // 8)
+        self.pos = np.ascontiguousarray(store.position)
+        self.nrm = np.ascontiguousarray(store.normal)
+        self.target = self.pos + engine.epsilon * self.nrm
+        self.hull = None
+
+    def far(self, x, n, group, blocks, level, draws=None):
+        """Far-node part of E_ind [lx] at points ``x`` for one group: Σc/k · Σ_draws cos θ_n
+        ·cos θ_x·V/r² over k nodes drawn ∝ c, per chain of the group."""
+        pool, table = self.pools[group], self.tables[group]
+        P = len(x)
+        if P == 0 or table is None:
+            return np.zeros(P)
+        k = self.draws if draws is None else draws
+        u = np.empty((P, k))
+        for j in np.unique(blocks):
+            m = blocks == j
+            u[m] = stream(self.seed, "cache", self.key, group, level, j).random((int(m.sum()), k))
+        choice = np.empty((P, k), dtype=np.int64)
+        vals = np.empty((P, k))
+        _far_terms(np.ascontiguousarray(x), np.ascontiguousarray(n), self.pos, self.nrm, pool,
+                   table[0], table[1], u, self.eps2, self.tiny, choice, vals)
+        flat = vals.ravel()
+        cand = np.flatnonzero(flat > 0)
+        if cand.size:
+            origins = x + self.engine.epsilon * n
+            vis = self.engine.visible(origins[cand // k], self.target[choice.ravel()[cand]])
+            flat[cand[~vis]] = 0.0
+        return vals.sum(axis=1) * (self.totals[group] / k / self.chains_per_group)
+
+    def _facing_nodes(self, x, n):
+        """True where some node lies in front of the point's tangent plane (else the far
+        part is exactly 0: every pair has cos θ_x ≤ 0), by the support function of the
+        nodes' convex hull."""
+        if self.hull is None:
+            from scipy.spatial import ConvexHull, QhullError
+
+            pos = self.pos[self.store.depth > 0]
+            try:
+                self.hull = pos[ConvexHull(pos).vertices] if len(pos) > 4 else pos
+            except (QhullError, ValueError):  # flat or degenerate node sets: all of them
+                self.hull = pos
+        if self.hull.size == 0:
+            return np.zeros(len(x), dtype=bool)
+        support = (n @ self.hull.T).max(axis=1)
+        return support > np.einsum("ij,ij->i", n, x) + self.engine.epsilon
+
+    def estimate(self, x, n, blocks):
+        """E_ind [lx] at points ``x`` (normals ``n``), shape (P, groups)."""
+        P = len(x)
+        out = np.zeros((P, self.groups))
+        lit = np.flatnonzero(self._facing_nodes(x, n))
+        for g in range(self.groups):
+            out[lit, g] = self.far(x[lit], n[lit], g, blocks[lit], 0)
+            out[:, g] += self._near(x, n, g, blocks)
+        return out
+
+    def _direct_key(self, group, level):
+        """Stream key of the direct samples at near hits (≥ 1; 0 is the pixels')."""
+        return 1 + (self.key * self.groups + group) * 4096 + level
+
+    def _near(self, x0, n0, group, blocks0):
+        """Unbiased estimate of the part of E_ind from surface points within ε: the mean of
+        ``near_rays`` cosine-sampled paths per point (each near hit y adds ρ_y·(E_dir(y) +
+        far part of E_ind(y)) with ``near_draws`` node draws, and continues by roulette)."""
+        scene, engine = self.scene, self.engine
+        r = self.near_rays
+        x, nx, blocks = np.repeat(x0, r, axis=0), np.repeat(n0, r, axis=0), np.repeat(blocks0, r)
+        total = np.zeros(len(x))
+        active = np.arange(len(x))
+        rho_prev = None
+        level = 0
+        while active.size:
+            level += 1
+            u = np.empty((active.size, 3))
+            b = blocks[active]
+            for j in np.unique(b):
+                m = b == j
+                u[m] = stream(self.seed, "near", self.key, group, level, j).random((int(m.sum()), 3))
+            d = cosine_directions(nx, u[:, :2])
+            prim, dist = engine.closest_hit(x + engine.epsilon * nx, d)
+            near = (prim >= 0) & (dist < self.near_distance)
+            if level > 1:
+                near &= u[:, 2] < rho_prev  # Russian roulette with q = ρ of the vertex
+            active, x, nx, d, prim, dist = active[near], x[near], nx[near], d[near], prim[near], dist[near]
+            if not active.size:
+                break
+            y = x + engine.epsilon * nx + dist[:, None] * d
+            ny = scene.normals[prim]
+            ny = ny * np.where(np.einsum("ij,ij->i", ny, d) < 0, 1.0, -1.0)[:, None]
+            rho_y = scene.triangle_reflectance[prim]
+            lit = np.flatnonzero(rho_y > 0)
+            if lit.size:
+                e_dir, _ = direct_illuminance(scene, engine, y[lit], ny[lit],
+                                              samples=self.direct_samples, seed=self.seed,
+                                              block_ids=blocks[active[lit]],
+                                              purpose_key=self._direct_key(group, level))
+                e_far = self.far(y[lit], ny[lit], group, blocks[active[lit]], level,
+                                 self.near_draws)
+                total[active[lit]] += rho_y[lit] * (e_dir + e_far)
+            x, nx, rho_prev = y, ny, rho_y
+        return total.reshape(-1, r).mean(axis=1)
+
+
+def indirect_illuminance(store, points, normals, *, nodes=CACHE_NODES, near_distance=None,
+                         direct_samples=DIRECT_SAMPLES, seed=0, key=0, block_ids=None):
+    """Indirect illuminance [lx] at surface points from a store, per group of node draws.
+
+    The double local estimate over the store's nodes of depth ≥ 1, ``nodes`` draws per
+    point in :data:`GROUPS` independent groups, with the unbiased near-field treatment
+    (module docstring).
+
+    Parameters
+    ----------
+    store : LsadStore
+    points, normals : ndarray, shape (P, 3)
+        Points [m] and unit normals of the lit side.
+    nodes : int
+        Node draws per point over all groups.
+    near_distance : float, optional
+        ε [m]; default :data:`RELATIVE_CACHE_NEAR_DISTANCE` × scene size.
+    direct_samples : int
+        Shadow-ray samples of the direct illuminance at near-field hits.
+    seed, key : int
+        Random streams ``(seed, "cache", key, …)``; different keys give independent estimates.
+    block_ids : ndarray of int, optional
+        Stream block of each point (default: consecutive blocks of 256 points).
+
+    Returns
+    -------
+    numpy.ndarray, shape (P, groups)
+        Independent unbiased estimates; their mean is the estimate, their standard
+        deviation over √groups its standard error.
+    """
+    if not isinstance(store, LsadStore):
+        raise BadInputError("indirect_illuminance needs an LsadStore")
+    scene = store.scene
+    eps = RELATIVE_CACHE_NEAR_DISTANCE * scene.size if near_distance is None else float(near_distance)
+    if not eps > 0:
+        raise BadInputError(f"near_distance must be positive, got {near_distance!r}")
+    if isinstance(nodes, bool) or int(nodes) != nodes or nodes < 1:
+        raise BadInputError(f"nodes must be a positive integer, got {nodes!r}")
+    x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
+    blocks = np.arange(len(x)) // POINT_BLOCK if block_ids is None else np.asarray(block_ids)
+    est = _IndirectEstimator(store, _engine_for(scene), nodes=nodes, near_distance=eps,
+                             direct_samples=direct_samples, seed=seed, key=key)
+    return est.estimate(x, n, blocks)
+
+
+# --- the cache --------------------------------------------------------------------------------
+
+def _grid_index(m, i, j):
+    """Index of vertex (i, j) of a level-m triangle grid (rows i = 0…m of m + 1 − i vertices)."""
+    return i * (m + 1) - i * (i - 1) // 2 + j
+
+
+def _cell(m, b1, b2):
+    """Cell of barycentric point (b1, b2) in a level-m grid (m ≥ 1, arrays).
+
+    Returns the grid indices of its corners P0, P1, P2, the interpolation weights of P1 and
+    P2 (the point is P0 + w1·(P1 − P0) + w2·(P2 − P0)) and the cell's key 2·index(i, j) +
+    upper. Lower cells are (i, j), (i + 1, j), (i, j + 1); upper cells (i + 1, j + 1),
+    (i + 1, j), (i, j + 1).
+    """
+    s, t = b1 * m, b2 * m
+    i = np.clip(np.floor(s), 0, m - 1).astype(np.int64)
+    j = np.clip(np.floor(t), 0, m - 1 - i).astype(np.int64)
+    fs, ft = s - i, t - j
+    upper = fs + ft > 1.0
+    k0 = np.where(upper, _grid_index(m, i + 1, j + 1), _grid_index(m, i, j))
+    k1 = _grid_index(m, i + 1, j)
+    k2 = _grid_index(m, i, j + 1)
+    w1 = np.where(upper, 1.0 - ft, fs)
+    w2 = np.where(upper, 1.0 - fs, ft)
+    return k0, k1, k2, w1, w2, 2 * _grid_index(m, i, j) + upper
+
+
+def _barycentric(tri, x):
+    """Barycentric coordinates (b1, b2) of points x in triangles tri (n, 3, 3), clipped in."""
+    e1 = tri[:, 1] - tri[:, 0]
+    e2 = tri[:, 2] - tri[:, 0]
+    w = x - tri[:, 0]
+    d11 = np.einsum("ij,ij->i", e1, e1)
+    d12 = np.einsum("ij,ij->i", e1, e2)
+    d22 = np.einsum("ij,ij->i", e2, e2)
+    w1 = np.einsum("ij,ij->i", w, e1)
+    w2 = np.einsum("ij,ij->i", w, e2)
+    det = d11 * d22 - d12 * d12
+    b1 = np.clip((d22 * w1 - d12 * w2) / det, 0.0, 1.0)
+    b2 = np.clip((d11 * w2 - d12 * w1) / det, 0.0, 1.0)
+    total = np.maximum(b1 + b2, 1.0)
+    return b1 / total, b2 / total
+
+
+@dataclass
+class SurfaceCache:
+    """Indirect illuminance at the vertices of a subdivision of every reflecting triangle.
+
+    Attributes
+    ----------
+    spacing : float
+        Target spacing of the cache points [m].
+    level : ndarray of int, shape (T,)
+        Subdivision level m of each triangle (0: one point at the centroid; −1: not cached).
+    offset : ndarray of int, shape (T, 2)
+        Index of each triangle's first vertex for its front (0) and back (1) side.
+    values : ndarray, shape (V, groups)
+        E_ind [lx] at each vertex, per group of node draws.
+    positions : ndarray, shape (V, 3)
+        Where each value was estimated [m] (grid vertices, moved a few ray offsets inside
+        their triangle).
+    refined_key, refined_offset : ndarray of int, shape (C,)
+        Refined cells (sorted keys 2·(global index of the cell's (i, j) vertex) + upper) and
+        the index of the first vertex of each one's level-``refine`` grid in ``values``.
+    refine : int
+        Subdivision level of refined cells.
+    provenance : dict
+        Nodes per point, ε, seed, build time.
+    """
+
+    spacing: float
+    level: np.ndarray
+    offset: np.ndarray
+    values: np.ndarray
+    positions: np.ndarray
+    refined_key: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    refined_offset: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    refine: int = 4
+    provenance: dict = field(default_factory=dict)
+
+    @property
+    def size(self):
+        """Number of cache points."""
+        return len(self.values)
+
+    def corners(self, scene, prim, x, side):
+        """Indices of the three cache points around points ``x`` on triangles ``prim``
+        (side 0 front, 1 back) and their linear-interpolation weights, each (n, 3)."""
+        b1, b2 = _barycentric(scene.triangles[prim], x)
+        m = self.level[prim]
+        base = self.offset[prim, side]
+        if np.any(m < 0) or np.any(base < 0):
+            raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
+        mi = np.maximum(m, 1)
+        k0, k1, k2, w1, w2, key = _cell(mi, b1, b2)
+        index = np.stack([base + k0, base + k1, base + k2], axis=1)
+        weight = np.stack([1.0 - w1 - w2, w1, w2], axis=1)
+        single = m == 0
+        index[single] = base[single, None]
+        weight[single] = (1.0, 0.0, 0.0)
+        if self.refined_key.size:
+            global_key = 2 * base + key  # base + index(i, j) doubled, plus upper
+            pos = np.minimum(np.searchsorted(self.refined_key, global_key), self.refined_key.size - 1)
+            fine = (self.refined_key[pos] == global_key) & ~single
+            if fine.any():
+                r = self.refine
+                f0, f1, f2, v1, v2, _ = _cell(r, w1[fine], w2[fine])
+                start = self.refined_offset[pos[fine]]
+                index[fine] = np.stack([start + f0, start + f1, start + f2], axis=1)
+                weight[fine] = np.stack([1.0 - v1 - v2, v1, v2], axis=1)
+        return index, weight
+
+    def interpolate(self, scene, prim, x, side):
+        """E_ind per group [lx] at points ``x`` on triangles ``prim``, side 0 (front) or 1."""
+        index, weight = self.corners(scene, prim, x, side)
+        return np.einsum("nk,nkg->ng", weight, self.values[index])
+
+
+def _cache_points(scene, spacing, inset):
+    """Levels, offsets, points and normals of the regular cache grids (both sides)."""
+    tris = scene.triangles
+    T = len(tris)
+    edges = np.stack([np.linalg.norm(tris[:, 1] - tris[:, 0], axis=1),
+                      np.linalg.norm(tris[:, 2] - tris[:, 1], axis=1),
+                      np.linalg.norm(tris[:, 0] - tris[:, 2], axis=1)], axis=1).max(axis=1)
+    level = np.where(edges < spacing, 0, np.ceil(edges / spacing)).astype(np.int64)
+    level[scene.triangle_reflectance <= 0] = -1
+    offset = np.full((T, 2), -1, dtype=np.int64)
+    pts, nrm = [], []
+    cursor = 0
+    for t in np.flatnonzero(level >= 0):
+        m = level[t]
+        a, b, c = tris[t]
+        centroid = (a + b + c) / 3.0
+        if m == 0:
+            p = centroid[None, :]
+        else:
+            ij = np.array([(i, j) for i in range(m + 1) for j in range(m + 1 - i)], dtype=float)
+            p = a + (ij[:, :1] / m) * (b - a) + (ij[:, 1:] / m) * (c - a)
+            # A vertex on an edge is moved a few ray offsets inside, so that its rays do not
+            # start in the plane of a neighbouring surface (E_ind is continuous there).
+            to_c = centroid - p
+            length = np.linalg.norm(to_c, axis=1, keepdims=True)
+            p = p + to_c * np.minimum(inset, 0.5 * length) / np.where(length > 0, length, 1.0)
+        for side, sign in ((0, 1.0), (1, -1.0)):
+            offset[t, side] = cursor
+            pts.append(p)
+            nrm.append(np.broadcast_to(sign * scene.normals[t], p.shape))
+            cursor += len(p)
+    points = np.concatenate(pts) if pts else np.zeros((0, 3))
+    normals = np.concatenate(nrm) if nrm else np.zeros((0, 3))
+    return level, offset, points, np.ascontiguousarray(normals)
+
+
+def _cells_to_refine(level, offset, values, contrast):
+    """Keys and corner indices (k, 3) of the cells whose corner values differ by more than
+    ``contrast`` × the largest and by more than 3 standard errors of the difference."""
+    G = values.shape[1]
+    mean = values.mean(axis=1)
+    se = values.std(axis=1, ddof=1) / math.sqrt(G)
+    keys, corners = [], []
+    for t in np.flatnonzero(level >= 1):
+        m = int(level[t])
+        ij = np.array([(i, j) for i in range(m) for j in range(m - i)], dtype=np.int64)
+        i, j = ij[:, 0], ij[:, 1]
+        up = i + j <= m - 2
+        cells = [(np.zeros(i.size, bool), _grid_index(m, i, j), _grid_index(m, i + 1, j),
+                  _grid_index(m, i, j + 1), _grid_index(m, i, j)),
+                 (np.ones(up.sum(), bool), _grid_index(m, i[up] + 1, j[up] + 1),
+                  _grid_index(m, i[up] + 1, j[up]), _grid_index(m, i[up], j[up] + 1),
+                  _grid_index(m, i[up], j[up]))]
+        for side in (0, 1):
+            base = offset[t, side]
+            for upper, c0, c1, c2, corner_ij in cells:
+                c = base + np.stack([c0, c1, c2], axis=1)
+                mu = mean[c]
+                hi, lo = mu.argmax(axis=1), mu.argmin(axis=1)
+                rows = np.arange(len(c))
+                spread = mu[rows, hi] - mu[rows, lo]
+                noise = np.hypot(se[c[rows, hi]], se[c[rows, lo]])
+                flag = (spread > contrast * mu[rows, hi]) & (spread > 3.0 * noise)
+                keys.append(2 * (base + corner_ij[flag]) + upper[flag])
+                corners.append(c[flag])
+    if not keys:
+        return np.zeros(0, np.int64), np.zeros((0, 3), np.int64)
+    keys, corners = np.concatenate(keys), np.concatenate(corners)
+    order = np.argsort(keys)
+    return keys[order], corners[order]
+
+
+def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance=None,
+                        direct_samples=DIRECT_SAMPLES, refine=REFINE, contrast=REFINE_CONTRAST,
+                        seed=0, workers=1, progress=None):
+    """Indirect illuminance on a cache of points over every reflecting surface of a store.
+
+    Two passes: the regular grid of every triangle; then every grid cell whose three corner
+    values differ by more than ``contrast`` (relative to the largest, and significantly:
+    more than 3 standard errors) — a shadow edge of indirect light, an object standing
+    close, a concave corner — is subdivided into a level-``refine`` grid of its own.
+
+    Parameters
+    ----------
+    store : LsadStore
+    spacing : float, optional
+        Target spacing of the cache points [m]; default :data:`RELATIVE_CACHE_SPACING` ×
+        the scene's bounding-box diagonal.
+    nodes : int
+        Node draws per cache point (over all groups): the per-point standard error of E_ind
+        falls as 1/√nodes.
+    near_distance : float, optional
+        ε [m] of the near-field split; default :data:`RELATIVE_CACHE_NEAR_DISTANCE` × size.
+    direct_samples : int
+        Shadow-ray samples of the direct illuminance at near-field hits.
+    refine : int
+        Subdivision level of refined cells (1: no refinement).
+    contrast : float
+        Relative difference of corner values above which a cell is refined.
+    seed : int
+        Seed of the node draws and near-field rays.
+    workers : int
+        Threads (never changes the result).
+    progress : callable, optional
+        ``progress(done_fraction, eta_s)`` (per pass).
+
+    Returns
+    -------
+    SurfaceCache
+    """
+    if not isinstance(store, LsadStore):
+        raise BadInputError("build_surface_cache needs an LsadStore")
+    scene = store.scene
+    spacing = RELATIVE_CACHE_SPACING * scene.size if spacing is None else float(spacing)
+    if not (spacing > 0 and math.isfinite(spacing)):
+        raise BadInputError(f"cache spacing must be a positive length in metres, got {spacing!r}")
+    if isinstance(workers, bool) or int(workers) != workers or workers < 1:
+        raise BadInputError(f"workers must be a positive integer, got {workers!r}")
+    if isinstance(refine, bool) or int(refine) != refine or refine < 1:
+        raise BadInputError(f"refine must be a positive integer, got {refine!r}")
+    if not contrast > 0:
+        raise BadInputError(f"contrast must be positive, got {contrast!r}")
+    if isinstance(nodes, bool) or int(nodes) != nodes or nodes < 1:
+        raise BadInputError(f"nodes must be a positive integer, got {nodes!r}")
+    eps = RELATIVE_CACHE_NEAR_DISTANCE * scene.size if near_distance is None else float(near_distance)
+    t0 = time.perf_counter()
+    engine = _engine_for(scene)
+    inset = 10 * engine.epsilon
+    level, offset, points, normals = _cache_points(scene, spacing, inset)
+    est = _IndirectEstimator(store, engine, nodes=nodes, near_distance=eps,
+                             direct_samples=direct_samples, seed=seed, key=0)
+
+    def evaluate(pts, nrm, first_block):
+        values = np.zeros((len(pts), est.groups))
+        blocks = first_block + np.arange(len(pts)) // POINT_BLOCK
+
+        def work(start):
+            sl = slice(start, start + POINT_BLOCK)
+            idx = np.arange(start, min(start + POINT_BLOCK, len(pts)))
+            return idx, est.estimate(pts[sl], nrm[sl], blocks[sl])
+
+        _run_chunks(work, range(0, len(pts), POINT_BLOCK), values, int(workers), progress,
+                    time.perf_counter(), len(pts))
+        return values
+
+    values = evaluate(points, normals, 0)
+    keys, corners = (_cells_to_refine(level, offset, values, contrast) if refine > 1
+                     else (np.zeros(0, np.int64), np.zeros((0, 3), np.int64)))
+    refined_offset = np.zeros(0, np.int64)
+    if keys.size:
+        r = int(refine)
+        ab = np.array([(a, b) for a in range(r + 1) for b in range(r + 1 - a)], dtype=float) / r
+        p0, p1, p2 = (points[corners[:, k]] for k in range(3))
+        fine_points = (p0[:, None] + ab[None, :, :1] * (p1 - p0)[:, None]
+                       + ab[None, :, 1:] * (p2 - p0)[:, None]).reshape(-1, 3)
+        fine_normals = np.repeat(normals[corners[:, 0]], len(ab), axis=0)
+        refined_offset = len(points) + len(ab) * np.arange(keys.size, dtype=np.int64)
+        first_block = (len(points) + POINT_BLOCK - 1) // POINT_BLOCK
+        values = np.concatenate([values, evaluate(fine_points, fine_normals, first_block)])
+        points = np.concatenate([points, fine_points])
+    return SurfaceCache(spacing, level, offset, values, points, keys, refined_offset, int(refine), provenance={
+        "nodes_per_point": int(est.draws * est.groups), "groups": int(est.groups),
+        "near_distance_m": eps, "near_rays": est.near_rays, "direct_samples": int(direct_samples),
+        "seed": int(seed), "grid_points": len(points), "refined_cells": int(keys.size),
+        "points": len(values), "refine_contrast": float(contrast),
+        "build_time_s": time.perf_counter() - t0})
+
+
+def render_cached(store, projection, *, position, rotation, cache=None,
+                  direct_samples=DIRECT_SAMPLES, seed=0, chunk_pixels=8192, workers=1,
+                  progress=None):
+    """Luminance map of a view from a surface cache: direct light per pixel, indirect
+    interpolated [cd·m⁻²].
+
+    Parameters
+    ----------
+    store : LsadStore
+        A simulated store; its ``surface_cache`` is used unless ``cache`` is given (one is
+        built with the defaults of :func:`build_surface_cache` when neither exists).
+    projection, position, rotation
+        As :func:`~lsadphoto.solver.render`.
+    cache : SurfaceCache, optional
+    direct_samples : int
+        Shadow-ray samples per luminaire and pixel (:func:`direct_illuminance`).
+    seed : int
+        Seed of the direct-light samples.
+    chunk_pixels, workers, progress
+        As :func:`~lsadphoto.solver.render`; never change the result.
+
+    Returns
+    -------
+    LuminanceMap
+        Luminance, per-pixel standard error (the direct part's sampling variance plus the
+        spread of the interpolated groups; the interpolation bias is not included, see
+        the module docstring) and provenance.
+    """
+    if not isinstance(store, LsadStore):
+        raise BadInputError("render_cached needs an LsadStore (simulate the scene first)")
+    scene = store.scene
+    if cache is None:
+        cache = store.surface_cache or build_surface_cache(store, workers=workers)
+    position, rotation = _check_pose(position, rotation)
+    if isinstance(workers, bool) or int(workers) != workers or workers < 1:
+        raise BadInputError(f"workers must be a positive integer, got {workers!r}")
+    engine = _engine_for(scene)
+    t0 = time.perf_counter()
+    valid, prim, dist, d = _primary(scene, engine, projection, position, rotation)
+    hit = np.flatnonzero(prim >= 0)
+    G = cache.values.shape[1]
+    lum_b = np.zeros((valid.size, G))
+    direct_var = np.zeros(valid.size)
+    chunk = max(PIXEL_BLOCK, math.ceil(chunk_pixels / PIXEL_BLOCK) * PIXEL_BLOCK)
+
+    def work(start):
+        h = hit[start:start + chunk]
+        t = prim[h]
+        x = position + dist[h, None] * d[h]
+        facing = np.einsum("ij,ij->i", scene.normals[t], d[h]) < 0
+        nrm = scene.normals[t] * np.where(facing, 1.0, -1.0)[:, None]
+        rho = scene.triangle_reflectance[t]
+        out = np.repeat(_emitted(scene, t, -d[h])[:, None], G, axis=1)
+        refl = np.flatnonzero(rho > 0)
+        if refl.size:
+            blocks = (start + refl) // PIXEL_BLOCK
+            e_dir, var = direct_illuminance(scene, engine, x[refl], nrm[refl],
+                                            samples=direct_samples, seed=seed, block_ids=blocks)
+            e_ind = cache.interpolate(scene, t[refl], x[refl], np.where(facing[refl], 0, 1))
+            k = (rho[refl] / math.pi)[:, None]
+            out[refl] += k * (e_dir[:, None] + e_ind)
+            direct_var[h[refl]] = (rho[refl] / math.pi) ** 2 * var
+        return h, out
+
+    _run_chunks(work, range(0, hit.size, chunk), lum_b, int(workers), progress, t0, hit.size)
+    openings = _luminous_openings(scene, position, d, dist)
+    _check_view(scene, engine, prim, dist, np.where(np.isfinite(openings)[:, None], 1.0, lum_b),
+                position)
+    return _finish(projection, valid, lum_b, store_or_scene=store,
+                   estimator="surface cache (direct per pixel, indirect interpolated)",
+                   openings=openings, shared_variance=direct_var,
+                   extra={"chains": int(store.chains), "nodes": int(store.nodes),
+                          "direct_samples": int(direct_samples), "seed": int(seed),
+                          "simulation_seed": int(store.seed),
+                          "cache_spacing_m": float(cache.spacing),
+                          "cache_points": int(cache.size),
+                          "cache_nodes_per_point": cache.provenance.get("nodes_per_point"),
+                          "interpolation_bias": "not included in the uncertainty"},
+                   elapsed=time.perf_counter() - t0)

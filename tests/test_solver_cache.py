@@ -1,0 +1,288 @@
+"""Direct light per point and the surface cache of indirect illuminance.
+
+References
+----------
+Projected solid angle of a rectangle seen from a point on its normal through a corner
+(the corner-rectangle form factor, e.g. Howell, *A Catalog of Radiation Heat Transfer
+Configuration Factors*, B-3; Walsh 1958, *Photometry*, §3): F = (1/2π)·[X/√(1+X²)·
+atan(Y/√(1+X²)) + Y/√(1+Y²)·atan(X/√(1+Y²))], X = a/c, Y = b/c. Integrating sphere: every
+non-emitting point receives E_dir = Φ/A and E = Φ/(A(1 − ρ)) in all (see
+tests/test_solver_accuracy.py). Point source: E = I·cos θ/d².
+"""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from lsadphoto.cli import main
+from lsadphoto.errors import BadInputError
+from lsadphoto.io import read_exr
+from lsadphoto.solver import (
+    load_store,
+    render,
+    scene_from_dict,
+    simulate,
+)
+from lsadphoto.solver.direct import direct_illuminance, projected_solid_angle
+from lsadphoto.solver.examples import canonical_room, canonical_room_toml
+from lsadphoto.solver.rendering import _engine_for
+from lsadphoto.solver.surface_cache import (
+    SurfaceCache,
+    build_surface_cache,
+    indirect_illuminance,
+    render_cached,
+)
+
+from .test_solver_accuracy import DOWN, FISHEYE, K_SIGMA, REL_TOL, sphere_scene
+
+
+def corner_factor(a, b, c):
+    x, y = a / c, b / c
+    return (x / math.hypot(1, x) * math.atan(y / math.hypot(1, x))
+            + y / math.hypot(1, y) * math.atan(x / math.hypot(1, y))) / (2 * math.pi)
+
+
+def quad(p0, p1, p2, p3):
+    """Two triangles of a planar quad (front side by the order)."""
+    return np.array([[p0, p1, p2], [p0, p2, p3]], dtype=float)
+
+
+# --- projected solid angle and direct light -------------------------------------------------
+
+def test_projected_solid_angle_of_rectangles_equals_the_corner_form_factor():
+    # A 3 × 2 m rectangle 1.5 m above a point, offset so that the point's normal passes
+    # through a corner, facing down: Π = π·F exactly (rounding only).
+    rect = quad([0, 0, 1.5], [0, 2, 1.5], [3, 2, 1.5], [3, 0, 1.5])
+    pi_ = projected_solid_angle([[0, 0, 0]], [[0, 0, 1]], rect).sum()
+    assert pi_ == pytest.approx(math.pi * corner_factor(3, 2, 1.5), rel=1e-12)
+    # Seen from behind (the point above it), a one-sided emitter contributes nothing.
+    assert projected_solid_angle([[0, 0, 3]], [[0, 0, -1]], rect).sum() == 0
+
+
+def test_projected_solid_angle_clips_at_the_horizon():
+    # A vertical 2 × 2 m square 1 m away whose lower half lies below the point's horizon:
+    # only the upper half may count. Checked against midpoint quadrature of
+    # cos⁺θ_x·cos θ_y/r² over the upper half (independent of Lambert's formula; 400² cells,
+    # relative error O(h²) < 1e-4).
+    wall = quad([-1, 1, -1], [1, 1, -1], [1, 1, 1], [-1, 1, 1])  # front normal −y, towards the point
+    pi_ = projected_solid_angle([[0, 0, 0]], [[0, 0, 1]], wall).sum()
+    n = 400
+    u = (np.arange(n) + 0.5) / n
+    xs, zs = np.meshgrid(-1 + 2 * u, u)  # the upper half z ∈ (0, 1)
+    r2 = xs ** 2 + 1 + zs ** 2
+    integrand = zs * 1.0 / r2 ** 2  # cos θ_x = z/r, cos θ_y = 1/r
+    assert pi_ == pytest.approx(integrand.mean() * 2.0, rel=1e-4)
+
+
+def test_direct_light_of_a_half_occluded_luminaire():
+    # A 1 × 1 m Lambertian panel 2 m above a point; an opaque black sheet just below the
+    # panel covers its half x < 0. Expected E = L·Π(uncovered half) (Lambert, exact); the
+    # estimator samples only the covered half and must be unbiased: the mean of 20
+    # independent estimates within 3 standard errors.
+    flux = 1000.0
+    scene = scene_from_dict({
+        "materials": {"grey": {"reflectance": 0.5}, "black": {"reflectance": 0.0}},
+        "surfaces": [
+            {"type": "polygon", "material": "grey",
+             "vertices": [[-5, -5, 0], [5, -5, 0], [5, 5, 0], [-5, 5, 0]]},
+            {"type": "polygon", "material": "black",
+             "vertices": [[-0.6, -0.6, 1.98], [0, -0.6, 1.98], [0, 0.6, 1.98], [-0.6, 0.6, 1.98]]},
+        ],
+        "luminaires": [{"type": "area", "flux": flux, "material": "black", "shape": {
+            "type": "polygon", "vertices": [[-0.5, -0.5, 2], [-0.5, 0.5, 2], [0.5, 0.5, 2], [0.5, -0.5, 2]]}}],
+    })
+    engine = _engine_for(scene)
+    luminance = flux / math.pi  # 1 m²
+    half = quad([0, -0.5, 2], [0, 0.5, 2], [0.5, 0.5, 2], [0.5, -0.5, 2])
+    point = np.array([[0.1, 0.05, 0.0]])
+    expected = luminance * projected_solid_angle(point, [[0, 0, 1]], half).sum()
+    estimates = [direct_illuminance(scene, engine, point, np.array([[0, 0, 1.0]]), samples=8,
+                                    seed=s) for s in range(20)]
+    e = np.array([est[0][0] for est in estimates])
+    var = np.array([est[1][0] for est in estimates])
+    assert np.all(var > 0)  # partial shadow: sampled, with a variance
+    assert abs(e.mean() - expected) <= K_SIGMA * e.std(ddof=1) / math.sqrt(len(e))
+    # The reported variance is the samples' variance over s, which ignores the stratification
+    # (that lowers the true variance): conservative, here 2.3× the spread of 20 independent
+    # estimates; it must not understate it (factor 0.5 allows for 20 estimates' scatter).
+    assert 0.5 < var.mean() / e.var(ddof=1) < 4.0
+
+
+def test_direct_light_is_exact_where_luminaires_are_fully_visible():
+    # Inside the convex canonical room nothing occludes the panels: the estimate is Lambert's
+    # closed form itself, with zero variance (rounding only).
+    room = canonical_room(size=8)
+    pts = np.array([[3.0, 2.0, 0.0], [0.0, 1.0, 1.5], [5.0, 3.5, 2.5]])
+    nrm = np.array([[0, 0, 1.0], [1, 0, 0], [0, -1, 0]])
+    e, var = direct_illuminance(room, _engine_for(room), pts, nrm, samples=4)
+    expected = sum(lum.luminance(room) * projected_solid_angle(pts, nrm, room.triangles[lum.triangles]).sum(axis=1)
+                   for lum in room.area_luminaires)
+    assert np.allclose(e, expected, rtol=1e-12)
+    assert np.all(var == 0)
+
+
+def test_direct_light_of_a_point_luminaire():
+    # 100 cd isotropic (Φ = 400π lm) 2 m above the floor: E = I·cos θ/d².
+    scene = scene_from_dict({
+        "materials": {"grey": {"reflectance": 0.5}},
+        "surfaces": [{"type": "disc", "centre": [0, 0, 0], "normal": [0, 0, 1], "radius": 5,
+                      "material": "grey"}],
+        "luminaires": [{"type": "point", "position": [0, 0, 2], "flux": 400 * math.pi}],
+    })
+    pts = np.array([[0.0, 0, 0], [1.5, 0, 0], [0, -3, 0]])
+    e, var = direct_illuminance(scene, _engine_for(scene), pts, np.tile([0, 0, 1.0], (3, 1)))
+    d2 = (pts ** 2).sum(axis=1) + 4
+    assert np.allclose(e, 100 * 2 / np.sqrt(d2) / d2, rtol=1e-4)  # 1° intensity table: 1e-4
+    assert np.all(var == 0)
+
+
+# --- indirect illuminance and the cache --------------------------------------------------------
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rho", [0.5, 0.95])
+def test_integrating_sphere_from_the_cache(rho):
+    # Every wall point: E_ind = Φ/A·ρ/(1 − ρ). ε = 0.3 R makes the near-field paths carry a
+    # large share (see test_solver_accuracy), so the unbiasedness of the near-field split is
+    # tested too. Facets (edge 0.063 R) are smaller than the default spacing: one cache point
+    # per facet side, the interpolation is exact for this constant field. Polyhedron
+    # geometry: O(δ²) ≈ 2e-3 point-wise (test_solver_accuracy), inside the 1 % tolerance.
+    scene = sphere_scene(rho)
+    store = simulate(scene, samples=8192, seed=3)
+    cache = build_surface_cache(store, nodes=256, near_distance=0.3, seed=4, workers=2)
+    lmap = render_cached(store, FISHEYE, position=[0, 0, 0], rotation=DOWN, cache=cache)
+    p = lmap.provenance
+    expected = rho * 1000.0 / (math.pi * scene.areas.sum() * (1 - rho))
+    assert abs(p["field_mean_luminance"] - expected) <= K_SIGMA * p["field_mean_standard_error"]
+    assert abs(p["field_mean_luminance"] / expected - 1) <= REL_TOL
+
+
+def test_interpolation_reproduces_linear_fields_in_plain_and_refined_cells():
+    # A small room with a low contrast threshold so that many cells are refined; the cache
+    # values are then replaced by a linear function of position: linear interpolation must
+    # reproduce it at any surface point, up to the inset of the cache points (10 ray
+    # offsets ≈ 2e-4 m × |∇f| = 1 → 1e-3 absolute at most).
+    scene = scene_from_dict({
+        "materials": {"grey": {"reflectance": 0.5}},
+        "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [2, 1.5, 1], "facing": "inward",
+                      "material": "grey"}],
+        "luminaires": [{"type": "point", "position": [0.5, 0.5, 0.9], "flux": 1000}],
+    })
+    store = simulate(scene, samples=2048, seed=1)
+    cache = build_surface_cache(store, spacing=0.4, nodes=32, contrast=0.05, seed=2)
+    assert cache.refined_key.size > 0
+    f = lambda p: 3.0 + p[:, 0] - 2.0 * p[:, 1] + 0.5 * p[:, 2]
+    cache.values = np.repeat(f(cache.positions)[:, None], cache.values.shape[1], axis=1)
+    rng = np.random.default_rng(0)
+    t = rng.integers(0, len(scene.triangles), 5000)
+    u = rng.random((5000, 2))
+    su = np.sqrt(u[:, 0])
+    tri = scene.triangles[t]
+    x = ((1 - su)[:, None] * tri[:, 0] + (u[:, 1] * su)[:, None] * tri[:, 1]
+         + (su - u[:, 1] * su)[:, None] * tri[:, 2])
+    got = cache.interpolate(scene, t, x, np.zeros(len(t), int))
+    assert np.allclose(got[:, 0], f(x), rtol=0, atol=1e-3)
+    index, _ = cache.corners(scene, t, x, np.zeros(len(t), int))
+    assert np.any(index >= cache.refined_offset.min())  # refined cells were used
+
+
+@pytest.mark.slow
+def test_cached_render_agrees_with_the_per_pixel_double_local_estimate():
+    # Two independent estimators of one room (separate stores): the field means agree within
+    # 3 combined standard errors and 1 %; per pixel, the differences divided by their
+    # combined standard error have a median |z| below 1.5 (0.67 for pure noise; the margin
+    # allows the interpolation bias, which the cache's errors do not include).
+    room = canonical_room(size=32)
+    view = room.views[0]
+    cached = render_cached(simulate(room, samples=16384, seed=5), view.projection,
+                           position=view.position, rotation=view.rotation,
+                           cache=None, workers=2)
+    local = render(simulate(room, samples=16384, seed=6), view.projection, position=view.position,
+                   rotation=view.rotation, nodes_per_pixel=64, workers=2)
+    a, b = cached.provenance, local.provenance
+    se = math.hypot(a["field_mean_standard_error"], b["field_mean_standard_error"])
+    assert abs(a["field_mean_luminance"] - b["field_mean_luminance"]) <= K_SIGMA * se
+    assert abs(a["field_mean_luminance"] / b["field_mean_luminance"] - 1) <= REL_TOL
+    combined = np.hypot(cached.uncertainty, local.uncertainty)
+    ok = np.isfinite(local.luminance) & (local.luminance > 1) & (combined > 0)  # not the panels
+    z = (cached.luminance - local.luminance)[ok] / combined[ok]
+    assert np.median(np.abs(z)) < 1.5
+
+
+def test_results_do_not_depend_on_threads_or_chunks():
+    room = canonical_room(size=24)
+    view = room.views[0]
+    store = simulate(room, samples=2048, seed=1)
+    c1 = build_surface_cache(store, nodes=64, workers=1)
+    c2 = build_surface_cache(store, nodes=64, workers=2)
+    assert np.array_equal(c1.values, c2.values)
+    kw = {"position": view.position, "rotation": view.rotation, "cache": c1}
+    m1 = render_cached(store, view.projection, workers=1, chunk_pixels=256, **kw)
+    m2 = render_cached(store, view.projection, workers=2, chunk_pixels=4096, **kw)
+    assert np.array_equal(m1.luminance, m2.luminance, equal_nan=True)
+    assert np.array_equal(m1.uncertainty, m2.uncertainty, equal_nan=True)
+
+
+def test_indirect_estimates_of_different_keys_are_independent():
+    store = simulate(canonical_room(size=8), samples=4096, seed=1)
+    x = np.array([[3.0, 2.0, 0.0], [0.0, 2.0, 1.5]])
+    n = np.array([[0, 0, 1.0], [1, 0, 0]])
+    e1 = indirect_illuminance(store, x, n, nodes=512, key=1)
+    e2 = indirect_illuminance(store, x, n, nodes=512, key=2)
+    assert not np.array_equal(e1, e2)
+    # Both unbiased for one quantity: the means agree within 4 combined standard errors.
+    se = np.hypot(e1.std(axis=1, ddof=1), e2.std(axis=1, ddof=1)) / 4
+    assert np.all(np.abs(e1.mean(axis=1) - e2.mean(axis=1)) <= 4 * se)
+
+
+def test_store_keeps_its_surface_cache(tmp_path):
+    room = canonical_room(size=16)
+    view = room.views[0]
+    store = simulate(room, samples=1024, seed=1)
+    store.surface_cache = build_surface_cache(store, nodes=32)
+    store.save(tmp_path / "s.npz")
+    again = load_store(tmp_path / "s.npz")
+    assert isinstance(again.surface_cache, SurfaceCache)
+    for name in ("level", "offset", "values", "positions", "refined_key", "refined_offset"):
+        assert np.array_equal(getattr(again.surface_cache, name), getattr(store.surface_cache, name))
+    kw = {"position": view.position, "rotation": view.rotation}
+    assert np.array_equal(render_cached(store, view.projection, **kw).luminance,
+                          render_cached(again, view.projection, **kw).luminance, equal_nan=True)
+    store.extend(simulate(room, samples=1024, seed=2))
+    assert store.surface_cache is None  # stale after new chains
+
+
+def test_bad_input():
+    room = canonical_room(size=8)
+    store = simulate(room, samples=256, seed=1)
+    for kwargs in ({"spacing": 0}, {"spacing": float("nan")}, {"nodes": 0}, {"refine": 0},
+                   {"contrast": 0}, {"workers": 0}):
+        with pytest.raises(BadInputError):
+            build_surface_cache(store, **kwargs)
+    with pytest.raises(BadInputError):
+        build_surface_cache(room)
+    with pytest.raises(BadInputError):
+        render_cached(room, room.views[0].projection, position=[1, 2, 1], rotation=np.eye(3))
+    with pytest.raises(BadInputError):
+        direct_illuminance(room, _engine_for(room), [[1, 1, 0]], [[0, 0, 1]], samples=0)
+
+
+def test_cli_simulate_with_cache_and_render_from_it(tmp_path, capsys):
+    scene = tmp_path / "room.toml"
+    scene.write_text(canonical_room_toml(size=24))
+    store = tmp_path / "s.npz"
+    assert main(["simulate", str(scene), "-o", str(store), "--samples", "2048", "--surface-cache",
+                 "--cache-nodes", "64", "--quiet"]) == 0
+    assert load_store(store).surface_cache is not None
+    capsys.readouterr()
+    out = tmp_path / "m.exr"
+    assert main(["render", str(store), "--estimator", "cache", "-o", str(out), "--quiet", "--json"]) == 0
+    record = json.loads(capsys.readouterr().out)
+    assert record["provenance"]["estimator"].startswith("surface cache")
+    assert record["provenance"]["cache_nodes_per_point"] == 64
+    lmap = read_exr(out)
+    assert np.nanmax(lmap.luminance) > 0
+    assert main(["simulate", str(scene), "-o", str(store), "--samples", "64", "--surface-cache",
+                 "--cache-spacing", "-1", "--quiet"]) == 2
+    assert "cache spacing" in capsys.readouterr().err
