@@ -38,7 +38,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import BadInputError
-from ._sampling import stream, triangle_points
+from ._sampling import stream
 
 __all__ = ["DIRECT_SAMPLES", "direct_illuminance", "projected_solid_angle"]
 
@@ -152,26 +152,61 @@ def _projected_solid_angle(points, normals, tris, front):
     return out
 
 
+@njit(**_NUMBA)
+def _area_samples(x, n, tris, tri_normals, cdf, u, offset, targets, g):
+    """Stratified points on a luminaire's triangles for points x (normals n): shadow-ray
+    targets (the point moved ``offset`` off the emitting side) and g = cos⁺θ_x·cos⁺θ_y/r²
+    (one-sided emitter). ``u`` (P, s, 3): the first uniform picks the triangle within its
+    stratum of the area CDF, the other two the point (square-root warp)."""
+    P, s = g.shape
+    nt = cdf.size
+    for i in range(P):
+        for j in range(s):
+            v = (j + u[i, j, 0]) / s
+            t = 0
+            while t < nt - 1 and cdf[t] <= v:
+                t += 1
+            su = math.sqrt(u[i, j, 1])
+            b1 = u[i, j, 2] * su
+            b0 = 1.0 - su
+            b2 = 1.0 - b0 - b1
+            rx = ry = rz = 0.0
+            for k in range(3):
+                y_k = b0 * tris[t, 0, k] + b1 * tris[t, 1, k] + b2 * tris[t, 2, k]
+                targets[i, j, k] = y_k + offset * tri_normals[t, k]
+                if k == 0:
+                    rx = y_k - x[i, 0]
+                elif k == 1:
+                    ry = y_k - x[i, 1]
+                else:
+                    rz = y_k - x[i, 2]
+            r2 = rx * rx + ry * ry + rz * rz
+            cx = rx * n[i, 0] + ry * n[i, 1] + rz * n[i, 2]
+            cy = -(rx * tri_normals[t, 0] + ry * tri_normals[t, 1] + rz * tri_normals[t, 2])
+            g[i, j] = cx * cy / (r2 * r2) if (cx > 0.0 and cy > 0.0) else 0.0
+
+
 class _LuminaireSampler:
     """Area-stratified points on one area luminaire's triangles."""
 
     def __init__(self, scene, lum):
         self.triangles = np.ascontiguousarray(scene.triangles[lum.triangles], dtype=np.float64)
         self.front = _front_normals(self.triangles)
-        self.normals = scene.normals[lum.triangles]
+        self.normals = np.ascontiguousarray(scene.normals[lum.triangles], dtype=np.float64)
         self.luminance = lum.luminance(scene)
         areas = scene.areas[lum.triangles]
         self.area = float(areas.sum())
         self.cdf = np.cumsum(areas) / self.area
         self.cdf[-1] = 1.0
 
-    def sample(self, u):
-        """Points and normals for uniforms ``u`` ``(k, s, 3)``, stratified in the first one."""
-        k, s, _ = u.shape
-        strat = (np.arange(s)[None, :] + u[..., 0]) / s
-        t = np.minimum(np.searchsorted(self.cdf, strat.ravel(), side="right"), len(self.cdf) - 1)
-        pts = triangle_points(self.triangles[t], u[..., 1:].reshape(-1, 2))
-        return pts.reshape(k, s, 3), self.normals[t].reshape(k, s, 3)
+    def sample(self, x, n, u, offset):
+        """Shadow-ray targets (P, s, 3) and g (P, s) for points x, normals n, uniforms u."""
+        P, s, _ = u.shape
+        targets = np.empty((P, s, 3))
+        g = np.empty((P, s))
+        _area_samples(np.ascontiguousarray(x), np.ascontiguousarray(n), self.triangles,
+                      self.normals, self.cdf, np.ascontiguousarray(u), offset, targets, g)
+        return targets, g
 
 
 def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES, seed=0,
@@ -231,16 +266,12 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         E[lit] += L * pi_l[lit]
         if lit.size == 0:
             continue
-        y, ny = sampler.sample(u[lit, li])
-        r = y - x[lit, None, :]
-        r2 = np.einsum("psk,psk->ps", r, r)
-        g = (np.maximum(np.einsum("psk,pk->ps", r, n[lit]), 0.0)
-             * np.maximum(-np.einsum("psk,psk->ps", r, ny), 0.0) / (r2 * r2))
+        targets, g = sampler.sample(x[lit], n[lit], u[lit, li], engine.epsilon)
         terms = np.zeros_like(g)
         cand = np.flatnonzero(g.ravel() > 0)
         if cand.size:
             p_of = lit[cand // s]
-            vis = engine.visible(origins[p_of], (y + engine.epsilon * ny).reshape(-1, 3)[cand])
+            vis = engine.visible(origins[p_of], targets.reshape(-1, 3)[cand])
             terms.ravel()[cand] = np.where(vis, 0.0, L * sampler.area * g.ravel()[cand])
         E[lit] -= terms.mean(axis=1)
         if s > 1:

@@ -21,8 +21,9 @@ shadows and the near-luminaire gradients. This module splits the two:
   probability ρ_y) — the near-field split of :mod:`~lsadphoto.solver.rendering`, with
   emission left out because the direct part is counted separately.
 * The cache points are the vertices of a regular subdivision of every reflecting triangle
-  (level m = ⌈longest edge/spacing⌉; one point at the centroid for triangles shorter than
-  the spacing), one set per side. A pixel's E_ind is the **linear interpolation** of its
+  (level m ≈ √(2·area)/spacing; one point at the centroid for triangles smaller than the
+  spacing), one set per side; cells whose corner values differ strongly (shadow edges of
+  indirect light, objects standing close, concave corners) are subdivided further. A pixel's E_ind is the **linear interpolation** of its
   sub-triangle's three vertices, per batch group, so per-pixel standard errors still come
   from independent groups.
 
@@ -436,10 +437,14 @@ def _cache_points(scene, spacing, inset):
     """Levels, offsets, points and normals of the regular cache grids (both sides)."""
     tris = scene.triangles
     T = len(tris)
-    edges = np.stack([np.linalg.norm(tris[:, 1] - tris[:, 0], axis=1),
-                      np.linalg.norm(tris[:, 2] - tris[:, 1], axis=1),
-                      np.linalg.norm(tris[:, 0] - tris[:, 2], axis=1)], axis=1).max(axis=1)
-    level = np.where(edges < spacing, 0, np.ceil(edges / spacing)).astype(np.int64)
+    longest = np.stack([np.linalg.norm(tris[:, 1] - tris[:, 0], axis=1),
+                        np.linalg.norm(tris[:, 2] - tris[:, 1], axis=1),
+                        np.linalg.norm(tris[:, 0] - tris[:, 2], axis=1)], axis=1).max(axis=1)
+    # The level gives sub-triangles of about spacing²/2 in area (√(2A)/m ≈ spacing; for an
+    # equilateral triangle of edge a, √(2A) = 0.93a), with sub-edges no longer than 3 ×
+    # spacing along thin triangles.
+    extent = np.maximum(np.sqrt(2.0 * scene.areas), longest / 3.0)
+    level = np.where(extent < spacing, 0, np.ceil(extent / spacing)).astype(np.int64)
     level[scene.triangle_reflectance <= 0] = -1
     offset = np.full((T, 2), -1, dtype=np.int64)
     pts, nrm = [], []
@@ -578,6 +583,7 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         return values
 
     values = evaluate(points, normals, 0)
+    grid_points = len(points)
     keys, corners = (_cells_to_refine(level, offset, values, contrast) if refine > 1
                      else (np.zeros(0, np.int64), np.zeros((0, 3), np.int64)))
     refined_offset = np.zeros(0, np.int64)
@@ -586,16 +592,26 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         ab = np.array([(a, b) for a in range(r + 1) for b in range(r + 1 - a)], dtype=float) / r
         p0, p1, p2 = (points[corners[:, k]] for k in range(3))
         fine_points = (p0[:, None] + ab[None, :, :1] * (p1 - p0)[:, None]
-                       + ab[None, :, 1:] * (p2 - p0)[:, None]).reshape(-1, 3)
-        fine_normals = np.repeat(normals[corners[:, 0]], len(ab), axis=0)
-        refined_offset = len(points) + len(ab) * np.arange(keys.size, dtype=np.int64)
+                       + ab[None, :, 1:] * (p2 - p0)[:, None])
+        fine_values = np.empty((*fine_points.shape[:2], est.groups))
+        # The cell's corners are grid points already estimated: (0, 0) → P0, (r, 0) → P1,
+        # (0, r) → P2 in the local grid; only the other points are new.
+        corner_slots = [0, _grid_index(r, r, 0), _grid_index(r, 0, r)]
+        for slot, k in zip(corner_slots, range(3)):
+            fine_values[:, slot] = values[corners[:, k]]
+        new = np.setdiff1d(np.arange(len(ab)), corner_slots)
         first_block = (len(points) + POINT_BLOCK - 1) // POINT_BLOCK
-        values = np.concatenate([values, evaluate(fine_points, fine_normals, first_block)])
-        points = np.concatenate([points, fine_points])
+        fresh_points = fine_points[:, new].reshape(-1, 3)
+        fresh_normals = np.repeat(normals[corners[:, 0]], new.size, axis=0)
+        fine_values[:, new] = evaluate(fresh_points, fresh_normals, first_block).reshape(
+            keys.size, new.size, est.groups)
+        refined_offset = len(points) + len(ab) * np.arange(keys.size, dtype=np.int64)
+        values = np.concatenate([values, fine_values.reshape(-1, est.groups)])
+        points = np.concatenate([points, fine_points.reshape(-1, 3)])
     return SurfaceCache(spacing, level, offset, values, points, keys, refined_offset, int(refine), provenance={
         "nodes_per_point": int(est.draws * est.groups), "groups": int(est.groups),
         "near_distance_m": eps, "near_rays": est.near_rays, "direct_samples": int(direct_samples),
-        "seed": int(seed), "grid_points": len(points), "refined_cells": int(keys.size),
+        "seed": int(seed), "grid_points": grid_points, "refined_cells": int(keys.size),
         "points": len(values), "refine_contrast": float(contrast),
         "build_time_s": time.perf_counter() - t0})
 
