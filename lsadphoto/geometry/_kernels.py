@@ -5,20 +5,29 @@ many full-frame passes: the direction of its centre, the directions of its corne
 corner once, shared by the four pixels that meet there), its solid angle and validity; a
 second pass gives σ, τ, cos σ and the position index. Rows are distributed over threads
 (``prange``); the kernels are compiled on first use and cached on disk (``cache=True``).
+Only the span of a row that can hold valid pixels is computed — the chord of the image
+circle (ideal fisheye) or of the ellipse ρ < ρmax (OpenCV) plus a margin of two pixels, in
+which the per-pixel tests decide; in the second pass the span from the first to the last
+valid pixel. The pixels outside get the values their NaN directions would give (NaN
+directions, σ, τ and position index; zero solid angle and cos σ; not valid) directly: half
+of the frame for a 180° circular fisheye in a 3:2 image.
 
 Numerics: IEEE float64 throughout, no ``fastmath`` (no reassociation, no contraction into
 fused multiply–adds), the same operations in the same order as the numpy reference
 methods — for the ideal fisheye the maps equal :meth:`IdealFisheyeProjection.directions`
-and :meth:`~IdealFisheyeProjection.solid_angles` bit for bit (tested). Two libm functions
+and :meth:`~IdealFisheyeProjection.solid_angles` bit for bit (tested). Three libm functions
 are replaced by branch-free Cephes approximations so that loops run on SIMD lanes: tan in
-the OpenCV (Kannala–Brandt) directions (:func:`tan_half_range`) and atan2 in σ, τ and
-Iwata's β (:func:`atan2_nonnegative`), each within a few ulp of libm (tested), far inside
-the tolerances to which the maps are tested (1e-11 for OpenCV directions, 1e-14 rad for
-σ, τ). ``error_model="numpy"`` makes x/0 give ±inf or NaN as in numpy instead of raising,
-which also lets the compiler vectorise the loops. Loops that call libm (tan, exp) are kept
-apart from the vectorised ones. Small helpers are inlined at the numba level only where a
-vectorised loop needs them (compile time: about 15 s for these kernels on first use in a
-fresh installation, then loaded from the on-disk cache).
+the OpenCV (Kannala–Brandt) directions (:func:`tan_half_range`), atan2 in σ, τ and Iwata's
+β (:func:`atan2_nonnegative`) and exp in the position index (:func:`exp_bounded`), each
+within a few ulp of libm (tested), far inside the tolerances to which the maps are tested
+(1e-11 for OpenCV directions, 1e-14 rad for σ, τ, relative 1e-12 for the position index).
+``error_model="numpy"`` makes x/0 give ±inf or NaN as in numpy instead of raising, which
+also lets the compiler vectorise the loops. What does not vectorise on AVX2 — libm calls
+(the ideal fisheye's tan), table look-ups (gathers), float-to-integer conversions — is kept
+in loops of its own; vectorised loops index arrays from 0 (slices of the span), so that the
+compiler knows the index is not negative. Small helpers are inlined at the numba level only
+where a vectorised loop needs them (compile time: about 15 s for these kernels on first use
+in a fresh installation, then loaded from the on-disk cache).
 
 References
 ----------
@@ -29,7 +38,8 @@ angle of a triangle). FORMULAS.md §2.1–2.4 (directions, position index, pixel
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, types
+from numba.extending import intrinsic
 
 __all__ = [
     "FISHEYE_KINDS",
@@ -37,6 +47,7 @@ __all__ = [
     "OPENCV_FISHEYE",
     "POSITION_INDEX_METHODS",
     "atan2_nonnegative",
+    "exp_bounded",
     "fisheye_geometry",
     "quad_solid_angle_grid",
     "tan_half_range",
@@ -58,6 +69,12 @@ _DEGREES = 180.0 / math.pi
 #: Newton tolerance and iteration cap of OpenCVFisheyeProjection.theta (opencv.py).
 _KB_TOL = 1e-12
 _KB_MAX_ITER = 100
+#: Newton steps of the vectorised Kannala–Brandt inversion from the table's θ (field.py's
+#: table of 2¹⁶ intervals: θ to ~10⁻¹⁰ rad, one step to rounding).
+_KB_NEWTON_STEPS = 1
+#: Columns added on each side of the computed span of possibly valid pixel centres of a row
+#: (:func:`_centre_span`): far more than the rounding of its bounds (≪ 10⁻³ px).
+_SPAN_MARGIN = 2
 
 
 # --- solid angle of one pixel ---------------------------------------------------------------
@@ -200,27 +217,18 @@ def _kb_theta_safeguarded(k1, k2, k3, k4, theta_max, rho_max, rho):
 
 
 @njit(**_OPTIONS)
-def _kb_direction(p, table, col, row):
-    """Kannala–Brandt direction of image point (row, col): θ(ρ) from ``table`` (linear
-    interpolation) and two Newton steps, the safeguarded solver where the residual is still
-    ≥ 1e-13 (near the fold); NaN beyond ρ_max (as the numpy version in field.py did)."""
-    cx, cy, fx, fy, k1, k2, k3, k4, theta_max, rho_max, step = (
-        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10])
-    n = table.size - 1
+def _kb_direction(p, col, row):
+    """Kannala–Brandt direction of image point (row, col) with θ(ρ) from the safeguarded
+    solver (:func:`_kb_theta_safeguarded`): the points near the fold that table and Newton
+    step leave at a residual ≥ 1e-13; NaN beyond ρmax (as the numpy version in field.py)."""
+    cx, cy, fx, fy, k1, k2, k3, k4, theta_max, rho_max = (
+        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9])
     xd = (col - cx) / fx
     yd = (row - cy) / fy
     rho = math.sqrt(xd * xd + yd * yd)
     if not rho < rho_max:
         return np.nan, np.nan, np.nan
-    u = rho / step
-    i = min(int(u), n - 1)
-    f = u - i
-    theta = table[i] * (1.0 - f) + table[i + 1] * f
-    for _ in range(2):
-        theta = theta - (_kb_theta_d(k1, k2, k3, k4, theta) - rho) / _kb_dtheta_d(k1, k2, k3, k4, theta)
-        theta = min(max(theta, 0.0), theta_max)
-    if not abs(_kb_theta_d(k1, k2, k3, k4, theta) - rho) < 1e-13:
-        theta = _kb_theta_safeguarded(k1, k2, k3, k4, theta_max, rho_max, rho)
+    theta = _kb_theta_safeguarded(k1, k2, k3, k4, theta_max, rho_max, rho)
     half = math.tan(0.5 * theta)
     h2 = half * half
     s = 2.0 * half / (1.0 + h2)
@@ -245,40 +253,47 @@ _FOUR_OVER_PI = 4.0 / math.pi
 def tan_half_range(x):
     """tan x for 0 ≤ x ≤ π/2, branch-free so that loops vectorise (Cephes' tan; within a few
     ulp of ``math.tan``, tested); NaN in, NaN out."""
-    j = int(x * _FOUR_OVER_PI) if x < 4.0 else 4  # octant (x ≥ 4 or NaN cannot occur)
-    j = (j + 1) & ~1  # to the nearest even multiple of π/4: 0 or 2
-    y = float(j)
+    # Cephes' octant ⌊4x/π⌋ (0, 1 or 2 here) rounded up to even, y = 0 or 2, by a comparison:
+    # the float-to-integer conversion of the original has no SIMD instruction before AVX-512.
+    big = x * _FOUR_OVER_PI >= 1.0
+    y = 2.0 if big else 0.0
     z = ((x - y * _TAN_DP1) - y * _TAN_DP2) - y * _TAN_DP3
     w = z * z
     r = z + z * (w * ((_TAN_P0 * w + _TAN_P1) * w + _TAN_P2)
                  / ((((w + _TAN_Q0) * w + _TAN_Q1) * w + _TAN_Q2) * w + _TAN_Q3))
-    r = -1.0 / r if j == 2 else r
-    return r + 0.0 * x  # NaN propagates through the integer octant
+    return -1.0 / r if big else r
 
 
 @njit(**_OPTIONS)
 def _kb_row(p, table, row, col_offset, ox, oy, oz):
     """Kannala–Brandt directions of the points (row, j + col_offset), j = 0…len(ox) − 1,
-    into ``ox, oy, oz``: the branch-free body of :func:`_kb_direction` (vectorised), with
-    NaN where ρ ≥ ρmax or the two Newton steps leave a residual ≥ 1e-13; those points are
-    then redone one by one with :func:`_kb_direction` (NaN again beyond ρmax)."""
+    into ``ox, oy, oz``: θ(ρ) from ``table`` (linear interpolation) and one Newton step,
+    branch-free (vectorised), with NaN where ρ ≥ ρmax or the residual |θd(θ) − ρ| is still
+    ≥ 1e-13 (near the fold of the mapping, about 0.1 % of the points); those points are then
+    redone one by one with :func:`_kb_direction` (NaN again beyond ρmax)."""
     cx, cy, fx, fy, k1, k2, k3, k4, theta_max, rho_max, step = (
         p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10])
     n = table.size - 1
     yd = (row - cy) / fy
-    # The table look-up (a gather, which keeps a loop from vectorising) in a loop of its own,
-    # the starting θ parked in ``oz``.
+    # x, ρ and the table position u of every point (parked in ``ox, oy, oz``) on SIMD lanes;
+    # then the table look-up (a gather, and a float-to-integer conversion, neither of which
+    # vectorises on AVX2) in a scalar loop of its own, the starting θ parked in ``oz``.
     for j in range(ox.size):
         xd = ((j + col_offset) - cx) / fx
-        u = min(math.sqrt(xd * xd + yd * yd), rho_max) / step
+        rho = math.sqrt(xd * xd + yd * yd)
+        ox[j] = xd
+        oy[j] = rho
+        oz[j] = min(rho, rho_max) / step
+    for j in range(ox.size):
+        u = oz[j]
         i = min(int(u), n - 1)
         f = u - i
         oz[j] = table[i] * (1.0 - f) + table[i + 1] * f
     for j in range(ox.size):
-        xd = ((j + col_offset) - cx) / fx
-        rho = math.sqrt(xd * xd + yd * yd)
+        xd = ox[j]
+        rho = oy[j]
         theta = oz[j]
-        for _ in range(2):
+        for _ in range(_KB_NEWTON_STEPS):
             theta = theta - (_kb_theta_d(k1, k2, k3, k4, theta) - rho) / _kb_dtheta_d(k1, k2, k3, k4, theta)
             theta = min(max(theta, 0.0), theta_max)
         fine = (rho < rho_max) & (abs(_kb_theta_d(k1, k2, k3, k4, theta) - rho) < 1e-13)
@@ -292,7 +307,7 @@ def _kb_row(p, table, row, col_offset, ox, oy, oz):
         oz[j] = c
     for j in range(ox.size):
         if ox[j] != ox[j]:  # NaN
-            ox[j], oy[j], oz[j] = _kb_direction(p, table, j + col_offset, row)
+            ox[j], oy[j], oz[j] = _kb_direction(p, j + col_offset, row)
 
 
 @njit(**_OPTIONS)
@@ -342,12 +357,30 @@ def _ideal_row(p, row, col_offset, ox, oy, oz, corner):
 
 
 @njit(**_OPTIONS)
-def _corner_row(model, p, table, row, cx, cy, cz):
-    """Directions of the corners (row, j − ½), j = 0…cols, into ``cx, cy, cz``."""
+def _centre_span(model, p, row, cols):
+    """Columns ``j0, j1`` (j0 ≤ j < j1) outside which no pixel centre of ``row`` is valid:
+    the chord of the image circle (ideal fisheye: √(x² + y²) ≤ R·(1 + 1e-12)) or of the
+    ellipse ρ < ρmax (OpenCV) at that row, widened by :data:`_SPAN_MARGIN` columns on each
+    side and clipped to the image; the pixels' own tests decide inside it."""
     if model == OPENCV_FISHEYE:
-        _kb_row(p, table, row, -0.5, cx, cy, cz)
+        yd = (row - p[1]) / p[3]
+        half = p[2] * math.sqrt(max(p[9] * p[9] - yd * yd, 0.0))
     else:
-        _ideal_row(p, row, -0.5, cx, cy, cz, True)
+        y = row - p[1]
+        half = math.sqrt(max(p[4] * p[4] - y * y, 0.0))
+    j0 = min(max(math.floor(p[0] - half) - _SPAN_MARGIN, 0), cols)
+    j1 = max(min(math.ceil(p[0] + half) + _SPAN_MARGIN + 1, cols), j0)
+    return j0, j1
+
+
+@njit(**_OPTIONS)
+def _corner_row(model, p, table, row, j0, j1, corners):
+    """Directions of the corners (row, j − ½), j0 ≤ j < j1, into ``corners[:, j]``."""
+    cx, cy, cz = corners[0, j0:j1], corners[1, j0:j1], corners[2, j0:j1]
+    if model == OPENCV_FISHEYE:
+        _kb_row(p, table, row, j0 - 0.5, cx, cy, cz)
+    else:
+        _ideal_row(p, row, j0 - 0.5, cx, cy, cz, True)
 
 
 @njit(parallel=True, **_OPTIONS)
@@ -360,8 +393,10 @@ def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
     among the threads (one parallel region); a band walks down its rows keeping two rows of
     corner directions (above and below the current pixel row, a few hundred kB), so that
     every corner is computed once, except the top row of each band, which the band above
-    computed too. Each corner and pixel is a pure function of its coordinates: the result
-    does not depend on the bands or the number of threads.
+    computed too. Per pixel row only the span of :func:`_centre_span` is computed (its
+    corners over the union of the spans of the two rows that share them); pixels outside it
+    are set invalid directly. Each corner and pixel is a pure function of its coordinates
+    (the spans too): the result does not depend on the bands or the number of threads.
     """
     rows, cols = valid.shape
     n_bands = (rows + band_rows - 1) // band_rows
@@ -369,51 +404,125 @@ def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
         r0 = band * band_rows
         r1 = min(r0 + band_rows, rows)
         corners = np.empty((2, 3, cols + 1))
+        # Centre directions are computed into contiguous rows: written straight into the
+        # interleaved ``directions`` row (stride 3) the loops of _kb_row do not vectorise.
+        centres = np.empty((3, cols))
         top = 0
-        _corner_row(model, p, table, r0 - 0.5, corners[0, 0], corners[0, 1], corners[0, 2])
+        # Each row of corners is computed over the union of the spans of the two pixel rows
+        # that share it (one more corner than pixels).
+        above = _centre_span(model, p, r0 - 1.0, cols)
+        below = _centre_span(model, p, float(r0), cols)
+        _corner_row(model, p, table, r0 - 0.5, min(above[0], below[0]),
+                    max(above[1], below[1]) + 1, corners[0])
         for r in range(r0, r1):
+            j0, j1 = below
+            below = _centre_span(model, p, r + 1.0, cols)
             bottom = 1 - top
-            _corner_row(model, p, table, r + 0.5, corners[bottom, 0], corners[bottom, 1],
-                        corners[bottom, 2])
-            x0, y0, z0 = corners[top, 0], corners[top, 1], corners[top, 2]
-            x1, y1, z1 = corners[bottom, 0], corners[bottom, 1], corners[bottom, 2]
+            _corner_row(model, p, table, r + 0.5, min(j0, below[0]), max(j1, below[1]) + 1,
+                        corners[bottom])
             d = directions[r]
             w = solid_angle[r]
-            # Centre directions.
+            ok = valid[r]
+            # Outside the span: invalid, without computing anything.
+            d[:j0] = np.nan
+            d[j1:] = np.nan
+            w[:j0] = 0.0
+            w[j1:] = 0.0
+            ok[:j0] = False
+            ok[j1:] = False
+            # The span as arrays of its own: loops over range(n) index from 0, which the
+            # compiler knows to be non-negative (no wraparound select) and vectorises.
+            n = j1 - j0
+            d, w, ok = d[j0:j1], w[j0:j1], ok[j0:j1]
+            x0, y0, z0 = corners[top, 0, j0:j1 + 1], corners[top, 1, j0:j1 + 1], corners[top, 2, j0:j1 + 1]
+            x1, y1, z1 = corners[bottom, 0, j0:j1 + 1], corners[bottom, 1, j0:j1 + 1], \
+                corners[bottom, 2, j0:j1 + 1]
+            cx, cy, cz = centres[0, :n], centres[1, :n], centres[2, :n]
             if model == OPENCV_FISHEYE:
-                _kb_row(p, table, float(r), 0.0, d[:, 0], d[:, 1], d[:, 2])
+                _kb_row(p, table, float(r), float(j0), cx, cy, cz)
             else:
-                _ideal_row(p, float(r), 0.0, d[:, 0], d[:, 1], d[:, 2], False)
+                _ideal_row(p, float(r), float(j0), cx, cy, cz, False)
             # Solid angles by the series on SIMD lanes (−1 where it does not apply)...
-            for j in range(cols):
+            for j in range(n):
                 w[j] = _quad_series(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
                                     x1[j + 1], y1[j + 1], z1[j + 1], x1[j], y1[j], z1[j])
-            # ... the rest by the full formula, and validity.
-            for j in range(cols):
+            # ... the rest (NaN corners, large pixels) by the full formula...
+            for j in range(n):
+                if not w[j] >= 0:
+                    w[j] = _quad(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
+                                 x1[j + 1], y1[j + 1], z1[j + 1], x1[j], y1[j], z1[j])
+            # ... and validity, branch-free.
+            for j in range(n):
                 omega = w[j]
-                if not omega >= 0:
-                    omega = _quad(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
-                                  x1[j + 1], y1[j + 1], z1[j + 1], x1[j], y1[j], z1[j])
-                ok = (omega > 0 and math.isfinite(omega) and math.isfinite(d[j, 0])
-                      and math.isfinite(d[j, 1]) and math.isfinite(d[j, 2]))
-                if ok:
-                    w[j] = omega
-                else:
-                    d[j, 0] = np.nan
-                    d[j, 1] = np.nan
-                    d[j, 2] = np.nan
-                    w[j] = 0.0
-                valid[r, j] = ok
+                good = ((omega > 0) & (abs(omega) < np.inf) & (abs(cx[j]) < np.inf)
+                        & (abs(cy[j]) < np.inf) & (abs(cz[j]) < np.inf))
+                d[j, 0] = cx[j] if good else np.nan
+                d[j, 1] = cy[j] if good else np.nan
+                d[j, 2] = cz[j] if good else np.nan
+                w[j] = omega if good else 0.0
+                ok[j] = good
             top = bottom
 
 
 # --- visual field ---------------------------------------------------------------------------
 
+@intrinsic
+def _float64_bits(typingctx, x):
+    """The bits of a float64 as an int64 (a reinterpretation, which vectorises; no
+    conversion)."""
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], context.get_value_type(types.int64))
+    return types.int64(types.float64), codegen
+
+
+@intrinsic
+def _bits_float64(typingctx, bits):
+    """The float64 whose bits are the int64 ``bits`` (inverse of :func:`_float64_bits`)."""
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], context.get_value_type(types.float64))
+    return types.float64(types.int64), codegen
+
+
+# Cephes exp (S. L. Moshier, Cephes Math Library 2.2, exp.c): exp x = 2ⁿ·exp r with
+# n = round(x·log₂e), r = x − n·ln 2 (ln 2 in two parts C1 + C2, C1 of 15 bits so that n·C1 is
+# exact), and
+# exp r = 1 + 2r·P(r²)/(Q(r²) − r·P(r²)) on |r| ≤ ½ ln 2; peak relative error 2.0e-16
+# (Moshier's test, IEEE double, |x| ≤ 708).
+_EXP_P0, _EXP_P1, _EXP_P2 = (
+    1.26177193074810590878e-4, 3.02994407707441961300e-2, 9.99999999999999999910e-1)
+_EXP_Q0, _EXP_Q1, _EXP_Q2, _EXP_Q3 = (
+    3.00198505138664455042e-6, 2.52448340349684104192e-3, 2.27265548208155028766e-1,
+    2.00000000000000000009e0)
+_EXP_C1, _EXP_C2 = 6.93145751953125e-1, 1.42860682030941723212e-6
+_LOG2E = 1.4426950408889634073599
+#: 1.5·2⁵² + 1023: adding it to x·log₂e rounds to the integer n, which then sits in the low
+#: mantissa bits, already offset by the exponent bias (n + 1023 ∈ [2, 2046] for the clamped x).
+_EXP_SHIFT = 6755399441055744.0 + 1023.0
+#: Arguments of :func:`exp_bounded` are clamped to [_EXP_MIN, _EXP_MAX] (normal results).
+_EXP_MIN, _EXP_MAX = -708.0, 709.0
+
+
 @njit(inline="always", **_OPTIONS)
-def _guth(s, t):
-    """position_index_Guth with σ, τ already in degrees."""
-    return math.exp((35.2 - 0.31889 * t - 1.22 * math.exp(-2.0 * t / 9.0)) * 1e-3 * s
-                    + (21.0 + 0.26667 * t - 0.002963 * t * t) * 1e-5 * s * s)
+def exp_bounded(x):
+    """exp x for −708 ≤ x ≤ 709, branch-free so that loops vectorise (Cephes' exp; within
+    2 ulp of ``math.exp``, tested); beyond, the value at the bound (3.3e-308, 8.2e307); NaN
+    in, NaN out. 2ⁿ is built from its bits (exponent field n + 1023), exactly as ldexp."""
+    x = _EXP_MAX if x > _EXP_MAX else (_EXP_MIN if x < _EXP_MIN else x)  # noqa: FURB136 (NaN stays NaN)
+    shifted = x * _LOG2E + _EXP_SHIFT
+    n = shifted - _EXP_SHIFT
+    r = (x - n * _EXP_C1) - n * _EXP_C2
+    rr = r * r
+    px = r * ((_EXP_P0 * rr + _EXP_P1) * rr + _EXP_P2)
+    e = 1.0 + 2.0 * (px / ((((_EXP_Q0 * rr + _EXP_Q1) * rr + _EXP_Q2) * rr + _EXP_Q3) - px))
+    # The low 12 bits of ``shifted`` are n + 1023; shifted up into the exponent field.
+    return e * _bits_float64(_float64_bits(shifted) << 52)
+
+
+@njit(inline="always", **_OPTIONS)
+def _guth_exponent(s, t):
+    """ln of position_index_Guth with σ, τ already in degrees."""
+    return ((35.2 - 0.31889 * t - 1.22 * exp_bounded(-2.0 * t / 9.0)) * 1e-3 * s
+            + (21.0 + 0.26667 * t - 0.002963 * t * t) * 1e-5 * s * s)
 
 
 @njit(parallel=True, **_OPTIONS)
@@ -424,9 +533,11 @@ def visual_field_maps(directions, valid, v, u, h, method, cap, sigma, tau, posit
     ``v, u, h``: line of sight, up and side axes; ``method`` a code of
     :data:`POSITION_INDEX_METHODS`; ``cap`` the Guth/Iwata cap. The formulas of
     :mod:`~lsadphoto.geometry.position_index` (Iwata's β from the components, as
-    position_index_from_components). Per row, the angles are computed on SIMD lanes
-    (:func:`atan2_nonnegative`; the "evalglare" method also Iwata's β, kept in the output
-    row), then the position index (libm exp) in a second, scalar loop.
+    position_index_from_components). Per row, between its first and last valid pixel, the
+    angles are computed on SIMD lanes (:func:`atan2_nonnegative`; the "evalglare" method
+    also Iwata's β, kept in the output row), then the position index (:func:`exp_bounded`:
+    also on SIMD lanes, the Guth/Iwata choice by a select); invalid pixels (NaN directions)
+    get NaN σ, τ and position index and 0 cos σ — outside that span directly.
     """
     rows, cols = valid.shape
     half_pi = 0.5 * math.pi
@@ -434,9 +545,28 @@ def visual_field_maps(directions, valid, v, u, h, method, cap, sigma, tau, posit
     v0, v1, v2, u0, u1, u2, h0, h1, h2 = v[0], v[1], v[2], u[0], u[1], u[2], h[0], h[1], h[2]
     iwata = method == 0
     for i in prange(rows):
-        d = flat[i]
-        s_row, t_row, p_row, c_row, ok = sigma[i], tau[i], position_index[i], cos_sigma[i], valid[i]
-        for j in range(cols):
+        ok = valid[i]
+        j0, j1 = 0, cols
+        while j0 < j1 and not ok[j0]:
+            j0 += 1
+        while j1 > j0 and not ok[j1 - 1]:
+            j1 -= 1
+        sigma[i, :j0] = np.nan
+        sigma[i, j1:] = np.nan
+        tau[i, :j0] = np.nan
+        tau[i, j1:] = np.nan
+        position_index[i, :j0] = np.nan
+        position_index[i, j1:] = np.nan
+        cos_sigma[i, :j0] = 0.0
+        cos_sigma[i, j1:] = 0.0
+        # The span as arrays of its own: loops over range(n) index from 0, which the compiler
+        # knows to be non-negative (no wraparound select) and vectorises.
+        n = j1 - j0
+        d = flat[i, 3 * j0:3 * j1]
+        s_row, t_row, p_row, c_row = sigma[i, j0:j1], tau[i, j0:j1], position_index[i, j0:j1], \
+            cos_sigma[i, j0:j1]
+        ok = ok[j0:j1]
+        for j in range(n):
             dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
             forward = dx * v0 + dy * v1 + dz * v2
             up = dx * u0 + dy * u1 + dz * u2
@@ -450,17 +580,18 @@ def visual_field_maps(directions, valid, v, u, h, method, cap, sigma, tau, posit
             c_row[j] = forward if ok[j] else 0.0
             if iwata:
                 p_row[j] = atan2_nonnegative(math.sqrt(side * side + 1.3225 * (up * up)), forward)
-        for j in range(cols):
-            s = s_row[j] * _DEGREES
-            t = t_row[j] * _DEGREES
-            if method == 2:  # Kim2011
+        if method == 2:  # Kim2011
+            for j in range(n):
+                s = s_row[j] * _DEGREES
+                t = t_row[j] * _DEGREES
                 centre = -9e-6 * t ** 3 + 0.0014 * t ** 2 + 0.0866 * t + 21.633
                 width = -9e-6 * t ** 3 + 0.0013 * t ** 2 + 0.0853 * t + 8.772
-                p_row[j] = math.exp((s - centre) / width)
-                continue
-            if iwata and t_row[j] > half_pi:  # evalglare, below the line of sight: Iwata
+                p_row[j] = exp_bounded((s - centre) / width)
+            continue
+        for j in range(n):
+            exponent = _guth_exponent(s_row[j] * _DEGREES, t_row[j] * _DEGREES)
+            if iwata:  # evalglare: Iwata below the line of sight
                 b = p_row[j] * _DEGREES
-                value = math.exp(6.49e-3 * b + 21e-5 * b * b)
-            else:
-                value = _guth(s, t)
+                exponent = 6.49e-3 * b + 21e-5 * b * b if t_row[j] > half_pi else exponent
+            value = exp_bounded(exponent)
             p_row[j] = cap if value > cap else value  # noqa: FURB136 (NaN stays NaN, as np.minimum)
