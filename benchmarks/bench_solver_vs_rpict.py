@@ -64,6 +64,8 @@ COMMON = ["-ps", "1", "-pj", "0", "-lr", "-10", "-dj", "0"]
 RPICT_SETTINGS = {
     "IC -ab 2 -ad 256 -as 64 -aa 0.3 -ar 16": "-ab 2 -ad 256 -as 64 -aa 0.3 -ar 16 -lw 1e-3",
     "IC -ab 4 -ad 512 -as 128 -aa 0.2 -ar 32": "-ab 4 -ad 512 -as 128 -aa 0.2 -ar 32 -lw 1e-3",
+    "IC -ab 4 -ad 256 -as 64 -aa 0.25 -ar 16": "-ab 4 -ad 256 -as 64 -aa 0.25 -ar 16 -lw 1e-3",
+    "IC -ab 6 -ad 1024 -as 256 -aa 0.1 -ar 64": "-ab 6 -ad 1024 -as 256 -aa 0.1 -ar 64 -lw 1e-4",
     "IC -ab 5 -ad 1024 -as 256 -aa 0.15 -ar 32": "-ab 5 -ad 1024 -as 256 -aa 0.15 -ar 32 -lw 1e-4",
     "no cache -ab 6 -ad 16 -aa 0": "-ab 6 -ad 16 -aa 0 -lw 1e-4",
 }
