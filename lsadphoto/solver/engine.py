@@ -84,14 +84,17 @@ class RayEngine:
         idx = np.flatnonzero(ok)
         d = v[idx] / length[idx, None]
         tmax = (length[idx] - self.epsilon).astype(np.float32)
-        o32 = o[idx].astype(np.float32)
-        d32 = d.astype(np.float32)
-        hit = np.empty(len(idx), dtype=bool)
-        for s in range(0, len(idx), _RAY_BATCH):
-            res = self._scene.run(np.ascontiguousarray(o32[s:s + _RAY_BATCH]),
-                                  np.ascontiguousarray(d32[s:s + _RAY_BATCH]),
-                                  dists=np.ascontiguousarray(tmax[s:s + _RAY_BATCH]),
+        out[idx] = ~self.occluded(o[idx].astype(np.float32), d.astype(np.float32), tmax)
+        return out
+
+    def occluded(self, origins, directions, tmax):
+        """True where a ray hits anything before ``tmax`` (float32 arrays, unit directions,
+        as Embree takes them: no conversion or copy when contiguous)."""
+        hit = np.empty(len(origins), dtype=bool)
+        for s in range(0, len(origins), _RAY_BATCH):
+            res = self._scene.run(np.ascontiguousarray(origins[s:s + _RAY_BATCH], dtype=np.float32),
+                                  np.ascontiguousarray(directions[s:s + _RAY_BATCH], dtype=np.float32),
+                                  dists=np.ascontiguousarray(tmax[s:s + _RAY_BATCH], dtype=np.float32),
                                   query="OCCLUDED")
             hit[s:s + _RAY_BATCH] = np.asarray(res) >= 0
-        out[idx] = ~hit
-        return out
+        return hit

@@ -82,57 +82,90 @@ NEAR_RAYS = 4
 #: neighbourhood of concave edges to the cosine-sampled near paths.
 RELATIVE_CACHE_NEAR_DISTANCE = 0.04
 #: Subdivision level of refined cells, and the relative contrast that triggers it.
-REFINE, REFINE_CONTRAST = 4, 0.2
+REFINE, REFINE_CONTRAST = 3, 0.2
 #: Cache points per random-stream block.
 POINT_BLOCK = 256
 
 _NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
 
 
+@njit(**_NUMBA)
 def _alias_table(weights):
-    """Walker's alias table (Vose's construction) of a discrete distribution ∝ ``weights``:
-    draw i = ⌊u₁·n⌋, keep it if u₂ < prob[i], else take alias[i] (O(1) per draw)."""
+    """Walker's alias table (Vose's construction) of a discrete distribution ∝ ``weights``,
+    as rows (prob, alias): draw slot i = ⌊u·n⌋, keep it if the fraction of u·n is below
+    prob[i], else take alias[i] (O(1) per draw)."""
     n = weights.size
     scaled = weights * (n / weights.sum())
-    prob = np.ones(n)
-    alias = np.arange(n, dtype=np.int64)
-    small = list(np.flatnonzero(scaled < 1.0))
-    large = list(np.flatnonzero(scaled >= 1.0))
-    while small and large:
-        s, g = small.pop(), large.pop()
-        prob[s], alias[s] = scaled[s], g
+    table = np.empty((n, 2))
+    small = np.empty(n, dtype=np.int64)
+    large = np.empty(n, dtype=np.int64)
+    ns = nl = 0
+    for i in range(n):
+        table[i, 0] = 1.0
+        table[i, 1] = i
+        if scaled[i] < 1.0:
+            small[ns] = i
+            ns += 1
+        else:
+            large[nl] = i
+            nl += 1
+    while ns > 0 and nl > 0:
+        ns -= 1
+        nl -= 1
+        s, g = small[ns], large[nl]
+        table[s, 0] = scaled[s]
+        table[s, 1] = g
         scaled[g] -= 1.0 - scaled[s]
-        (small if scaled[g] < 1.0 else large).append(g)
-    return prob, alias  # leftovers keep prob 1 (rounding)
+        if scaled[g] < 1.0:
+            small[ns] = g
+            ns += 1
+        else:
+            large[nl] = g
+            nl += 1
+    return table  # leftovers keep prob 1 (rounding)
 
 
 @njit(**_NUMBA)
-def _far_terms(points, normals, node_pos, node_nrm, pool, prob, alias, u, eps2, tiny, choice,
-               out):
-    """cos θ_n·cos θ_x/r² of the pairs (point i, node choice[i, j]) farther than ε; 0 for
-    pairs closer than ε, behind either surface or grazing (|r|·cos < tiny). The nodes are
-    drawn from ``pool`` by its alias table with the uniforms u[i, j] (one uniform: its
-    integer part picks the slot, its fraction decides slot or alias)."""
-    P, k = choice.shape
-    n = pool.size
+def _far_terms(points, normals, offset, alias, nodes, u, eps2, tiny, out, pair, o32, d32, t32):
+    """cos θ_n·cos θ_x/r² of the pairs (point i, a node drawn with u[i, j]) farther than ε,
+    0 for pairs closer than ε, behind either surface or grazing (|r|·cos < tiny); returns the
+    number m of pairs that need a shadow ray, whose flat index and float32 ray (origin, unit
+    direction, length; both ends moved ``offset`` off their surfaces) are in ``pair``,
+    ``o32``, ``d32``, ``t32`` [:m]. Nodes (rows x, y, z, nx, ny, nz of ``nodes``) are drawn
+    by the alias table: the integer part of u·n picks the slot, its fraction decides slot or
+    alias."""
+    P, k = out.shape
+    n = nodes.shape[0]
+    m = 0
     for i in range(P):
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
         nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+        ox, oy, oz = px + offset * nx, py + offset * ny, pz + offset * nz
         for j in range(k):
             v = u[i, j] * n
             slot = min(int(v), n - 1)
-            q = pool[slot] if v - slot < prob[slot] else pool[alias[slot]]
-            choice[i, j] = q
-            dx = node_pos[q, 0] - px
-            dy = node_pos[q, 1] - py
-            dz = node_pos[q, 2] - pz
+            q = slot if v - slot < alias[slot, 0] else int(alias[slot, 1])
+            dx = nodes[q, 0] - px
+            dy = nodes[q, 1] - py
+            dz = nodes[q, 2] - pz
             r2 = dx * dx + dy * dy + dz * dz
             a_p = dx * nx + dy * ny + dz * nz
-            a_n = -(dx * node_nrm[q, 0] + dy * node_nrm[q, 1] + dz * node_nrm[q, 2])
+            a_n = -(dx * nodes[q, 3] + dy * nodes[q, 4] + dz * nodes[q, 5])
             if a_p > tiny and a_n > tiny and r2 >= eps2:
                 out[i, j] = a_n * a_p / (r2 * r2)
+                ex = nodes[q, 0] + offset * nodes[q, 3] - ox
+                ey = nodes[q, 1] + offset * nodes[q, 4] - oy
+                ez = nodes[q, 2] + offset * nodes[q, 5] - oz
+                length = math.sqrt(ex * ex + ey * ey + ez * ez)
+                if length > offset:
+                    pair[m] = i * k + j
+                    o32[m, 0], o32[m, 1], o32[m, 2] = ox, oy, oz
+                    d32[m, 0], d32[m, 1], d32[m, 2] = ex / length, ey / length, ez / length
+                    t32[m] = length - offset
+                    m += 1
             else:
                 out[i, j] = 0.0
+    return m
 
 
 class _IndirectEstimator:
@@ -156,24 +189,25 @@ class _IndirectEstimator:
         self.pools = [surface[group_of == g] for g in range(self.groups)]
         # Nodes are drawn in proportion to their coefficient c (importance sampling: the
         # estimate Σc/k·Σ_draws g·V has no variance from the spread of chain weights).
-        self.tables, self.totals = [], []
+        self.tables, self.totals, self.packed = [], [], []
         for pool in self.pools:
-            c = store.coefficient[pool]
+            c = np.ascontiguousarray(store.coefficient[pool], dtype=np.float64)
             self.totals.append(float(c.sum()))
             self.tables.append(_alias_table(c) if self.totals[-1] > 0 else None)
+            # The nodes of the pool in slot order, position and normal in one row.
+            self.packed.append(np.ascontiguousarray(
+                np.hstack([store.position[pool], store.normal[pool]]), dtype=np.float64))
         self.draws = max(1, int(nodes) // self.groups)
         self.chains_per_group = store.chains / self.groups
         self.near_rays = int(near_rays)
         self.near_draws = max(1, self.draws // 8)
         self.pos = np.ascontiguousarray(store.position)
-        self.nrm = np.ascontiguousarray(store.normal)
-        self.target = self.pos + engine.epsilon * self.nrm
         self.hull = None
 
     def far(self, x, n, group, blocks, level, draws=None):
         """Far-node part of E_ind [lx] at points ``x`` for one group: Σc/k · Σ_draws cos θ_n
         ·cos θ_x·V/r² over k nodes drawn ∝ c, per chain of the group."""
-        pool, table = self.pools[group], self.tables[group]
+        table = self.tables[group]
         P = len(x)
         if P == 0 or table is None:
             return np.zeros(P)
@@ -182,16 +216,17 @@ class _IndirectEstimator:
         for j in np.unique(blocks):
             m = blocks == j
             u[m] = stream(self.seed, "cache", self.key, group, level, j).random((int(m.sum()), k))
-        choice = np.empty((P, k), dtype=np.int64)
         vals = np.empty((P, k))
-        _far_terms(np.ascontiguousarray(x), np.ascontiguousarray(n), self.pos, self.nrm, pool,
-                   table[0], table[1], u, self.eps2, self.tiny, choice, vals)
-        flat = vals.ravel()
-        cand = np.flatnonzero(flat > 0)
-        if cand.size:
-            origins = x + self.engine.epsilon * n
-            vis = self.engine.visible(origins[cand // k], self.target[choice.ravel()[cand]])
-            flat[cand[~vis]] = 0.0
+        pair = np.empty(P * k, dtype=np.int64)
+        o32 = np.empty((P * k, 3), dtype=np.float32)
+        d32 = np.empty((P * k, 3), dtype=np.float32)
+        t32 = np.empty(P * k, dtype=np.float32)
+        rays = _far_terms(np.ascontiguousarray(x), np.ascontiguousarray(n), self.engine.epsilon,
+                          table, self.packed[group], u, self.eps2, self.tiny, vals, pair, o32,
+                          d32, t32)
+        if rays:
+            hit = self.engine.occluded(o32[:rays], d32[:rays], t32[:rays])
+            vals.ravel()[pair[:rays][hit]] = 0.0
         return vals.sum(axis=1) * (self.totals[group] / k / self.chains_per_group)
 
     def _facing_nodes(self, x, n):
