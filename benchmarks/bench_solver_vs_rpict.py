@@ -132,7 +132,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--size", type=int, default=512)
     parser.add_argument("--chains", type=int, default=65536)
-    parser.add_argument("--cache-nodes", type=int, nargs="+", default=[1024, 4096, 16384])
+    parser.add_argument("--cache-nodes", type=int, nargs="+", default=[1024, 2048, 4096, 16384])
     parser.add_argument("--local-nodes", type=int, nargs="*", default=[4, 16],
                         help="K of the per-pixel double local estimate (slow at 512²)")
     parser.add_argument("--ref-step", type=int, default=8, help="reference on every n-th pixel")

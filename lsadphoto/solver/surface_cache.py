@@ -89,51 +89,34 @@ POINT_BLOCK = 256
 _NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
 
 
-@njit(**_NUMBA)
-def _alias_table(weights):
-    """Walker's alias table (Vose's construction) of a discrete distribution ∝ ``weights``,
-    as rows (prob, alias): draw slot i = ⌊u·n⌋, keep it if the fraction of u·n is below
-    prob[i], else take alias[i] (O(1) per draw)."""
-    n = weights.size
-    scaled = weights * (n / weights.sum())
-    table = np.empty((n, 2))
-    small = np.empty(n, dtype=np.int64)
-    large = np.empty(n, dtype=np.int64)
-    ns = nl = 0
-    for i in range(n):
-        table[i, 0] = 1.0
-        table[i, 1] = i
-        if scaled[i] < 1.0:
-            small[ns] = i
-            ns += 1
-        else:
-            large[nl] = i
-            nl += 1
-    while ns > 0 and nl > 0:
-        ns -= 1
-        nl -= 1
-        s, g = small[ns], large[nl]
-        table[s, 0] = scaled[s]
-        table[s, 1] = g
-        scaled[g] -= 1.0 - scaled[s]
-        if scaled[g] < 1.0:
-            small[ns] = g
-            ns += 1
-        else:
-            large[nl] = g
-            nl += 1
-    return table  # leftovers keep prob 1 (rounding)
+def _morton_order(positions, lo, size, bits=10):
+    """Order of points along a Morton (Z-order) curve of their cell in a 2¹⁰-per-axis grid
+    of the cube [lo, lo + size]³: consecutive points are close in space."""
+    q = np.clip(((positions - lo) / size * (1 << bits)).astype(np.int64), 0, (1 << bits) - 1)
+    code = np.zeros(len(positions), dtype=np.int64)
+    for b in range(bits):
+        for axis in range(3):
+            code |= ((q[:, axis] >> b) & 1) << (3 * b + axis)
+    return np.argsort(code, kind="stable")
+
+
+def _guide_table(cdf):
+    """guide[t] = first index i with cdf[i] ≥ t/n, t = 0…n (n = cdf.size): inverse-CDF
+    look-ups start there and rarely step further (Chen & Asau's cutpoint method)."""
+    n = cdf.size
+    return np.minimum(np.searchsorted(cdf, np.arange(n + 1) / n, side="left"), n - 1)
 
 
 @njit(**_NUMBA)
-def _far_terms(points, normals, offset, alias, nodes, u, eps2, tiny, out, pair, o32, d32, t32):
-    """cos θ_n·cos θ_x/r² of the pairs (point i, a node drawn with u[i, j]) farther than ε,
+def _far_terms(points, normals, offset, cdf, guide, nodes, u, eps2, tiny, out, pair, o32, d32,
+               t32):
+    """cos θ_n·cos θ_x/r² of the pairs (point i, node drawn with u[i, j]) farther than ε,
     0 for pairs closer than ε, behind either surface or grazing (|r|·cos < tiny); returns the
     number m of pairs that need a shadow ray, whose flat index and float32 ray (origin, unit
     direction, length; both ends moved ``offset`` off their surfaces) are in ``pair``,
-    ``o32``, ``d32``, ``t32`` [:m]. Nodes (rows x, y, z, nx, ny, nz of ``nodes``) are drawn
-    by the alias table: the integer part of u·n picks the slot, its fraction decides slot or
-    alias."""
+    ``o32``, ``d32``, ``t32`` [:m]. Node j of point i is the inverse CDF of the stratified
+    uniform (j + u[i, j])/k over the pool (rows x, y, z, nx, ny, nz of ``nodes``, in Morton
+    order; ``cdf`` of their coefficients, ``guide`` its cutpoint table)."""
     P, k = out.shape
     n = nodes.shape[0]
     m = 0
@@ -142,9 +125,10 @@ def _far_terms(points, normals, offset, alias, nodes, u, eps2, tiny, out, pair, 
         nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
         ox, oy, oz = px + offset * nx, py + offset * ny, pz + offset * nz
         for j in range(k):
-            v = u[i, j] * n
-            slot = min(int(v), n - 1)
-            q = slot if v - slot < alias[slot, 0] else int(alias[slot, 1])
+            v = (j + u[i, j]) / k
+            q = guide[min(int(v * n), n)]
+            while q < n - 1 and cdf[q] < v:
+                q += 1
             dx = nodes[q, 0] - px
             dy = nodes[q, 1] - py
             dz = nodes[q, 2] - pz
@@ -188,13 +172,21 @@ class _IndirectEstimator:
         group_of = store.batch[surface] % self.groups
         self.pools = [surface[group_of == g] for g in range(self.groups)]
         # Nodes are drawn in proportion to their coefficient c (importance sampling: the
-        # estimate Σc/k·Σ_draws g·V has no variance from the spread of chain weights).
+        # estimate Σc/k·Σ_draws g·V has no variance from the spread of chain weights), with
+        # the k draws of a point stratified along a Morton curve through the pool (each
+        # draw from its own 1/k of the coefficient mass, in space order: a spatially
+        # stratified sample; unbiased, each draw being exact for its stratum).
+        lo = store.scene.triangles.reshape(-1, 3).min(axis=0)
+        extent = float(np.ptp(store.scene.triangles.reshape(-1, 3), axis=0).max()) or 1.0
         self.tables, self.totals, self.packed = [], [], []
         for pool in self.pools:
-            c = np.ascontiguousarray(store.coefficient[pool], dtype=np.float64)
-            self.totals.append(float(c.sum()))
-            self.tables.append(_alias_table(c) if self.totals[-1] > 0 else None)
-            # The nodes of the pool in slot order, position and normal in one row.
+            pool = pool[_morton_order(store.position[pool], lo, extent)]
+            c = store.coefficient[pool]
+            total = float(c.sum())
+            self.totals.append(total)
+            cdf = np.cumsum(c) / total if total > 0 else None
+            self.tables.append(None if cdf is None else (cdf, _guide_table(cdf)))
+            # The nodes of the pool in Morton order, position and normal in one row.
             self.packed.append(np.ascontiguousarray(
                 np.hstack([store.position[pool], store.normal[pool]]), dtype=np.float64))
         self.draws = max(1, int(nodes) // self.groups)
@@ -206,7 +198,7 @@ class _IndirectEstimator:
 
     def far(self, x, n, group, blocks, level, draws=None):
         """Far-node part of E_ind [lx] at points ``x`` for one group: Σc/k · Σ_draws cos θ_n
-        ·cos θ_x·V/r² over k nodes drawn ∝ c, per chain of the group."""
+        ·cos θ_x·V/r² over k nodes drawn ∝ c (stratified), per chain of the group."""
         table = self.tables[group]
         P = len(x)
         if P == 0 or table is None:
@@ -222,8 +214,8 @@ class _IndirectEstimator:
         d32 = np.empty((P * k, 3), dtype=np.float32)
         t32 = np.empty(P * k, dtype=np.float32)
         rays = _far_terms(np.ascontiguousarray(x), np.ascontiguousarray(n), self.engine.epsilon,
-                          table, self.packed[group], u, self.eps2, self.tiny, vals, pair, o32,
-                          d32, t32)
+                          table[0], table[1], self.packed[group], u, self.eps2, self.tiny, vals,
+                          pair, o32, d32, t32)
         if rays:
             hit = self.engine.occluded(o32[:rays], d32[:rays], t32[:rays])
             vals.ravel()[pair[:rays][hit]] = 0.0
@@ -253,31 +245,35 @@ class _IndirectEstimator:
         lit = np.flatnonzero(self._facing_nodes(x, n))
         for g in range(self.groups):
             out[lit, g] = self.far(x[lit], n[lit], g, blocks[lit], 0)
-            out[:, g] += self._near(x, n, g, blocks)
-        return out
+        return out + self._near(x, n, blocks)
 
-    def _direct_key(self, group, level):
+    def _direct_key(self, level):
         """Stream key of the direct samples at near hits (≥ 1; 0 is the pixels')."""
-        return 1 + (self.key * self.groups + group) * 4096 + level
+        return 1 + self.key * 4096 + level
 
-    def _near(self, x0, n0, group, blocks0):
-        """Unbiased estimate of the part of E_ind from surface points within ε: the mean of
-        ``near_rays`` cosine-sampled paths per point (each near hit y adds ρ_y·(E_dir(y) +
-        far part of E_ind(y)) with ``near_draws`` node draws, and continues by roulette)."""
+    def _near(self, x0, n0, blocks0):
+        """Unbiased estimates of the part of E_ind from surface points within ε, per group:
+        the mean of ``near_rays`` cosine-sampled paths per point and group (each near hit y
+        adds ρ_y·(E_dir(y) + far part of E_ind(y)) with ``near_draws`` node draws of the
+        path's group, and continues by roulette). The paths of all groups are traced
+        together; each (group, block) draws from its own stream."""
         scene, engine = self.scene, self.engine
-        r = self.near_rays
-        x, nx, blocks = np.repeat(x0, r, axis=0), np.repeat(n0, r, axis=0), np.repeat(blocks0, r)
-        total = np.zeros(len(x))
-        active = np.arange(len(x))
+        G, R, P = self.groups, self.near_rays, len(x0)
+        point = np.repeat(np.arange(P), G * R)
+        group = np.tile(np.repeat(np.arange(G), R), P)
+        x, nx, blocks = x0[point], n0[point], blocks0[point]
+        total = np.zeros(P * G * R)
+        active = np.arange(P * G * R)
         rho_prev = None
         level = 0
         while active.size:
             level += 1
             u = np.empty((active.size, 3))
-            b = blocks[active]
-            for j in np.unique(b):
-                m = b == j
-                u[m] = stream(self.seed, "near", self.key, group, level, j).random((int(m.sum()), 3))
+            key = group[active] * (int(blocks0.max()) + 1) + blocks[active]
+            for k in np.unique(key):
+                m = key == k
+                g, j = group[active[m][0]], blocks[active[m][0]]
+                u[m] = stream(self.seed, "near", self.key, g, level, j).random((int(m.sum()), 3))
             d = cosine_directions(nx, u[:, :2])
             prim, dist = engine.closest_hit(x + engine.epsilon * nx, d)
             near = (prim >= 0) & (dist < self.near_distance)
@@ -292,15 +288,19 @@ class _IndirectEstimator:
             rho_y = scene.triangle_reflectance[prim]
             lit = np.flatnonzero(rho_y > 0)
             if lit.size:
+                paths = active[lit]
                 e_dir, _ = direct_illuminance(scene, engine, y[lit], ny[lit],
                                               samples=self.direct_samples, seed=self.seed,
-                                              block_ids=blocks[active[lit]],
-                                              purpose_key=self._direct_key(group, level))
-                e_far = self.far(y[lit], ny[lit], group, blocks[active[lit]], level,
-                                 self.near_draws)
-                total[active[lit]] += rho_y[lit] * (e_dir + e_far)
+                                              block_ids=blocks[paths] * G + group[paths],
+                                              purpose_key=self._direct_key(level))
+                e_far = np.zeros(lit.size)
+                for g in np.unique(group[paths]):
+                    m = group[paths] == g
+                    e_far[m] = self.far(y[lit[m]], ny[lit[m]], g, blocks[paths[m]], level,
+                                        self.near_draws)
+                total[paths] += rho_y[lit] * (e_dir + e_far)
             x, nx, rho_prev = y, ny, rho_y
-        return total.reshape(-1, r).mean(axis=1)
+        return total.reshape(P, G, R).mean(axis=2)
 
 
 def indirect_illuminance(store, points, normals, *, nodes=CACHE_NODES, near_distance=None,
