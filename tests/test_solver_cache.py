@@ -18,8 +18,10 @@ import pytest
 
 from lsadphoto.cli import main
 from lsadphoto.errors import BadInputError
+from lsadphoto.geometry import IdealFisheyeProjection
 from lsadphoto.io import read_exr
 from lsadphoto.solver import (
+    camera_to_world,
     load_store,
     render,
     scene_from_dict,
@@ -286,3 +288,31 @@ def test_cli_simulate_with_cache_and_render_from_it(tmp_path, capsys):
     assert main(["simulate", str(scene), "-o", str(store), "--samples", "64", "--surface-cache",
                  "--cache-spacing", "-1", "--quiet"]) == 2
     assert "cache spacing" in capsys.readouterr().err
+
+
+def test_touching_planes_render_as_one_from_the_cache():
+    # A floor split into two touching squares under a 100 cd isotropic point 2 m above:
+    # only the floor reflects, so E_ind = 0 and every pixel is the closed form
+    # L = ρ·I·cos θ/(π d²) — no leak or seam where the squares meet (float32 map: 1e-6;
+    # the 1° intensity table of the isotropic luminaire is exact).
+    scene = scene_from_dict({
+        "materials": {"grey": {"reflectance": 0.5}},
+        "surfaces": [
+            {"type": "polygon", "material": "grey", "vertices": [[-3, -3, 0], [0, -3, 0], [0, 3, 0], [-3, 3, 0]]},
+            {"type": "polygon", "material": "grey", "vertices": [[0, -3, 0], [3, -3, 0], [3, 3, 0], [0, 3, 0]]},
+        ],
+        "luminaires": [{"type": "point", "position": [0, 0, 2], "flux": 400 * math.pi}],
+    })
+    camera = IdealFisheyeProjection("equidistant", 15.5, 15.5, 16.0, 120.0, 32, 32)
+    position = np.array([0.1, 0.2, 3.0])
+    rotation = camera_to_world([0, 0, -1], [0, 1, 0])
+    store = simulate(scene, samples=512, seed=1)
+    lmap = render_cached(store, camera, position=position, rotation=rotation,
+                         cache=build_surface_cache(store, nodes=64))
+    rows, cols = camera.pixel_grid()
+    d = camera.directions(rows, cols) @ rotation.T
+    hit = position + (-position[2] / d[..., 2])[..., None] * d
+    inside = np.all(np.abs(hit[..., :2]) < 3, axis=-1) & np.isfinite(d[..., 2])
+    d2 = hit[..., 0] ** 2 + hit[..., 1] ** 2 + 4.0
+    expected = 0.5 * 100 * (2 / np.sqrt(d2)) / (math.pi * d2)
+    assert np.allclose(lmap.luminance[inside], expected[inside], rtol=1e-5)

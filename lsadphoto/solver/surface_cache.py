@@ -14,8 +14,11 @@ shadows and the near-luminaire gradients. This module splits the two:
   exact where a luminaire is fully visible, sampled only in its shadows.
 * **E_ind on a cache of surface points**, by the double local estimate restricted to the
   nodes of depth ≥ 1 (the nodes that carry reflected flux): each point draws ``nodes``
-  nodes per batch-group uniformly from the store (independent draws per point), connects
-  those farther than ε with a visibility ray, and estimates the part within ε without
+  nodes in :data:`GROUPS` independent groups (group g: the chains of batches ≡ g), in
+  proportion to their coefficient and stratified along a Morton curve through the group's
+  nodes (one draw from each of k equal slices of the coefficient mass; independent draws
+  per point and group), connects those farther than ε with a visibility ray, and
+  estimates the part within ε without
   bias by cosine-sampled rays (at a near hit y it adds ρ_y·(E_dir(y) + E_ind(y)), E_ind(y)
   again by far nodes and a further near ray, continued by Russian roulette with
   probability ρ_y) — the near-field split of :mod:`~lsadphoto.solver.rendering`, with
@@ -23,9 +26,9 @@ shadows and the near-luminaire gradients. This module splits the two:
 * The cache points are the vertices of a regular subdivision of every reflecting triangle
   (level m ≈ √(2·area)/spacing; one point at the centroid for triangles smaller than the
   spacing), one set per side; cells whose corner values differ strongly (shadow edges of
-  indirect light, objects standing close, concave corners) are subdivided further. A pixel's E_ind is the **linear interpolation** of its
-  sub-triangle's three vertices, per batch group, so per-pixel standard errors still come
-  from independent groups.
+  indirect light, objects standing close, concave corners) are subdivided further. A
+  pixel's E_ind is the **linear interpolation** of its sub-triangle's three vertices, per
+  group, so per-pixel standard errors still come from independent groups.
 
 What this costs and gives: the cache is view-independent (it is saved in the store, and a
 further view needs only its primary rays, its direct shadow rays and the interpolation);
@@ -40,7 +43,8 @@ Budak, Zheltov & Kalakutsky (2012), *Computer Research and Modeling* 4(1), 75–
 local estimate). Marchuk et al. (1980), *The Monte Carlo Methods in Atmospheric Optics*,
 §3.3. Ward, G. J., Rubinstein, F. M., Clear, R. D. (1988). A ray tracing solution for diffuse
 interreflection. *SIGGRAPH '88*, 85–92 (indirect irradiance is smooth and can be cached and
-interpolated; direct light is computed per pixel). Keller, A. (1997). Instant radiosity.
+interpolated; direct light is computed per pixel). Chen & Asau (1974), AIIE Transactions
+6(2), 163–166 (cutpoint inverse-CDF draws). Morton (1966), IBM report (Z-order).
 """
 
 import math
