@@ -79,10 +79,12 @@ def test_projected_solid_angle_clips_at_the_horizon():
 
 
 def test_direct_light_of_a_half_occluded_luminaire():
-    # A 1 × 1 m Lambertian panel 2 m above a point; an opaque black sheet just below the
-    # panel covers its half x < 0. Expected E = L·Π(uncovered half) (Lambert, exact); the
-    # estimator samples only the covered half and must be unbiased: the mean of 20
-    # independent estimates within 3 standard errors.
+    # A 1 × 1 m Lambertian panel 2 m above a point; an opaque black sheet 2 cm below the
+    # panel covers its half x < 0. The point lies under the sheet's edge (x = 0), so from it
+    # the sheet hides exactly that half: E = L·Π(half x > 0) (Lambert, exact). 4000
+    # independent estimates of 8 samples: their mean within 3 standard errors (the ratio
+    # form's O(1/s) bias is below that resolution, 0.4 %); the reported variance is
+    # conservative (it ignores the stratification) but not by more than 4×.
     flux = 1000.0
     scene = scene_from_dict({
         "materials": {"grey": {"reflectance": 0.5}, "black": {"reflectance": 0.0}},
@@ -98,18 +100,15 @@ def test_direct_light_of_a_half_occluded_luminaire():
     engine = _engine_for(scene)
     luminance = flux / math.pi  # 1 m²
     half = quad([0, -0.5, 2], [0, 0.5, 2], [0.5, 0.5, 2], [0.5, -0.5, 2])
-    point = np.array([[0.1, 0.05, 0.0]])
+    point = np.array([[0.0, 0.05, 0.0]])
     expected = luminance * projected_solid_angle(point, [[0, 0, 1]], half).sum()
-    estimates = [direct_illuminance(scene, engine, point, np.array([[0, 0, 1.0]]), samples=8,
-                                    seed=s) for s in range(20)]
-    e = np.array([est[0][0] for est in estimates])
-    var = np.array([est[1][0] for est in estimates])
-    assert np.all(var > 0)  # partial shadow: sampled, with a variance
-    assert abs(e.mean() - expected) <= K_SIGMA * e.std(ddof=1) / math.sqrt(len(e))
-    # The reported variance is the samples' variance over s, which ignores the stratification
-    # (that lowers the true variance): conservative, here 2.3× the spread of 20 independent
-    # estimates; it must not understate it (factor 0.5 allows for 20 estimates' scatter).
-    assert 0.5 < var.mean() / e.var(ddof=1) < 4.0
+    n = 4000
+    e, var = direct_illuminance(scene, engine, np.repeat(point, n, axis=0),
+                                np.tile([0, 0, 1.0], (n, 1)), samples=8, seed=3,
+                                block_ids=np.arange(n))
+    assert np.any(var > 0) and np.all(e >= 0)  # partial shadow: sampled; never negative
+    assert abs(e.mean() - expected) <= K_SIGMA * e.std(ddof=1) / math.sqrt(n)
+    assert 1.0 <= var.mean() / e.var(ddof=1) < 4.0
 
 
 def test_direct_light_is_exact_where_luminaires_are_fully_visible():

@@ -8,28 +8,33 @@ luminance L over triangles A (Lambertian, emitting from their front side) is
 with g = cos⁺θ_x·cos θ_y/r². Π_l = ∫_A g dA, the projected solid angle of the unoccluded
 triangles (clipped to the horizon of x), has a closed form (Lambert's polygon formula:
 Π = ½ Σ_edges γ_e · n·m̂_e, γ_e the angle an edge subtends at x and m̂_e the unit normal of
-the plane through x and the edge). Only the occluded part is sampled, with ``samples``
+the plane through x and the edge). Only the visible fraction is sampled, with ``samples``
 points per luminaire distributed by area (stratified over the luminaire's triangles), each
-with a shadow ray:
+with a shadow ray, as the ratio
 
-    Ê_l = L · (Π_l − (A_l/s) Σ_j (1 − V_j)·g_j).
+    Ê_l = L · Π_l · Σ_j V_j·g_j / Σ_j g_j,
 
-The estimate is unbiased and exact (zero variance) wherever the luminaire is fully visible —
-the control-variate form of next-event estimation. Point luminaires (an intensity
+which is exact (zero variance) wherever the luminaire is fully visible or fully hidden and
+never negative. In a partial shadow it is a ratio estimator: consistent, with a bias of
+order 1/s — not detectable in the half-shadow test of tests/test_solver_cache.py (−0.04 ±
+0.30 % at s = 4, 20 000 estimates), far below its noise there (43 % per estimate at s = 4).
+(The control-variate form L·(Π − (A/s)Σ(1 − V_j)g_j) is unbiased but can come out
+negative in a penumbra, which a luminance map cannot hold.) Point luminaires (an intensity
 distribution I, emitted from a point or uniformly from a luminous rectangle) contribute
-I(ω_{y→x})·cos⁺θ_x·V/r², averaged over ``samples`` points of the rectangle (one for a point).
+I(ω_{y→x})·cos⁺θ_x·V/r², averaged over ``samples`` points of the rectangle (one for a point):
+unbiased.
 
-Each estimate comes with its sampling variance: the sample variance of the terms over s,
-which ignores the stratification and so overstates the true variance (conservative; 2.3×
-in the half-shadow test of tests/test_solver_cache.py).
+Each estimate comes with its sampling variance (the delta-method variance of the ratio; for
+point luminaires the sample variance over s). Both ignore the stratification, which lowers
+the true variance: conservative (1.2–1.4× the observed variance in the half-shadow test).
 
 References
 ----------
 Lambert, J. H. (1760). *Photometria*, §§ 170–176 (the polygon formula); in modern form
 Arvo, J. (1995). Applications of irradiance tensors to the simulation of non-Lambertian
 phenomena. *SIGGRAPH '95*, eq. (6). Marchuk et al. (1980), §3.3 (local estimate).
-Glasserman, P. (2004). *Monte Carlo Methods in Financial Engineering*, §4.1 (control
-variates). FORMULAS.md §6.1.
+Cochran, W. G. (1977). *Sampling Techniques*, 3rd ed., Wiley, §6 (ratio estimators, their
+bias and delta-method variance). FORMULAS.md §6.1.
 """
 
 import math
@@ -222,7 +227,7 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         Points [m] and unit normals (of the side that receives light).
     samples : int
         Shadow-ray samples per luminaire and point (≥ 1): area luminaires sample only their
-        occluded part (module docstring); points luminaires with a luminous rectangle
+        visible fraction (module docstring); point luminaires with a luminous rectangle
         sample the rectangle; a point luminaire needs one ray.
     seed : int
         Seed of the samples' random streams.
@@ -235,8 +240,8 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     Returns
     -------
     (E, variance) : tuple of ndarray, shape (P,)
-        The estimate is unbiased; in a partial shadow, with few samples, a single estimate
-        can come out slightly negative (it is not clamped, which would bias the mean).
+        Exact where luminaires are fully visible or hidden, never negative; in a partial
+        shadow of an area luminaire a ratio estimate (bias of order 1/s, module docstring).
     """
     if isinstance(samples, bool) or int(samples) != samples or samples < 1:
         raise BadInputError(f"direct samples must be a positive integer, got {samples!r}")
@@ -263,19 +268,27 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         L = sampler.luminance
         pi_l = _projected_solid_angle(x, n, sampler.triangles, sampler.front).sum(axis=1)
         lit = np.flatnonzero(pi_l > 0)
-        E[lit] += L * pi_l[lit]
         if lit.size == 0:
             continue
         targets, g = sampler.sample(x[lit], n[lit], u[lit, li], engine.epsilon)
-        terms = np.zeros_like(g)
+        seen = np.zeros_like(g)
         cand = np.flatnonzero(g.ravel() > 0)
         if cand.size:
             p_of = lit[cand // s]
             vis = engine.visible(origins[p_of], targets.reshape(-1, 3)[cand])
-            terms.ravel()[cand] = np.where(vis, 0.0, L * sampler.area * g.ravel()[cand])
-        E[lit] -= terms.mean(axis=1)
+            seen.ravel()[cand] = np.where(vis, g.ravel()[cand], 0.0)
+        total = g.sum(axis=1)
+        sampled = total > 0  # else no sample fell where g > 0: taken as visible
+        ratio = np.ones(lit.size)
+        ratio[sampled] = seen[sampled].sum(axis=1) / total[sampled]
+        E[lit] += L * pi_l[lit] * ratio
         if s > 1:
-            var[lit] += terms.var(axis=1, ddof=1) / s
+            # Delta method: Var(R) ≈ var_j(g_j·(V_j − R))/(s·ḡ²).
+            resid = np.where(g > 0, seen - g * ratio[:, None], 0.0)
+            mean_g = total / s
+            var_r = np.zeros(lit.size)
+            var_r[sampled] = resid[sampled].var(axis=1, ddof=1) / (s * mean_g[sampled] ** 2)
+            var[lit] += (L * pi_l[lit]) ** 2 * var_r
     for k, lum in enumerate(scene.point_luminaires):
         li = len(scene.area_luminaires) + k
         length, width = lum.extent
