@@ -115,8 +115,7 @@ def reference(scene, view, *, step, chains, nodes, direct_samples):
     sel = np.flatnonzero((r % step == off) & (c % step == off) & (prim >= 0))
     t = prim[sel]
     x = view.position + dist[sel, None] * d[sel]
-    facing = np.einsum("ij,ij->i", scene.normals[t], d[sel]) < 0
-    n = scene.normals[t] * np.where(facing, 1.0, -1.0)[:, None]
+    n, _ = scene.facing_normals(t, d[sel])
     rho = scene.triangle_reflectance[t]
     store = simulate(scene, samples=chains, seed=1000)
     e_dir, v_dir = direct_illuminance(scene, engine, x, n, samples=direct_samples, seed=1000)

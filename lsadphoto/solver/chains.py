@@ -142,9 +142,7 @@ def _block_chains(scene, engine, sampler, seed, block, n, batches, max_depth, ab
         if not alive.size:
             break
         point = origin + dist[:, None] * direction
-        nrm = scene.normals[prim]
-        side = np.where(np.einsum("ij,ij->i", nrm, direction) < 0, 1.0, -1.0)
-        nrm = nrm * side[:, None]
+        nrm, _ = scene.facing_normals(prim, direction)
         rho = rho_tri[prim]
         keep = rho > 0
         out["position"].append(point[keep])

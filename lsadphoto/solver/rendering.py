@@ -361,6 +361,26 @@ class _Gatherer:
         return out
 
 
+def _near_step(scene, engine, x, nx, u, near_distance, rho_prev):
+    """One bounce of near-field paths from points ``x`` (normals ``nx``), uniforms ``u`` (k, 3).
+
+    A cosine-distributed ray from each point; a path goes on where its first hit lies closer
+    than ``near_distance`` and, after the first bounce (``rho_prev`` given), it survives
+    Russian roulette with q = ρ of the vertex it leaves (weight ρ/q = 1). Returns the mask
+    of the paths that go on and, for those, the hit point, its facing normal, the ray
+    direction and the triangle.
+    """
+    d = cosine_directions(nx, u[:, :2])
+    prim, dist = engine.closest_hit(x + engine.epsilon * nx, d)
+    near = (prim >= 0) & (dist < near_distance)
+    if rho_prev is not None:
+        near &= u[:, 2] < rho_prev
+    x, nx, d, prim, dist = x[near], nx[near], d[near], prim[near], dist[near]
+    y = x + engine.epsilon * nx + dist[:, None] * d
+    ny, _ = scene.facing_normals(prim, d)
+    return near, y, ny, d, prim
+
+
 def _near_field_terms(scene, engine, gatherer, points, normals, rho, batch, block_ids, seed,
                       near_distance, n_b):
     """Per-path estimate of ρ_p·(near-field share of the reflected luminance) [cd·m⁻²].
@@ -373,10 +393,8 @@ def _near_field_terms(scene, engine, gatherer, points, normals, rho, batch, bloc
     active = np.arange(n)
     x, nx, throughput = points, normals, rho.copy()
     gens = {}
-    level = 0
     rho_prev = None  # reflectance of the current vertex (set after the first near hit)
     while active.size:
-        level += 1
         # one generator per pixel block, drawn in block order, for the paths still active
         u = np.empty((active.size, 3))
         blocks = block_ids[active]
@@ -386,19 +404,12 @@ def _near_field_terms(scene, engine, gatherer, points, normals, rho, batch, bloc
             if g is None:
                 g = gens[j] = stream(seed, "near", batch, j)
             u[m] = g.random((int(m.sum()), 3))
-        d = cosine_directions(nx, u[:, :2])
-        prim, dist = engine.closest_hit(x + engine.epsilon * nx, d)
-        near = (prim >= 0) & (dist < near_distance)
-        if level > 1:
-            near &= u[:, 2] < rho_prev  # Russian roulette with q = ρ of the vertex (weight ρ/q = 1)
-        active, x, nx, d, prim, dist = active[near], x[near], nx[near], d[near], prim[near], dist[near]
+        near, y, ny, d, prim = _near_step(scene, engine, x, nx, u, near_distance, rho_prev)
+        active = active[near]
         throughput = throughput[near]
         if not active.size:
             break
         blocks_now = block_ids[active]
-        y = x + engine.epsilon * nx + dist[:, None] * d
-        ny = scene.normals[prim]
-        ny = ny * np.where(np.einsum("ij,ij->i", ny, d) < 0, 1.0, -1.0)[:, None]
         rho_y = scene.triangle_reflectance[prim]
         value = _emitted(scene, prim, -d)
         has_rho = rho_y > 0
@@ -533,8 +544,7 @@ def render(store_or_scene, projection, *, position, rotation, samples=None, seed
         h = hit[start:start + chunk]
         t = prim[h]
         x = position + dist[h, None] * d[h]
-        nrm = scene.normals[t] * np.where(np.einsum("ij,ij->i", scene.normals[t], d[h]) < 0,
-                                          1.0, -1.0)[:, None]
+        nrm, _ = scene.facing_normals(t, d[h])
         rho = scene.triangle_reflectance[t]
         emitted = _emitted(scene, t, -d[h])
         block_ids = (start + np.arange(h.size)) // PIXEL_BLOCK
@@ -704,8 +714,7 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
         h = hit[start:start + chunk]
         t = prim[h]
         x0 = position + dist[h, None] * d[h]
-        n0 = scene.normals[t] * np.where(np.einsum("ij,ij->i", scene.normals[t], d[h]) < 0,
-                                         1.0, -1.0)[:, None]
+        n0, _ = scene.facing_normals(t, d[h])
         emitted = _emitted(scene, t, -d[h])
         # paths ordered by (batch, pixel block, pixel, sample); one stream per (batch, block)
         local_block = np.arange(h.size) // PIXEL_BLOCK
@@ -754,8 +763,7 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
             ok = p2 >= 0
             alive, x, nx, dirs, p2, d2 = alive[ok], x[ok], nx[ok], dirs[ok], p2[ok], d2[ok]
             x = x + eps * nx + d2[:, None] * dirs
-            nx = scene.normals[p2] * np.where(np.einsum("ij,ij->i", scene.normals[p2], dirs) < 0,
-                                              1.0, -1.0)[:, None]
+            nx, _ = scene.facing_normals(p2, dirs)
             tri = p2
         return h, emitted[:, None] + acc.reshape(batches, h.size, per_batch).mean(axis=2).T
 

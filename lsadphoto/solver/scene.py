@@ -348,6 +348,13 @@ class Scene:
         return (sum(l.flux for l in self.area_luminaires)
                 + sum(l.flux for l in self.point_luminaires))
 
+    def facing_normals(self, prim, direction):
+        """Normals of triangles ``prim`` turned against rays of unit ``direction`` that hit
+        them (towards where the rays came from), and whether each ray hit the front side."""
+        normals = self.normals[prim]
+        front = np.einsum("ij,ij->i", normals, direction) < 0
+        return normals * np.where(front, 1.0, -1.0)[:, None], front
+
     def view(self, name=None):
         """The view called ``name`` (the first one when ``None``)."""
         if not self.views:

@@ -55,7 +55,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import BadInputError
-from ._sampling import cosine_directions, stream
+from ._sampling import stream
 from .direct import DIRECT_SAMPLES, direct_illuminance
 from .rendering import (
     PIXEL_BLOCK,
@@ -65,6 +65,7 @@ from .rendering import (
     _engine_for,
     _finish,
     _luminous_openings,
+    _near_step,
     _primary,
     _run_chunks,
 )
@@ -278,17 +279,11 @@ class _IndirectEstimator:
                 m = key == k
                 g, j = group[active[m][0]], blocks[active[m][0]]
                 u[m] = stream(self.seed, "near", self.key, g, level, j).random((int(m.sum()), 3))
-            d = cosine_directions(nx, u[:, :2])
-            prim, dist = engine.closest_hit(x + engine.epsilon * nx, d)
-            near = (prim >= 0) & (dist < self.near_distance)
-            if level > 1:
-                near &= u[:, 2] < rho_prev  # Russian roulette with q = ρ of the vertex
-            active, x, nx, d, prim, dist = active[near], x[near], nx[near], d[near], prim[near], dist[near]
+            near, y, ny, _, prim = _near_step(scene, engine, x, nx, u, self.near_distance,
+                                              rho_prev)
+            active = active[near]
             if not active.size:
                 break
-            y = x + engine.epsilon * nx + dist[:, None] * d
-            ny = scene.normals[prim]
-            ny = ny * np.where(np.einsum("ij,ij->i", ny, d) < 0, 1.0, -1.0)[:, None]
             rho_y = scene.triangle_reflectance[prim]
             lit = np.flatnonzero(rho_y > 0)
             if lit.size:
@@ -704,8 +699,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
         h = hit[start:start + chunk]
         t = prim[h]
         x = position + dist[h, None] * d[h]
-        facing = np.einsum("ij,ij->i", scene.normals[t], d[h]) < 0
-        nrm = scene.normals[t] * np.where(facing, 1.0, -1.0)[:, None]
+        nrm, facing = scene.facing_normals(t, d[h])
         rho = scene.triangle_reflectance[t]
         out = np.repeat(_emitted(scene, t, -d[h])[:, None], G, axis=1)
         refl = np.flatnonzero(rho > 0)
