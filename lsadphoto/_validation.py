@@ -34,6 +34,17 @@ def check_positive(value, name, *, allow_zero=False):
     return number
 
 
+def check_positive_int(value, name):
+    """Return ``int(value)`` after checking it is a whole number ≥ 1 (not a bool)."""
+    try:
+        whole = not isinstance(value, bool) and int(value) == value and value >= 1
+    except (TypeError, ValueError):
+        whole = False
+    if not whole:
+        raise BadInputError(f"{name} must be a positive integer, got {value!r}")
+    return int(value)
+
+
 def check_choice(value, name, choices):
     """Check that ``value`` is one of ``choices``; the error lists the valid ones."""
     if value not in choices:

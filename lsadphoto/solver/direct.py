@@ -42,7 +42,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..errors import BadInputError
+from .._validation import check_positive_int
 from ._sampling import stream
 
 __all__ = ["DIRECT_SAMPLES", "direct_illuminance", "projected_solid_angle"]
@@ -243,9 +243,7 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         Exact where luminaires are fully visible or hidden, never negative; in a partial
         shadow of an area luminaire a ratio estimate (bias of order 1/s, module docstring).
     """
-    if isinstance(samples, bool) or int(samples) != samples or samples < 1:
-        raise BadInputError(f"direct samples must be a positive integer, got {samples!r}")
-    s = int(samples)
+    s = check_positive_int(samples, "direct samples")
     x = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.ascontiguousarray(normals, dtype=np.float64).reshape(-1, 3)
     P = len(x)

@@ -54,6 +54,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
+from .._validation import check_positive_int
 from ..errors import BadInputError
 from ._sampling import stream
 from .direct import DIRECT_SAMPLES, direct_illuminance
@@ -338,8 +339,7 @@ def indirect_illuminance(store, points, normals, *, nodes=CACHE_NODES, near_dist
     eps = RELATIVE_CACHE_NEAR_DISTANCE * scene.size if near_distance is None else float(near_distance)
     if not eps > 0:
         raise BadInputError(f"near_distance must be positive, got {near_distance!r}")
-    if isinstance(nodes, bool) or int(nodes) != nodes or nodes < 1:
-        raise BadInputError(f"nodes must be a positive integer, got {nodes!r}")
+    check_positive_int(nodes, "nodes")
     x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     blocks = np.arange(len(x)) // POINT_BLOCK if block_ids is None else np.asarray(block_ids)
@@ -587,14 +587,11 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     spacing = RELATIVE_CACHE_SPACING * scene.size if spacing is None else float(spacing)
     if not (spacing > 0 and math.isfinite(spacing)):
         raise BadInputError(f"cache spacing must be a positive length in metres, got {spacing!r}")
-    if isinstance(workers, bool) or int(workers) != workers or workers < 1:
-        raise BadInputError(f"workers must be a positive integer, got {workers!r}")
-    if isinstance(refine, bool) or int(refine) != refine or refine < 1:
-        raise BadInputError(f"refine must be a positive integer, got {refine!r}")
+    check_positive_int(workers, "workers")
+    check_positive_int(refine, "refine")
     if not contrast > 0:
         raise BadInputError(f"contrast must be positive, got {contrast!r}")
-    if isinstance(nodes, bool) or int(nodes) != nodes or nodes < 1:
-        raise BadInputError(f"nodes must be a positive integer, got {nodes!r}")
+    check_positive_int(nodes, "nodes")
     eps = RELATIVE_CACHE_NEAR_DISTANCE * scene.size if near_distance is None else float(near_distance)
     t0 = time.perf_counter()
     engine = _engine_for(scene)
@@ -684,8 +681,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     if cache is None:
         cache = store.surface_cache or build_surface_cache(store, workers=workers)
     position, rotation = _check_pose(position, rotation)
-    if isinstance(workers, bool) or int(workers) != workers or workers < 1:
-        raise BadInputError(f"workers must be a positive integer, got {workers!r}")
+    check_positive_int(workers, "workers")
     engine = _engine_for(scene)
     t0 = time.perf_counter()
     valid, prim, dist, d = _primary(scene, engine, projection, position, rotation)
