@@ -41,7 +41,7 @@ def _print_json(record):
 
 def _write_json(path, record):
     """Write ``record`` as JSON to ``path``, atomically (``--output-json``)."""
-    from .io._atomic import atomic_text
+    from ._atomic import atomic_text
 
     atomic_text(path, _json_text(record))
 
@@ -54,7 +54,8 @@ def _load_profile(path):
 
 def cmd_luminance(args):
     from .calibrate.spot import SpotReading
-    from .io import atomic_outputs, write_exr, write_false_colour_png, write_hdr
+    from ._atomic import atomic_outputs
+    from .io import write_exr, write_false_colour_png, write_hdr
     from .luminance import luminance_from_raw
     from .raw.decode import read_dark_frame
 
@@ -427,7 +428,8 @@ def _size(text):
 
 def cmd_render(args):
     from ._progress import progress_callback
-    from .io import atomic_outputs, write_exr, write_hdr
+    from ._atomic import atomic_outputs
+    from .io import write_exr, write_hdr
     from .solver import LsadStore, load_store, render
 
     source = Path(args.source)

@@ -587,7 +587,7 @@ def _row(task, summary, scalars, record, warning_lines):
 def _process_view_outputs(task, caught):
     from .calibrate.profile import load_profile
     from .io import write_exr, write_false_colour_png, write_hdr
-    from .io._atomic import atomic_text
+    from ._atomic import atomic_text
     from .luminance import luminance_from_raw
     from .metrics.score import score_map
     from .report.figures import write_contrast_png, write_glare_source_png
@@ -640,7 +640,7 @@ def _compare_with_model(task, photo, outputs, options):
     """Render the view's scene model through the photo's camera and compare (issue: model vs photo)."""
     from .compare import compare_maps
     from .io import write_exr
-    from .io._atomic import atomic_text
+    from ._atomic import atomic_text
     from .report import write_comparison_report, write_ratio_png
     from .solver import camera_to_world, load_scene, render, simulate
 
@@ -915,7 +915,7 @@ def _progress_bar(*, total, initial, enabled):
 
 
 def _write_csv(path, columns, rows):
-    from .io._atomic import atomic_text
+    from ._atomic import atomic_text
 
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
@@ -929,7 +929,7 @@ def _write_parquet(path, columns, rows, metadata):
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from .io._atomic import atomic_path
+    from ._atomic import atomic_path
 
     arrays = {c: pa.array([row.get(c) for row in rows]) for c in columns}
     if not rows:
@@ -942,7 +942,7 @@ def _write_parquet(path, columns, rows, metadata):
 
 def _write_tables(manifest, tasks, failures, outdir):
     """metrics.csv/.parquet from every current done marker; failures.log; ratings.csv."""
-    from .io._atomic import atomic_text
+    from ._atomic import atomic_text
 
     rows = [row for row in (_read_done(task) for task in tasks) if row is not None]
     columns = list(dict.fromkeys(["view", *(c for row in rows for c in row)]))

@@ -38,7 +38,7 @@ from ..errors import BadInputError
 from ..geometry.base import Projection, projection_from_dict
 from ..geometry.pinhole import PinholeProjection
 from ..raw.bracket import NoiseModel
-from ..io._atomic import atomic_text
+from .._atomic import atomic_text
 from .vignetting import VignettingModel
 
 SCHEMA = "lsadphoto.camera-profile/1"
