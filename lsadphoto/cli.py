@@ -39,11 +39,11 @@ def _print_json(record):
     print(_json_text(record))
 
 
-def _write_json(path, record):
-    """Write ``record`` as JSON to ``path``, atomically (``--output-json``)."""
-    from ._atomic import atomic_text
+def _plan(files, folders=None):
+    """The command's outputs, checked before any work (lsadphoto._atomic)."""
+    from ._atomic import plan_outputs
 
-    atomic_text(path, _json_text(record))
+    return plan_outputs(files, folders=folders)
 
 
 def _load_profile(path):
@@ -54,28 +54,24 @@ def _load_profile(path):
 
 def cmd_luminance(args):
     from .calibrate.spot import SpotReading
-    from ._atomic import atomic_outputs
     from .io import write_exr, write_false_colour_png, write_hdr
     from .luminance import luminance_from_raw
     from .raw.decode import read_dark_frame
 
+    if Path(args.output).suffix.lower() != ".exr":
+        raise BadInputError(f"output {args.output} must end in .exr")
+    plan = _plan({"exr": args.output, "hdr": args.hdr, "png": args.png})
+    outputs = plan.files
     angle = np.deg2rad(args.acceptance_angle_deg)
     spots = [SpotReading.parse(s, acceptance_angle=angle) for s in args.spot or []]
-    outputs = {"exr": Path(args.output)}
-    if outputs["exr"].suffix.lower() != ".exr":
-        raise BadInputError(f"output {args.output} must end in .exr")
-    if args.hdr:
-        outputs["hdr"] = Path(args.hdr)
-    if args.png:
-        outputs["png"] = Path(args.png)
     dark = read_dark_frame(args.dark_frame) if args.dark_frame else None
     result = luminance_from_raw(
         args.raw, spots=spots, profile=_load_profile(args.profile), demosaic=args.demosaic,
         colour_method=args.colour_method, dark_frame=dark,
     )
     writers = {"exr": write_exr, "hdr": write_hdr, "png": write_false_colour_png}
-    with atomic_outputs(*outputs.values()) as temps:
-        for (kind, _), temp in zip(outputs.items(), temps):
+    with plan.write() as temps:
+        for kind, temp in temps.items():
             writers[kind](result.map, temp)
     summary = dict(result.summary, outputs={k: str(v) for k, v in outputs.items()})
     if args.json:
@@ -95,6 +91,7 @@ def cmd_calibrate_vignetting(args):
     from .calibrate.vignetting import fit_vignetting_polynomial
     from .raw.decode import decode_raw
 
+    plan = _plan({"profile": args.output})
     frames = [decode_raw(p, demosaic=args.demosaic) for p in args.flat]
     shape = frames[0].sensor_shape
     for f in frames[1:]:
@@ -108,7 +105,8 @@ def cmd_calibrate_vignetting(args):
     profile.vignetting = model
     profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__} from "
                               + ", ".join(Path(p).name for p in args.flat))
-    save_profile(profile, args.output)
+    with plan.write() as temps:
+        save_profile(profile, temps["profile"])
     record = {"output": args.output, "coefficients": model.coefficients, "rms_residual": model.rms_residual,
               "frames": [str(p) for p in args.flat]}
     if args.json:
@@ -124,6 +122,7 @@ def cmd_calibrate_geometry(args):
     from .calibrate.geometric import calibrate_geometry, parse_pattern
     from .calibrate.profile import CameraProfile, save_profile
 
+    plan = _plan({"profile": args.output})
     result = calibrate_geometry(args.images, pattern=parse_pattern(args.pattern), model=args.model)
     profile = _load_profile(args.profile) or CameraProfile(id=args.id or "geometry-fit")
     profile.lens_projection = result.projection
@@ -131,7 +130,8 @@ def cmd_calibrate_geometry(args):
     profile.provenance = dict(profile.provenance, geometry_fit=(
         f"lsadphoto {__version__}: {args.model} model, pattern {result.pattern}, RMS {result.rms_px:.3f} px, "
         f"{len(result.summary()['used_images'])} views"))
-    save_profile(profile, args.output)
+    with plan.write() as temps:
+        save_profile(profile, temps["profile"])
     summary = dict(result.summary(), output=args.output)
     if args.json:
         _print_json(summary)
@@ -178,6 +178,7 @@ def cmd_score(args):
     from .metrics.score import score_map
     from .report import write_contrast_png, write_glare_source_png
 
+    plan = _plan({"sources": args.sources_png, "contrast": args.contrast_png, "json": args.output_json})
     lmap = read_map(args.map)
     if lmap.projection is None:
         raise BadInputError(f"{args.map} has no camera geometry (no VIEW= line or lsadphoto metadata)")
@@ -196,12 +197,13 @@ def cmd_score(args):
     )
     record = score.to_dict()
     record["provenance"]["input"] = str(args.map)
-    if args.sources_png:
-        write_glare_source_png(lmap.luminance, score.source_labels, args.sources_png)
-    if args.contrast_png:
-        write_contrast_png(score.contrast, args.contrast_png)
-    if args.output_json:
-        _write_json(args.output_json, record)
+    with plan.write() as temps:
+        if "sources" in temps:
+            write_glare_source_png(lmap.luminance, score.source_labels, temps["sources"])
+        if "contrast" in temps:
+            write_contrast_png(score.contrast, temps["contrast"])
+        if "json" in temps:
+            temps["json"].write_text(_json_text(record), encoding="utf-8")
     if args.json:
         _print_json(record)
     else:
@@ -224,21 +226,23 @@ def cmd_score(args):
 def cmd_compare(args):
     from .compare import compare_maps
     from .io import read_map
-    from .report import write_ratio_png
+    from .report import write_comparison_report, write_ratio_png
 
+    plan = _plan({"ratio": args.ratio_png, "report": args.report, "json": args.output_json})
     photo, model = read_map(args.photo), read_map(args.model)
     result = compare_maps(photo, model,
                           line_of_sight=_line_of_sight(args.line_of_sight, photo) if photo.projection else None)
     record = result.to_dict()
     record["inputs"] = {"photo": str(args.photo), "model": str(args.model)}
-    if args.ratio_png:
-        write_ratio_png(result.ratio, args.ratio_png)
     if args.report:
-        from .report import write_comparison_report
-
-        record["report"] = str(write_comparison_report(result, args.report, photo=photo, model=model))
-    if args.output_json:
-        _write_json(args.output_json, record)
+        record["report"] = str(args.report)
+    with plan.write() as temps:
+        if "ratio" in temps:
+            write_ratio_png(result.ratio, temps["ratio"])
+        if "report" in temps:
+            write_comparison_report(result, temps["report"], photo=photo, model=model)
+        if "json" in temps:
+            temps["json"].write_text(_json_text(record), encoding="utf-8")
     if args.json:
         _print_json(record)
     else:
@@ -255,20 +259,23 @@ def cmd_compare(args):
 def cmd_study(args):
     from .study import run_study
 
+    report = Path(args.report) / "report.html" if args.report else None
+    plan = _plan({"report": report, "json": args.output_json}, folders={"figures": args.figures})
     result = run_study(args.ratings, args.metrics, metric=args.metric,
                        sweep_prefix=args.sweep_prefix or None, jitter=args.jitter,
                        n_jitter=args.n_jitter, n_bootstrap=args.n_bootstrap,
                        confidence=args.confidence, seed=args.seed, direction=args.direction)
     record = result.to_dict()
-    if args.figures:
-        Path(args.figures).mkdir(parents=True, exist_ok=True)
-        record["figures"] = [str(p) for p in result.figures(args.figures)]
-    if args.report:
-        from .report import write_survey_report
+    with plan.write() as temps:
+        if "figures" in temps:
+            record["figures"] = [str(Path(args.figures) / p.name) for p in result.figures(temps["figures"])]
+        if "report" in temps:
+            from .report import write_survey_report
 
-        record["report"] = str(write_survey_report(args.report, study=result))
-    if args.output_json:
-        _write_json(args.output_json, record)
+            write_survey_report(args.report, temps["report"], study=result)
+            record["report"] = str(report)
+        if "json" in temps:
+            temps["json"].write_text(_json_text(record), encoding="utf-8")
     if args.json:
         _print_json(record)
         return 0
@@ -337,6 +344,7 @@ def cmd_simulate(args):
     from ._progress import progress_callback
     from .solver import simulate
 
+    plan = _plan({"store": args.output})
     if args.samples is None and args.target_error is None:
         args.samples = 65536
     scene = _load_any_scene(args.scene)
@@ -348,7 +356,8 @@ def cmd_simulate(args):
         close()
     if args.surface_cache:
         store.surface_cache = _build_cache(store, args)
-    store.save(args.output)
+    with plan.write() as temps:
+        store.save(temps["store"])
     record = {"output": str(args.output), "scene": str(args.scene), "chains": store.chains,
               "nodes": store.nodes, "provenance": store.provenance}
     if args.json:
@@ -428,10 +437,13 @@ def _size(text):
 
 def cmd_render(args):
     from ._progress import progress_callback
-    from ._atomic import atomic_outputs
     from .io import write_exr, write_hdr
     from .solver import LsadStore, load_store, render
 
+    if Path(args.output).suffix.lower() != ".exr":
+        raise BadInputError(f"output {args.output} must end in .exr")
+    plan = _plan({"exr": args.output, "hdr": args.hdr})
+    outputs = plan.files
     source = Path(args.source)
     if source.suffix.lower() == ".npz":
         store_or_scene = load_store(source)
@@ -439,11 +451,6 @@ def cmd_render(args):
     else:
         store_or_scene = scene = _load_any_scene(source)
     projection, position, rotation = _render_pose(args, scene)
-    outputs = {"exr": Path(args.output)}
-    if outputs["exr"].suffix.lower() != ".exr":
-        raise BadInputError(f"output {args.output} must end in .exr")
-    if args.hdr:
-        outputs["hdr"] = Path(args.hdr)
     nodes = args.nodes_per_pixel
     if nodes not in ("auto", "all"):
         try:
@@ -471,8 +478,8 @@ def cmd_render(args):
     finally:
         close()
     writers = {"exr": write_exr, "hdr": write_hdr}
-    with atomic_outputs(*outputs.values()) as temps:
-        for (kind, _), temp in zip(outputs.items(), temps):
+    with plan.write() as temps:
+        for kind, temp in temps.items():
             writers[kind](lmap, temp)
     record = {"outputs": {k: str(v) for k, v in outputs.items()}, "provenance": lmap.provenance}
     if args.json:

@@ -9,6 +9,7 @@ __all__ = [
     "LsadError",
     "BadInputError",
     "MissingMetadataError",
+    "OutputError",
     "UnsupportedFileError",
     "LsadWarning",
     "SaturationWarning",
@@ -37,6 +38,11 @@ class UnsupportedFileError(BadInputError):
 
 class MissingMetadataError(BadInputError):
     """Absolute work needs a value (e.g. exposure time) that the file does not carry."""
+
+
+class OutputError(LsadError):
+    """An output could not be written (disk full, a folder appeared at the target); no
+    output of the command was changed."""
 
 
 class LsadWarning(UserWarning):
