@@ -137,8 +137,14 @@ class OutputPlan:
                     with contextlib.suppress(OSError):
                         os.replace(backup, target)
                 kept, moved = [], []
-                where = exc.filename or ", ".join(map(str, self.paths.values()))
-                raise OutputError(f"cannot write {where}: {exc.strerror or exc}") from None
+                if isinstance(exc, OutputError):  # from a writer's own atomic write to our temporary
+                    message = str(exc)
+                else:
+                    where = exc.filename or ", ".join(map(str, self.paths.values()))
+                    message = f"cannot write {where}: {exc.strerror or exc}"
+                for role, temp in temps.items():  # name the user's paths, not our temporaries
+                    message = message.replace(str(temp), str(self.paths[role]))
+                raise OutputError(message) from None
         finally:
             for backup, _ in kept:
                 with contextlib.suppress(OSError):

@@ -87,6 +87,7 @@ def cmd_luminance(args):
 
 
 def cmd_calibrate_vignetting(args):
+    from ._provenance import timestamp
     from .calibrate.profile import CameraProfile, save_profile
     from .calibrate.vignetting import fit_vignetting_polynomial
     from .raw.decode import decode_raw
@@ -103,7 +104,7 @@ def cmd_calibrate_vignetting(args):
                                       degree=args.degree, saturated=saturated)
     profile = _load_profile(args.profile) or CameraProfile(id=args.id or "vignetting-fit")
     profile.vignetting = model
-    profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__} from "
+    profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__}, {timestamp()}: from "
                               + ", ".join(Path(p).name for p in args.flat))
     with plan.write() as temps:
         save_profile(profile, temps["profile"])
@@ -120,6 +121,7 @@ def cmd_calibrate_vignetting(args):
 
 def cmd_calibrate_geometry(args):
     from .calibrate.geometric import calibrate_geometry, parse_pattern
+    from ._provenance import timestamp
     from .calibrate.profile import CameraProfile, save_profile
 
     plan = _plan({"profile": args.output})
@@ -128,7 +130,7 @@ def cmd_calibrate_geometry(args):
     profile.lens_projection = result.projection
     profile.width, profile.height = result.width, result.height
     profile.provenance = dict(profile.provenance, geometry_fit=(
-        f"lsadphoto {__version__}: {args.model} model, pattern {result.pattern}, RMS {result.rms_px:.3f} px, "
+        f"lsadphoto {__version__}, {timestamp()}: {args.model} model, pattern {result.pattern}, RMS {result.rms_px:.3f} px, "
         f"{len(result.summary()['used_images'])} views"))
     with plan.write() as temps:
         save_profile(profile, temps["profile"])

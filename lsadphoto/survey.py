@@ -47,7 +47,6 @@ Dask.distributed ``Client``. rawpy issue #265 (fork + OpenMP deadlock).
 import contextlib
 import csv
 import dataclasses
-import datetime
 import hashlib
 import io
 import json
@@ -68,6 +67,7 @@ from pathlib import Path
 import numpy as np
 
 from ._validation import check_choice, check_file
+from ._provenance import file_record, timestamp
 from ._version import __version__
 from .calibrate.spot import SpotReading
 from .errors import BadInputError, LsadError
@@ -579,7 +579,7 @@ def _row(task, summary, scalars, record, warning_lines):
         "demosaic": summary["demosaic"],
         "notes": " | ".join(record["notes"]) or None,
         "warnings": " | ".join(warning_lines) or None,
-        "timestamp": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "timestamp": timestamp(),
     })
     return row
 
@@ -746,15 +746,6 @@ def _stat(path):
     return info.st_size, info.st_mtime_ns
 
 
-def _file_digest(path):
-    digest = hashlib.sha256()
-    try:
-        with open(path, "rb") as fh:
-            for block in iter(lambda: fh.read(1 << 20), b""):
-                digest.update(block)
-    except OSError:
-        return None  # gone since the manifest was read: the view fails with a clear message
-    return digest.hexdigest()
 
 
 def _task(manifest, view, outdir, score_options):
@@ -781,7 +772,7 @@ def _task(manifest, view, outdir, score_options):
     identity = {k: v for k, v in task.items() if k not in ("manifest",)}
     identity["spots"] = [dataclasses.astuple(s) for s in view.spots]
     identity["raw_stat"] = [(p, *_stat(p)) for p in task["raw"]]
-    identity["profile_sha256"] = None if profile is None else _file_digest(profile)
+    identity["profile_sha256"] = None if profile is None else file_record(profile)["sha256"]
     text = json.dumps(identity, sort_keys=True, default=_json_default)
     task["fingerprint"] = hashlib.sha256(text.encode("utf-8")).hexdigest()
     task["outputs"] = {k: str(v) for k, v in _outputs(Path(outdir) / "views" / view.id, view.id,
@@ -950,7 +941,7 @@ def _write_tables(manifest, tasks, failures, outdir):
     rows = [{c: row.get(c) for c in columns} for row in rows]
     metadata = {"schema": SCHEMA, "manifest": str(manifest.path), "name": manifest.name,
                 "lsadphoto_version": __version__,
-                "written": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")}
+                "written": timestamp()}
     _write_csv(outdir / "metrics.csv", columns, rows)
     _write_parquet(outdir / "metrics.parquet", columns, rows, metadata)
     atomic_text(outdir / "failures.log", "".join(f"{view}: {reason}\n" for view, reason in failures))

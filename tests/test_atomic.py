@@ -160,3 +160,25 @@ def test_luminance_outputs_all_written(luminance_args, tmp_path):
     assert main([*luminance_args, "--spot", "115,128,60", "-o", str(out / "m.exr"),
                  "--hdr", str(out / "m.hdr"), "--png", str(out / "m.png")]) == 0
     assert _files(out) == ["m.exr", "m.hdr", "m.png"]
+
+
+def test_error_in_a_writer_names_the_target_not_the_temporary(tmp_path, monkeypatch):
+    from lsadphoto.io import exr as exr_module
+    from lsadphoto.io import write_exr
+    from lsadphoto.luminance_map import LuminanceMap
+
+    class FullDisk:
+        def __init__(self, header, channels):
+            pass
+
+        def write(self, name):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), name)
+
+    monkeypatch.setattr(exr_module.OpenEXR, "File", FullDisk)
+    target = tmp_path / "m.exr"
+    plan = plan_outputs({"exr": target})
+    with pytest.raises(OutputError) as caught:
+        with plan.write() as temps:
+            write_exr(LuminanceMap(np.ones((2, 2))), temps["exr"])
+    assert str(caught.value) == f"cannot write {target}: No space left on device"
+    assert _files(tmp_path) == []
