@@ -39,6 +39,30 @@ def _print_json(record):
     print(_json_text(record))
 
 
+class _Choices:
+    """Valid values of an option, defined in the library (``module.name``) and imported only
+    when argparse checks a value or prints help, so that ``lsadphoto`` starts fast."""
+
+    def __init__(self, module, name):
+        self.module, self.name = module, name
+
+    def _values(self):
+        import importlib
+
+        return getattr(importlib.import_module(self.module), self.name)
+
+    def __contains__(self, value):
+        return value in self._values()
+
+    def __iter__(self):
+        return iter(self._values())
+
+
+def _given(**options):
+    """The options given on the command line; the others take the library's defaults."""
+    return {k: v for k, v in options.items() if v is not None}
+
+
 def _plan(files, folders=None):
     """The command's outputs, checked before any work (lsadphoto._atomic)."""
     from ._atomic import plan_outputs
@@ -62,12 +86,12 @@ def cmd_luminance(args):
         raise BadInputError(f"output {args.output} must end in .exr")
     plan = _plan({"exr": args.output, "hdr": args.hdr, "png": args.png})
     outputs = plan.files
-    angle = np.deg2rad(args.acceptance_angle_deg)
-    spots = [SpotReading.parse(s, acceptance_angle=angle) for s in args.spot or []]
+    angle = {} if args.acceptance_angle_deg is None else {"acceptance_angle": np.deg2rad(args.acceptance_angle_deg)}
+    spots = [SpotReading.parse(s, **angle) for s in args.spot or []]
     dark = read_dark_frame(args.dark_frame) if args.dark_frame else None
     result = luminance_from_raw(
-        args.raw, spots=spots, profile=_load_profile(args.profile), demosaic=args.demosaic,
-        colour_method=args.colour_method, dark_frame=dark,
+        args.raw, spots=spots, profile=_load_profile(args.profile), dark_frame=dark,
+        **_given(demosaic=args.demosaic, colour_method=args.colour_method),
     )
     writers = {"exr": write_exr, "hdr": write_hdr, "png": write_false_colour_png}
     with plan.write() as temps:
@@ -93,7 +117,7 @@ def cmd_calibrate_vignetting(args):
     from .raw.decode import decode_raw
 
     plan = _plan({"profile": args.output})
-    frames = [decode_raw(p, demosaic=args.demosaic) for p in args.flat]
+    frames = [decode_raw(p, **_given(demosaic=args.demosaic)) for p in args.flat]
     shape = frames[0].sensor_shape
     for f in frames[1:]:
         if f.sensor_shape != shape:
@@ -101,7 +125,7 @@ def cmd_calibrate_vignetting(args):
     rgb = np.mean([f.rgb for f in frames], axis=0)
     saturated = np.any([f.saturated.any(axis=-1) for f in frames], axis=0)
     model = fit_vignetting_polynomial(rgb.sum(axis=-1), shape, binning=frames[0].binning,
-                                      degree=args.degree, saturated=saturated)
+                                      saturated=saturated, **_given(degree=args.degree))
     profile = _load_profile(args.profile) or CameraProfile(id=args.id or "vignetting-fit")
     profile.vignetting = model
     profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__}, {timestamp()}: from "
@@ -125,12 +149,12 @@ def cmd_calibrate_geometry(args):
     from .calibrate.profile import CameraProfile, save_profile
 
     plan = _plan({"profile": args.output})
-    result = calibrate_geometry(args.images, pattern=parse_pattern(args.pattern), model=args.model)
+    result = calibrate_geometry(args.images, pattern=parse_pattern(args.pattern), **_given(model=args.model))
     profile = _load_profile(args.profile) or CameraProfile(id=args.id or "geometry-fit")
     profile.lens_projection = result.projection
     profile.width, profile.height = result.width, result.height
     profile.provenance = dict(profile.provenance, geometry_fit=(
-        f"lsadphoto {__version__}, {timestamp()}: {args.model} model, pattern {result.pattern}, RMS {result.rms_px:.3f} px, "
+        f"lsadphoto {__version__}, {timestamp()}: {result.model} model, pattern {result.pattern}, RMS {result.rms_px:.3f} px, "
         f"{len(result.summary()['used_images'])} views"))
     with plan.write() as temps:
         save_profile(profile, temps["profile"])
@@ -138,7 +162,7 @@ def cmd_calibrate_geometry(args):
     if args.json:
         _print_json(summary)
     else:
-        print(f"wrote {args.output}: {args.model} model, RMS {result.rms_px:.3f} px, "
+        print(f"wrote {args.output}: {result.model} model, RMS {result.rms_px:.3f} px, "
               f"{len(summary['used_images'])} views used, {len(summary['rejected_images'])} rejected")
         for item in summary["rejected_images"]:
             print(f"  rejected {item['name']}: {item['reason']}")
@@ -266,7 +290,7 @@ def cmd_study(args):
     result = run_study(args.ratings, args.metrics, metric=args.metric,
                        sweep_prefix=args.sweep_prefix or None, jitter=args.jitter,
                        n_jitter=args.n_jitter, n_bootstrap=args.n_bootstrap,
-                       confidence=args.confidence, seed=args.seed, direction=args.direction)
+                       confidence=args.confidence, seed=args.seed, **_given(direction=args.direction))
     record = result.to_dict()
     with plan.write() as temps:
         if "figures" in temps:
@@ -353,7 +377,7 @@ def cmd_simulate(args):
     callback, close = progress_callback("simulating", enabled=False if args.quiet else None)
     try:
         store = simulate(scene, samples=args.samples, target_error=args.target_error, seed=args.seed,
-                         near_field=args.near_field, progress=callback)
+                         progress=callback, **_given(near_field=args.near_field))
     finally:
         close()
     if args.surface_cache:
@@ -503,9 +527,9 @@ def _add_cache_options(sub):
 
 
 def build_parser():
-    from .raw.colour import COLOUR_METHODS
-    from .raw.decode import DEMOSAIC_METHODS
+    from .constants import LS100_ACCEPTANCE_ANGLE
 
+    demosaic = _Choices("lsadphoto.raw.decode", "DEMOSAIC_METHODS")
     parser = argparse.ArgumentParser(prog=PROG, description="Calibrated luminance maps from RAW photographs.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
@@ -515,11 +539,13 @@ def build_parser():
     lum.add_argument("raw", nargs="+", help="RAW file, or several forming an exposure bracket")
     lum.add_argument("--spot", action="append", metavar="ROW,COL,CD_M2",
                      help="spot-meter reading at a full-resolution pixel (repeatable)")
-    lum.add_argument("--acceptance-angle-deg", type=float, default=1.0,
-                     help="spot meter acceptance angle, full cone [deg] (LS-100: 1)")
+    lum.add_argument("--acceptance-angle-deg", type=float,
+                     help=f"spot meter acceptance angle, full cone [deg] (default: LS-100, "
+                          f"{np.rad2deg(LS100_ACCEPTANCE_ANGLE):g})")
     lum.add_argument("--profile", help="camera profile (TOML)")
-    lum.add_argument("--demosaic", choices=DEMOSAIC_METHODS, default="superpixel")
-    lum.add_argument("--colour-method", choices=COLOUR_METHODS, default="auto")
+    lum.add_argument("--demosaic", choices=demosaic, help="demosaicing (default: the first)")
+    lum.add_argument("--colour-method", choices=_Choices("lsadphoto.raw.colour", "COLOUR_METHODS"),
+                     help="camera RGB → XYZ source (default: the first)")
     lum.add_argument("--dark-frame", action="append", metavar="RAW", help="dark frame(s) for a black-level map")
     lum.add_argument("-o", "--output", required=True, help="output OpenEXR map (.exr)")
     lum.add_argument("--hdr", help="also write a Radiance HDR map")
@@ -534,8 +560,8 @@ def build_parser():
     vig.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
     vig.add_argument("--profile", help="profile to start from (its other sections are kept)")
     vig.add_argument("--id", help="profile id when no --profile is given")
-    vig.add_argument("--degree", type=int, default=3, help="number of even polynomial terms")
-    vig.add_argument("--demosaic", choices=DEMOSAIC_METHODS, default="superpixel")
+    vig.add_argument("--degree", type=int, help="number of even polynomial terms (default 3, at most 6)")
+    vig.add_argument("--demosaic", choices=demosaic, help="demosaicing (default: the first)")
     vig.add_argument("--json", action="store_true")
     vig.set_defaults(func=cmd_calibrate_vignetting)
     geo = calsub.add_parser("geometry", help="calibrate the camera geometry from chessboard or ChArUco images (OpenCV)")
@@ -545,7 +571,8 @@ def build_parser():
                           "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT] (squares, square and marker "
                           "sides [mm], ArUco dictionary, default DICT_5X5_100); e.g. chessboard:9x6:25, "
                           "charuco:9x6:35:26")
-    geo.add_argument("--model", choices=("pinhole", "fisheye"), default="pinhole")
+    geo.add_argument("--model", choices=_Choices("lsadphoto.calibrate.geometric", "MODELS"),
+                     help="camera model (default: the first)")
     geo.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
     geo.add_argument("--profile", help="profile to start from (its other sections are kept)")
     geo.add_argument("--id", help="profile id when no --profile is given")
@@ -558,7 +585,7 @@ def build_parser():
                     help="line of sight in the camera frame (x right, y down, z forward) or through "
                          "an image point; default the map's, else the optical axis")
     sc.add_argument("--up", metavar="X,Y,Z", help="view-up vector in the camera frame (default camera up)")
-    sc.add_argument("--source-method", choices=("fixed", "task", "mean", "contrast"), default="fixed",
+    sc.add_argument("--source-method", choices=_Choices("lsadphoto.metrics.sources", "SOURCE_METHODS"), default="fixed",
                     help="glare-source rule (default: fixed threshold)")
     sc.add_argument("--threshold", type=float,
                     help="glare-source threshold [cd/m²] (fixed, default 2000) or factor (task, mean; default 5)")
@@ -567,8 +594,10 @@ def build_parser():
     sc.add_argument("--search-angle", type=float, default=0.2, help="evalglare -r grouping opening angle [rad]")
     sc.add_argument("--peak-luminance", type=float, default=50000.0, help="peak-extraction limit [cd/m²]")
     sc.add_argument("--no-peak-extraction", action="store_true")
-    sc.add_argument("--background", choices=("CIE", "mean", "Ev"), default="CIE", help="background luminance definition")
-    sc.add_argument("--position-index", choices=("evalglare", "Guth", "Kim2011"), default="evalglare")
+    sc.add_argument("--background", choices=_Choices("lsadphoto.metrics.field", "BACKGROUND_METHODS"),
+                    default="CIE", help="background luminance definition")
+    sc.add_argument("--position-index", choices=_Choices("lsadphoto.geometry.position_index", "METHODS"),
+                    default="evalglare")
     sc.add_argument("--guth-field", type=int, choices=(1, 2), help="evaluate only Guth's total (1) or central (2) field")
     sc.add_argument("--N", type=float, default=50.0, help="threshold count N of the Q criterion (default 50)")
     sc.add_argument("--alpha-arcmin", type=float, default=10.0, help="critical detail α [arcmin] (default 10)")
@@ -596,8 +625,8 @@ def build_parser():
     st.add_argument("metrics", help="METRICS.csv: scene and metric columns (the survey's metrics.csv)")
     st.add_argument("--metric", default="q", help="metric analysed in detail (default q)")
     st.add_argument("--sweep-prefix", default="q_n", help="prefix of the Q(N) sweep columns ('' for none)")
-    st.add_argument("--direction", choices=("positive", "negative", "either"), default="positive",
-                    help="which correlation counts as best in the N sweep")
+    st.add_argument("--direction", choices=_Choices("lsadphoto.study.selection", "DIRECTIONS"),
+                    help="which correlation counts as best in the N sweep (default: the first)")
     st.add_argument("--jitter", type=float, default=0.25, help="half-width of the rating jitter")
     st.add_argument("--n-jitter", type=int, default=10000, help="jitter repetitions")
     st.add_argument("--n-bootstrap", type=int, default=10000, help="bootstrap resamples")
@@ -629,8 +658,8 @@ def build_parser():
     sim.add_argument("--target-error", type=float,
                      help="stop at this relative standard error of the scene's mean luminance (e.g. 0.01)")
     sim.add_argument("--seed", type=int, default=0)
-    sim.add_argument("--near-field", choices=("unbiased", "clamp"), default="unbiased",
-                     help="near-field treatment (clamp is biased and reported as such)")
+    sim.add_argument("--near-field", choices=_Choices("lsadphoto.solver.rendering", "NEAR_FIELD_TREATMENTS"),
+                     help="near-field treatment (default: the first; clamp is biased and reported as such)")
     _add_cache_options(sim)
     sim.add_argument("--surface-cache", action="store_true",
                      help="also store the indirect illuminance on the surfaces (render --estimator cache)")

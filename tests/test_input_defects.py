@@ -89,3 +89,36 @@ def test_geometry_glob_that_matched_nothing(tmp_path, capsys):
     line = _error(capsys, "calibrate", "geometry", tmp_path / "*.png", "--pattern", "chessboard:9x6:25",
                   "-o", tmp_path / "g.toml")
     assert "*.png: does not exist" in line and "a shell pattern that matched no file" in line
+
+
+# --- choices and defaults come from the library (issue 17, "one place for each") ----------
+
+def test_cli_choices_and_defaults_are_the_librarys():
+    import inspect
+
+    from lsadphoto.cli import build_parser
+    from lsadphoto.metrics.score import score_map
+    from lsadphoto.raw.decode import DEMOSAIC_METHODS, decode_raw
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command").choices
+    lum = {a.dest: a for a in sub["luminance"]._actions}
+    assert list(lum["demosaic"].choices) == list(DEMOSAIC_METHODS)
+    assert inspect.signature(decode_raw).parameters["demosaic"].default == DEMOSAIC_METHODS[0]
+    # score keeps explicit defaults (shown in --help): each must be score_map's own.
+    score = {a.dest: a for a in sub["score"]._actions}
+    params = inspect.signature(score_map).parameters
+    for dest, param in [("source_method", "source_method"), ("background", "background_method"),
+                        ("position_index", "position_index_method"), ("search_angle", "search_angle"),
+                        ("peak_luminance", "peak_luminance"), ("N", "n_thresholds"),
+                        ("alpha_arcmin", "size_arcmin"), ("task_opening_deg", "task_opening_deg"),
+                        ("q_weight_exponent", "q_weight_exponent")]:
+        assert score[dest].default == params[param].default, dest
+    assert list(score["source_method"].choices)[0] == params["source_method"].default
+
+
+def test_unknown_choice_lists_the_librarys_values(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["score", "m.exr", "--background", "median"])
+    assert exit_.value.code == 2
+    assert "invalid choice: 'median' (choose from 'CIE', 'mean', 'Ev')" in capsys.readouterr().err

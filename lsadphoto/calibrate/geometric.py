@@ -46,7 +46,8 @@ __all__ = [
     "parse_pattern",
 ]
 
-_MODELS = ("pinhole", "fisheye")
+#: Camera models :func:`calibrate_geometry` fits (OpenCV pinhole with distortion, OpenCV fisheye).
+MODELS = ("pinhole", "fisheye")
 _MIN_VIEWS = 3
 #: Views whose board corners all lie within this distance [px] of another view's are the same
 #: view (the same image given twice, or the board not moved): they add no constraint and
@@ -615,8 +616,8 @@ def calibrate_geometry(images, *, pattern, model="pinhole", outlier_factor=3.0):
     *Detection of ChArUco Boards*.
     """
     pattern = parse_pattern(pattern)
-    if model not in _MODELS:
-        raise BadInputError(f"model must be 'pinhole' or 'fisheye', got {model!r}")
+    if model not in MODELS:
+        raise BadInputError(f"model must be one of {', '.join(MODELS)}, got {model!r}")
     try:
         outlier_factor = float(outlier_factor)
     except (TypeError, ValueError):
