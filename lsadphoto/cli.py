@@ -330,13 +330,15 @@ def cmd_study(args):
 
 
 def cmd_survey(args):
-    from .survey import run_survey
+    from .survey import check_score_options, run_survey
 
     score_options = {}
     if args.N is not None:
         score_options["n_thresholds"] = args.N
     if args.alpha_arcmin is not None:
         score_options["size_arcmin"] = args.alpha_arcmin
+    # Checked here to name the options as the user gave them; run_survey checks them again.
+    score_options = check_score_options(score_options, source="--N/--alpha-arcmin")
     result = run_survey(args.manifest, args.output, workers=args.workers, dask_address=args.dask,
                         progress=not args.quiet, score_options=score_options or None)
     report = None
