@@ -175,7 +175,6 @@ def _format(value, digits=3):
 def cmd_score(args):
     from .io import read_map
     from .metrics.score import score_map
-    from .report import write_contrast_png, write_glare_source_png
 
     lmap = read_map(args.map)
     if lmap.projection is None:
@@ -196,8 +195,12 @@ def cmd_score(args):
     record = score.to_dict()
     record["provenance"]["input"] = str(args.map)
     if args.sources_png:
+        from .report import write_glare_source_png
+
         write_glare_source_png(lmap.luminance, score.source_labels, args.sources_png)
     if args.contrast_png:
+        from .report import write_contrast_png
+
         write_contrast_png(score.contrast, args.contrast_png)
     if args.output_json:
         _write_json(args.output_json, record)
@@ -493,7 +496,7 @@ def _add_cache_options(sub):
 
 def build_parser():
     from .raw.colour import COLOUR_METHODS
-    from .raw.decode import DEMOSAIC_METHODS
+    from .raw.methods import DEMOSAIC_METHODS
 
     parser = argparse.ArgumentParser(prog=PROG, description="Calibrated luminance maps from RAW photographs.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
