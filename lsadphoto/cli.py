@@ -202,7 +202,6 @@ def _format(value, digits=3):
 def cmd_score(args):
     from .io import read_map
     from .metrics.score import score_map
-    from .report import write_contrast_png, write_glare_source_png
 
     plan = _plan({"sources": args.sources_png, "contrast": args.contrast_png, "json": args.output_json})
     lmap = read_map(args.map)
@@ -225,8 +224,12 @@ def cmd_score(args):
     record["provenance"]["input"] = str(args.map)
     with plan.write() as temps:
         if "sources" in temps:
+            from .report import write_glare_source_png
+
             write_glare_source_png(lmap.luminance, score.source_labels, temps["sources"])
         if "contrast" in temps:
+            from .report import write_contrast_png
+
             write_contrast_png(score.contrast, temps["contrast"])
         if "json" in temps:
             temps["json"].write_text(_json_text(record), encoding="utf-8")
@@ -532,7 +535,7 @@ def _add_cache_options(sub):
 def build_parser():
     from .constants import LS100_ACCEPTANCE_ANGLE
 
-    demosaic = _Choices("lsadphoto.raw.decode", "DEMOSAIC_METHODS")
+    demosaic = _Choices("lsadphoto.raw.methods", "DEMOSAIC_METHODS")
     parser = argparse.ArgumentParser(prog=PROG, description="Calibrated luminance maps from RAW photographs.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
