@@ -189,7 +189,7 @@ def cmd_score(args):
         task_opening_deg=args.task_opening_deg, search_angle=args.search_angle,
         peak_luminance=None if args.no_peak_extraction else args.peak_luminance,
         background_method=args.background, position_index_method=args.position_index,
-        guth_field=args.guth_field, n_thresholds=args.N, size_arcmin=args.alpha_arcmin,
+        source_position=args.source_position, guth_field=args.guth_field, n_thresholds=args.N, size_arcmin=args.alpha_arcmin,
         q_weight_exponent=args.q_weight_exponent,
         sweep=range(1, 101) if args.sweep else None,
     )
@@ -558,6 +558,10 @@ def build_parser():
     sc.add_argument("--no-peak-extraction", action="store_true")
     sc.add_argument("--background", choices=("CIE", "mean", "Ev"), default="CIE", help="background luminance definition")
     sc.add_argument("--position-index", choices=("evalglare", "Guth", "Kim2011"), default="evalglare")
+    sc.add_argument("--source-position", choices=("evalglare", "direction"), default="evalglare",
+                    help="where a source's position index is taken: evalglare's pixel of its "
+                         "L·ω-weighted mean pixel position (default, as evalglare 3.06), or its "
+                         "L·ω-weighted mean direction")
     sc.add_argument("--guth-field", type=int, choices=(1, 2), help="evaluate only Guth's total (1) or central (2) field")
     sc.add_argument("--N", type=float, default=50.0, help="threshold count N of the Q criterion (default 50)")
     sc.add_argument("--alpha-arcmin", type=float, default=10.0, help="critical detail α [arcmin] (default 10)")

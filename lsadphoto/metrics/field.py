@@ -14,7 +14,7 @@ CIE 117:1995 *Discomfort glare in interior lighting* (L_b = E_ind/π). Radiance
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit, prange
@@ -116,6 +116,9 @@ def background_luminance(luminance, solid_angle, cos_sigma, source_mask, *, meth
         the non-source pixels (``-q 1``; L̄ when every pixel is a source). ``"Ev"``: E_v/π
         (``-q 2``).
 
+    The value is :meth:`FieldSums.background_luminance` of the map's :func:`field_sums` — the
+    one definition that :func:`~lsadphoto.metrics.score.score_map` also uses.
+
     Examples
     --------
     A uniform field of 50 cd·m⁻² over the front hemisphere has L_b = 50 in CIE mode
@@ -126,16 +129,10 @@ def background_luminance(luminance, solid_angle, cos_sigma, source_mask, *, meth
     50.0
     """
     check_choice(method, "background luminance method", BACKGROUND_METHODS)
-    source_mask = np.asarray(source_mask, dtype=bool)
-    if method == "Ev":
-        return vertical_illuminance(luminance, solid_angle, cos_sigma) / math.pi
-    if method == "CIE":
-        # E_v − E_dir summed directly over the non-source pixels (no cancellation).
-        return vertical_illuminance(luminance, solid_angle, cos_sigma, mask=~source_mask) / math.pi
-    background = mean_luminance(luminance, solid_angle, cos_sigma, mask=~source_mask)
-    if math.isnan(background):
-        return mean_luminance(luminance, solid_angle, cos_sigma)
-    return background
+    L, w, c, mask = np.broadcast_arrays(np.asarray(luminance, dtype=np.float64), solid_angle,
+                                        cos_sigma, np.asarray(source_mask, dtype=bool))
+    # P = 1 everywhere: the position index enters only ugr_sum, unused here.
+    return field_sums(L, w, c, np.ones(L.shape), mask).background_luminance(method)
 
 
 # --- all field sums in one pass ----------------------------------------------------------------
@@ -174,6 +171,44 @@ class FieldSums:
     background_luminance_solid_angle: float
     background_illuminance: float
     ugr_sum: float
+
+    @property
+    def mean_luminance(self):
+        """Solid-angle-weighted mean luminance L̄ = ΣL·ω/Σω over the field [cd·m⁻²]; NaN
+        when the field is empty."""
+        if not self.solid_angle > 0:
+            return math.nan
+        return self.luminance_solid_angle / self.solid_angle
+
+    def background_luminance(self, method="CIE"):
+        """Background luminance L_b [cd·m⁻²] by ``method`` (see :func:`background_luminance`)."""
+        check_choice(method, "background luminance method", BACKGROUND_METHODS)
+        if method == "CIE":  # (E_v − E_dir)/π, summed over the non-source pixels: no cancellation
+            return self.background_illuminance / math.pi
+        if method == "Ev":
+            return self.illuminance / math.pi
+        if self.background_solid_angle > 0:
+            return self.background_luminance_solid_angle / self.background_solid_angle
+        return self.mean_luminance  # every pixel a source: the field's mean
+
+    def quantities(self, background_method="CIE"):
+        """The field quantities of :data:`~lsadphoto.metrics.registry.FIELD` and the pixel
+        sum of pixel-wise UGR, as a dict: E_v and E_dir [lx], L_b and L̄ [cd·m⁻²],
+        ``pixel_ugr_sum`` [cd²·m⁻⁴·sr]."""
+        return {"vertical_illuminance": self.illuminance,
+                "direct_illuminance": self.source_illuminance,
+                "background_luminance": self.background_luminance(background_method),
+                "mean_luminance": self.mean_luminance, "pixel_ugr_sum": self.ugr_sum}
+
+    def scaled(self, factor):
+        """The sums of the luminances scaled by ``factor`` (ΣL²ω/P² by its square)."""
+        k = float(factor)
+        return replace(self, luminance_solid_angle=k * self.luminance_solid_angle,
+                       illuminance=k * self.illuminance,
+                       source_illuminance=k * self.source_illuminance,
+                       background_luminance_solid_angle=k * self.background_luminance_solid_angle,
+                       background_illuminance=k * self.background_illuminance,
+                       ugr_sum=k * k * self.ugr_sum)
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True)
