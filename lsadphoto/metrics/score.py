@@ -24,18 +24,18 @@ Undefined values are ``None`` in :meth:`Score.to_dict` with the reason in ``note
 """
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numba import njit, prange
 
-from .._validation import check_choice, check_positive
+from .._validation import check_choice, check_positive, check_positive_int
 from .._version import __version__
 from ..errors import BadInputError
 from ..geometry import ObserverFrame, position_index
 from ..geometry.field import pixel_geometry, visual_field
 from ..geometry.position_index import METHODS as POSITION_INDEX_METHODS
-from .field import BACKGROUND_METHODS, field_sums
+from .field import BACKGROUND_METHODS, field_sums, noise_moments
 from .glare_indices import DGP_COEFFICIENTS
 from .grouping import (
     DEFAULT_PEAK_LUMINANCE,
@@ -87,7 +87,10 @@ class Score:
     """The result of :func:`score_map`.
 
     ``values`` holds the scalar metrics (NaN where undefined), ``uncertainty`` their
-    standard uncertainties from the calibration, ``sources`` the grouped sources,
+    combined standard uncertainties, ``uncertainty_calibration`` and ``uncertainty_noise``
+    its two parts (calibration scale, per-pixel noise), ``noise_bias`` the mean change of
+    each metric under the map's noise (with its Monte Carlo standard error in
+    ``noise_bias_standard_error``), ``sources`` the grouped sources,
     ``source_mask`` and ``source_labels`` the per-pixel selection (for the glare-source
     map), ``contrast`` the Q criterion's per-pixel contrast map, ``notes`` the reasons for
     undefined values.
@@ -104,6 +107,10 @@ class Score:
     provenance: dict
     notes: list = field(default_factory=list)
     q_sweep: dict | None = None
+    uncertainty_calibration: dict = field(default_factory=dict)
+    uncertainty_noise: dict = field(default_factory=dict)
+    noise_bias: dict = field(default_factory=dict)
+    noise_bias_standard_error: dict = field(default_factory=dict)
 
     def to_dict(self):
         """JSON-ready record: every metric at the top level (None where undefined)."""
@@ -114,7 +121,9 @@ class Score:
             return value if math.isfinite(value) else None
 
         out = {key: clean(value) for key, value in self.values.items()}
-        out["uncertainty"] = {key: clean(value) for key, value in self.uncertainty.items()}
+        for name in ("uncertainty", "uncertainty_calibration", "uncertainty_noise", "noise_bias",
+                     "noise_bias_standard_error"):
+            out[name] = {key: clean(value) for key, value in getattr(self, name).items()}
         out["sources"] = [
             {"luminance": s.luminance, "solid_angle": s.solid_angle,
              "direction": list(s.direction), "row": s.row, "col": s.col,
@@ -218,6 +227,104 @@ def _scaled_thresholds(quality, n_thresholds, size_arcmin, method, scales):
     return out
 
 
+#: Resamples of the field sums for the per-pixel noise (cheap: a few vectors per sample).
+DEFAULT_NOISE_SAMPLES = 256
+#: Resampled maps for Q's per-pixel noise (each one a full Q evaluation).
+DEFAULT_Q_NOISE_SAMPLES = 4
+#: Seed of the noise resampling: every run draws the same numbers (common random numbers).
+DEFAULT_NOISE_SEED = 20261201
+
+
+def noise_variance(lmap):
+    """Variance of each pixel's luminance noise [cd²·m⁻⁴], or None when the map has no
+    per-pixel uncertainty.
+
+    :attr:`LuminanceMap.uncertainty` combines the calibration scale and the noise,
+    u_j² = (L_j·u_k)² + v_j (u_k = ``calibration_uncertainty``); the calibration part is a
+    common scale propagated separately, so v_j = max(u_j² − (L_j·u_k)², 0). NaN counts as 0.
+    """
+    if lmap.uncertainty is None:
+        return None
+    u = np.asarray(lmap.uncertainty, dtype=np.float64)
+    scale = np.asarray(lmap.luminance, dtype=np.float64) * float(lmap.calibration_uncertainty)
+    variance = u * u - scale * scale
+    return np.where(variance > 0, variance, 0.0)
+
+
+def _gaussian(rng, mean, covariance, n_samples):
+    """``n_samples`` draws of normal vectors (stacked: mean (..., k), covariance (..., k, k));
+    positive semi-definite covariances through their eigen-decomposition."""
+    lam, vec = np.linalg.eigh(covariance)
+    root = vec * np.sqrt(np.clip(lam, 0.0, None))[..., None, :]
+    z = rng.standard_normal((n_samples, *np.shape(mean)))
+    return mean + np.einsum("...ij,m...j->m...i", root, z)
+
+
+def _noise_resampling(indices, sums, source_solid_angle, moments, n_samples, rng):
+    """Every index evaluated on ``n_samples`` draws of the field sums under pixel noise.
+
+    The sums are linear in the pixel luminances (pixel-UGR's quadratically, handled as in
+    :class:`~lsadphoto.metrics.field.NoiseMoments`), so for Gaussian pixel noise they are
+    jointly Gaussian with the moments computed in one pass: drawing them is drawing noisy
+    maps, without the maps. Returns a dict name → array of the sample values.
+    """
+    background = _gaussian(rng, np.array([sums.background_illuminance,
+                                          sums.background_luminance_solid_angle]),
+                           moments.background, n_samples)
+    per_source = _gaussian(rng, moments.source_means, moments.source_covariances, n_samples)
+    quadratic = moments.quadratic_mean + math.sqrt(moments.quadratic_variance) * \
+        rng.standard_normal(n_samples)
+    samples = []
+    for m in range(n_samples):
+        e_dir, total_lw, ugr_sum = per_source[m].sum(axis=0)
+        field = replace(sums, illuminance=background[m, 0] + e_dir, source_illuminance=e_dir,
+                        background_illuminance=background[m, 0],
+                        background_luminance_solid_angle=background[m, 1],
+                        luminance_solid_angle=background[m, 1] + total_lw,
+                        ugr_sum=ugr_sum + quadratic[m])
+        samples.append(indices(field, per_source[m][:, 1] / source_solid_angle))
+    return {key: np.array([v[key] for v in samples]) for key in samples[0]}
+
+
+def _noise_summary(values, samples):
+    """Standard deviation, bias (mean − value) and the bias's standard error per metric."""
+    spread, bias, error = {}, {}, {}
+    for key, draws in samples.items():
+        if not math.isfinite(values[key]) or not np.all(np.isfinite(draws)) or draws.size < 2:
+            continue
+        spread[key] = float(np.std(draws, ddof=1))
+        bias[key] = float(np.mean(draws) - values[key])
+        error[key] = spread[key] / math.sqrt(draws.size)
+    return spread, bias, error
+
+
+def _pixel_noise(lmap, values, indices, sums, source_solid_angle, labels, n_sources, *, arrays,
+                 noise_samples, q_noise_samples, seed, q_of):
+    """Per-pixel noise: standard uncertainty, bias and its standard error of every metric.
+
+    The indices from resampled field sums (:func:`_noise_resampling`), Q from
+    ``q_noise_samples`` maps L + √v·z; the same source pixels and groups throughout.
+    Empty dicts when the map has no per-pixel uncertainty or the samples are 0.
+    """
+    noise_samples = 0 if noise_samples == 0 else check_positive_int(noise_samples, "noise_samples")
+    q_noise_samples = 0 if q_noise_samples == 0 else check_positive_int(q_noise_samples,
+                                                                        "q_noise_samples")
+    variance = noise_variance(lmap)
+    if variance is None or not np.any(variance > 0):
+        return {}, {}, {}
+    rng = np.random.default_rng(int(seed))
+    samples = {}
+    luminance = arrays[0]
+    if noise_samples > 1:
+        moments = noise_moments(*arrays, labels, variance, n_sources)
+        samples = _noise_resampling(indices, sums, source_solid_angle, moments, noise_samples, rng)
+    if q_noise_samples > 1 and math.isfinite(values["q"]):
+        sd = np.sqrt(variance)
+        samples["q"] = np.array([q_of(luminance + sd * rng.standard_normal(sd.shape))
+                                 for _ in range(q_noise_samples)])
+    return _noise_summary(values, samples)
+
+
 def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
               source_threshold=None, task_direction=None, task_opening_deg=20.0,
               search_angle=DEFAULT_SEARCH_ANGLE, peak_luminance=DEFAULT_PEAK_LUMINANCE,
@@ -225,7 +332,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
               source_position="evalglare", guth_field=None, n_thresholds=50.0,
               size_arcmin=10.0, q_weight_exponent=1, q_threshold="Adrian1989",
               q_cutoff="difference", dgp_coefficients="evalglare", vcp_constant=6.374,
-              sweep=None):
+              sweep=None, noise_samples=DEFAULT_NOISE_SAMPLES,
+              q_noise_samples=DEFAULT_Q_NOISE_SAMPLES, seed=DEFAULT_NOISE_SEED):
     """Score a luminance map with every metric (see the module notes).
 
     Parameters
@@ -264,6 +372,13 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         6.374 as published; evalglare's code uses 6.347.
     sweep : sequence of float, optional
         N values for the one-pass Q(N) sweep (e.g. ``range(1, 101)``).
+    noise_samples : int
+        Draws of the field sums for the per-pixel noise (used when the map has a per-pixel
+        ``uncertainty``); 0 switches the noise propagation off.
+    q_noise_samples : int
+        Resampled maps for Q's noise (each a full Q evaluation); 0 switches it off.
+    seed : int
+        Seed of the noise resampling (the same draws in every run).
 
     Returns
     -------
@@ -366,6 +481,18 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
             scaled = [q * factor for q, (_, factor) in zip(q_values[len(sweep_n):], extra_n,
                                                             strict=True)]
             uncertainty["q"] = abs(scaled[0] - scaled[1]) / 2.0
+    calibration = dict(uncertainty)
+    noise, bias, bias_error = _pixel_noise(
+        lmap, values, indices, sums, s_w, labels, len(sources),
+        arrays=(luminance, omega, vf.cos_sigma, pindex), noise_samples=noise_samples,
+        q_noise_samples=q_noise_samples, seed=seed,
+        q_of=lambda noisy: q_Budak2021(noisy, geometry.directions, omega, pindex,
+                                       n_thresholds=n_thresholds, **q_options).q)
+    uncertainty = {key: math.hypot(calibration.get(key, 0.0), noise.get(key, 0.0))
+                   for key in {**calibration, **noise}}
+    if noise:
+        settings["noise"] = {"samples": int(noise_samples), "q_samples": int(q_noise_samples),
+                             "seed": int(seed)}
     if not mask.any():
         notes.append("no glare sources: UGR, DGI, UGP, CGI, DGR and VCP have no value")
     elif not values["background_luminance"] > 0:
@@ -384,4 +511,6 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     return Score(values=values, uncertainty=uncertainty, sources=sources, source_mask=mask,
                  source_labels=labels, contrast=quality.contrast,
                  statistics=luminance_statistics(luminance, omega, vf.cos_sigma),
-                 settings=settings, provenance=provenance, notes=notes, q_sweep=sweep_record)
+                 settings=settings, provenance=provenance, notes=notes, q_sweep=sweep_record,
+                 uncertainty_calibration=calibration, uncertainty_noise=noise, noise_bias=bias,
+                 noise_bias_standard_error=bias_error)
