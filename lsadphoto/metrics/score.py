@@ -369,7 +369,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         Options of the Q criterion (and N, α of the contrast source rule).
     dgp_coefficients : {"evalglare", "Wienold2006"}
     vcp_constant : float
-        6.374 as published; evalglare's code uses 6.347.
+        6.374 as published and in evalglare ≥ 2.07 (6.347 before its fix).
     sweep : sequence of float, optional
         N values for the one-pass Q(N) sweep (e.g. ``range(1, 101)``).
     noise_samples : int
