@@ -216,7 +216,8 @@ def cmd_score(args):
         task_opening_deg=args.task_opening_deg, search_angle=args.search_angle,
         peak_luminance=None if args.no_peak_extraction else args.peak_luminance,
         background_method=args.background, position_index_method=args.position_index,
-        guth_field=args.guth_field, n_thresholds=args.N, size_arcmin=args.alpha_arcmin,
+        source_position=args.source_position, guth_field=args.guth_field,
+        noise_samples=args.noise_samples, q_noise_samples=args.q_noise_samples, n_thresholds=args.N, size_arcmin=args.alpha_arcmin,
         q_weight_exponent=args.q_weight_exponent,
         sweep=range(1, 101) if args.sweep else None,
     )
@@ -236,20 +237,45 @@ def cmd_score(args):
     if args.json:
         _print_json(record)
     else:
+        from .metrics.registry import METRICS
+
         u = record["uncertainty"]
 
-        def pm(key, digits):
-            return "" if u.get(key) is None else f" ± {u[key]:.{digits}f}"
+        def shown(key):
+            text = _with_uncertainty(record[key], u.get(key), METRICS[key].digits)
+            return f"{text} {METRICS[key].unit}" if METRICS[key].unit not in ("", "–") else text
 
         print(f"{args.map}: {record['n_sources']:.0f} glare sources; "
-              f"UGR pixel {_format(record['ugr_pixel'], 2)}{pm('ugr_pixel', 2)}, "
-              f"grouped {_format(record['ugr_grouped'], 2)}{pm('ugr_grouped', 2)}; "
-              f"Q {_format(record['q'], 3)}{pm('q', 3)}; DGP {_format(record['dgp'], 3)}{pm('dgp', 3)}; "
-              f"E_v {_format(record['vertical_illuminance'], 1)} lx; "
-              f"L_b {_format(record['background_luminance'], 2)} cd/m²")
+              f"UGR pixel {shown('ugr_pixel')}, grouped {shown('ugr_grouped')}; "
+              f"Q {shown('q')}; DGP {shown('dgp')}; E_v {shown('vertical_illuminance')}; "
+              f"L_b {shown('background_luminance')}")
+        biased = [f"{METRICS[key].label} {b:+.2g} (±{record['noise_bias_standard_error'][key]:.1g})"
+                  for key, b in record["noise_bias"].items()
+                  if b is not None and _bias_matters(b, record, key)]
+        if biased:
+            print("  bias from pixel noise: " + ", ".join(biased))
         for note in record["notes"]:
             print(f"  note: {note}")
     return 0
+
+
+def _with_uncertainty(value, u, digits):
+    """``value ± u`` with u to two significant digits and the value to the same decimal;
+    ``digits`` decimals when there is no uncertainty."""
+    if value is None:
+        return "—"
+    if not u:
+        return f"{value:.{digits}f}"
+    decimals = max(0, 1 - int(np.floor(np.log10(abs(u)))))
+    return f"{value:.{decimals}f} ± {u:.{decimals}f}"
+
+
+def _bias_matters(bias, record, key):
+    """A noise bias worth printing: beyond twice its Monte Carlo error and a tenth of the
+    metric's standard uncertainty."""
+    error = record["noise_bias_standard_error"].get(key) or 0.0
+    u = record["uncertainty"].get(key) or 0.0
+    return abs(bias) > 2 * error and abs(bias) > 0.1 * u
 
 
 def cmd_compare(args):
@@ -604,12 +630,21 @@ def build_parser():
                     default="CIE", help="background luminance definition")
     sc.add_argument("--position-index", choices=_Choices("lsadphoto.geometry.position_index", "METHODS"),
                     default="evalglare")
+    sc.add_argument("--source-position", choices=_Choices("lsadphoto.metrics.grouping", "SOURCE_POSITIONS"), default="evalglare",
+                    help="where a source's position index is taken: evalglare's pixel of its "
+                         "L·ω-weighted mean pixel position (default, as evalglare 3.06), or its "
+                         "L·ω-weighted mean direction")
     sc.add_argument("--guth-field", type=int, choices=(1, 2), help="evaluate only Guth's total (1) or central (2) field")
     sc.add_argument("--N", type=float, default=50.0, help="threshold count N of the Q criterion (default 50)")
     sc.add_argument("--alpha-arcmin", type=float, default=10.0, help="critical detail α [arcmin] (default 10)")
     sc.add_argument("--q-weight-exponent", type=int, choices=(0, 1, 2), default=1,
                     help="Q weight w = P^-m (default m = 1)")
     sc.add_argument("--sweep", action="store_true", help="also compute Q(N) for N = 1…100 in one pass")
+    sc.add_argument("--noise-samples", type=int, default=256,
+                    help="draws of the field sums for the per-pixel noise of maps that carry a "
+                         "per-pixel uncertainty (0: off; default 256)")
+    sc.add_argument("--q-noise-samples", type=int, default=4,
+                    help="resampled maps for Q's noise and bias (0: off; default 4)")
     sc.add_argument("--sources-png", metavar="OUT.png", help="write the glare-source map")
     sc.add_argument("--contrast-png", metavar="OUT.png", help="write the Q contrast map")
     sc.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
