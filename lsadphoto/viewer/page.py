@@ -18,13 +18,16 @@ file's size on the real maps of ``docs/performance.md``.
 * the validity of every pixel's geometry (uint8) and the glare-source labels (uint16 or
   uint32, 0 = no source) of :func:`~lsadphoto.metrics.score.score_map`;
 * the Q criterion's contrast map K [rad⁻¹]: float16 (3 significant digits), an overlay;
-* the pixel geometry — direction, solid angle ω [sr], σ, τ [rad], position index, cos σ —
-  from :func:`~lsadphoto.geometry.pixel_geometry` and
-  :func:`~lsadphoto.geometry.visual_field` on a grid of every :data:`GEOMETRY_STRIDE`-th
-  row and column (plus the last), float64 rounded to float32. The page interpolates it
-  bilinearly; the largest error of that interpolation against the full-resolution maps is
-  measured here, on a random sample of valid pixels, and stated on the page. Embedding the
-  eight maps at every pixel would make the page 8× larger than the map.
+* the pixel geometry — direction, solid angle ω [sr] and position index — from
+  :func:`~lsadphoto.geometry.pixel_geometry` and :func:`~lsadphoto.geometry.visual_field`
+  on a grid of every :data:`GEOMETRY_STRIDE`-th row and column (plus the last), float32,
+  interpolated bilinearly by the page; the pixels of every grid cell where that misses by
+  more than :data:`GEOMETRY_TOLERANCE` carry their exact values. σ, τ and cos σ follow
+  from the direction and the observer frame's axes, as
+  :meth:`~lsadphoto.geometry.ObserverFrame.angles` defines them. The largest remaining
+  error against the package's full-resolution maps, over all valid pixels, is stated on
+  the page. Embedding the maps at every pixel would make the page 5–6× larger than the
+  map.
 
 References
 ----------
@@ -47,6 +50,7 @@ import numpy as np
 from .._version import __version__
 from ..errors import BadInputError
 from ..geometry import ObserverFrame, pixel_geometry, visual_field
+from ..geometry.observer import _ON_AXIS  # τ's on-axis rule, as ObserverFrame.angles has it
 from ..io._atomic import atomic_text
 from ..io.falsecolour import false_colour_range
 from ..luminance_map import LuminanceMap
@@ -56,17 +60,20 @@ __all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "viewer_assets", "viewer_fr
 
 #: Rows and columns between the embedded geometry samples [px].
 GEOMETRY_STRIDE = 8
-#: Valid pixels on which the geometry interpolation error is measured.
-_ERROR_SAMPLE = 1 << 17
+#: Largest interpolation errors accepted in a grid cell (else its pixels are stored
+#: exactly): pixel solid angle (relative: region means and solid angles within 10⁻⁴, ten
+#: times inside the 0.1 % the viewer promises), direction [deg] (a hundredth of the
+#: LS-100's 1° field; σ's error is at most the direction's) and position index (1…16;
+#: 0.05 is the rounding of its usual two decimals, and 0.01 would store 3× more pixels
+#: exactly on the real fisheye of docs/performance.md).
+GEOMETRY_TOLERANCE = {"solid_angle_relative": 1e-4, "direction_deg": 0.01,
+                      "position_index": 0.05}
 #: zlib level: 6 is zlib's default (level 9 gains < 1 % here at twice the time).
 _ZLIB_LEVEL = 6
 #: Colour maps offered for the false-colour view (matplotlib names), then the fixed ones of
 #: the ratio, contrast and source overlays.
 FALSE_COLOUR_MAPS = ("turbo", "viridis", "inferno", "gray")
 _OVERLAY_MAPS = {"ratio": "RdBu_r", "contrast": "magma"}
-#: Geometry fields: (key, attribute of PixelGeometry / VisualField).
-_GEOMETRY_FIELDS = ("dx", "dy", "dz", "solid_angle", "sigma", "tau", "position_index",
-                    "cos_sigma")
 
 
 def _encode(array, dtype):
@@ -113,28 +120,17 @@ def _nodes(n, stride):
     return np.asarray(nodes)
 
 
-def _bilinear(grid, node_rows, node_cols, rows, cols):
-    """Bilinear interpolation of ``grid`` (on the nodes) at pixel ``(rows, cols)``, as the
-    page does it."""
-    i = np.clip(np.searchsorted(node_rows, rows, side="right") - 1, 0, max(len(node_rows) - 2, 0))
-    j = np.clip(np.searchsorted(node_cols, cols, side="right") - 1, 0, max(len(node_cols) - 2, 0))
+def _bilinear(grid, node_rows, node_cols, stride, rows, cols):
+    """Bilinear interpolation of ``grid`` (values on the nodes, every ``stride`` px) at
+    integer pixels ``(rows, cols)``, as the page does it."""
+    i = np.minimum(rows // stride, max(len(node_rows) - 2, 0))
+    j = np.minimum(cols // stride, max(len(node_cols) - 2, 0))
     i1, j1 = np.minimum(i + 1, len(node_rows) - 1), np.minimum(j + 1, len(node_cols) - 1)
     ti = np.where(i1 > i, (rows - node_rows[i]) / np.maximum(node_rows[i1] - node_rows[i], 1), 0.0)
     tj = np.where(j1 > j, (cols - node_cols[j]) / np.maximum(node_cols[j1] - node_cols[j], 1), 0.0)
     top = grid[i, j] * (1 - tj) + grid[i, j1] * tj
     bottom = grid[i1, j] * (1 - tj) + grid[i1, j1] * tj
     return top * (1 - ti) + bottom * ti
-
-
-def _filled(values, valid):
-    """``values`` with every invalid node set to its nearest valid node's value (so that the
-    interpolation at the image-circle rim needs no special case)."""
-    from scipy import ndimage
-
-    if valid.all() or not valid.any():
-        return np.where(valid, values, 0.0)
-    _, (r, c) = ndimage.distance_transform_edt(~valid, return_indices=True)
-    return values[r, c]
 
 
 def _frame_of(lmap, score):
@@ -148,57 +144,101 @@ def _frame_of(lmap, score):
     return ObserverFrame(tuple(map(float, sight)), (0.0, -1.0, 0.0)), "evalglare"
 
 
-def _geometry(lmap, score, arrays, rng):
-    """Embedded geometry grid with its measured interpolation error, or None."""
+def _cells(n, nodes, stride):
+    """Index of the grid interval of each pixel 0…n−1 and of the node after it."""
+    i = np.minimum(np.arange(n) // stride, max(len(nodes) - 2, 0))
+    return i, np.minimum(i + 1, len(nodes) - 1)
+
+
+def _band_errors(full, grids, node_rows, node_cols, rows, frame, field):
+    """Errors of the page's interpolation at every pixel of the image rows ``rows``:
+    direction [deg], σ [deg], τ [deg] (NaN within 1° of the line of sight, where τ is
+    undefined), solid angle (relative) and position index (absolute), each (rows, cols)."""
+    cols = full["dx"].shape[1]
+    r, c = rows[:, None], np.arange(cols)[None, :]
+    at = {key: _bilinear(grids[key].astype(np.float64), node_rows, node_cols,
+                         GEOMETRY_STRIDE, r, c) for key in full}
+    d = np.stack([at["dx"], at["dy"], at["dz"]], axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        true = np.stack([full[k][rows] for k in ("dx", "dy", "dz")], axis=-1)
+        direction = np.degrees(np.arccos(np.clip(np.sum(d * true, axis=-1), -1.0, 1.0)))
+        sigma, tau = frame.angles(d)
+        true_sigma = field.sigma[rows]
+        return {"direction_deg": direction,
+                "sigma_deg": np.degrees(np.abs(sigma - true_sigma)),
+                "tau_deg_beyond_1deg": np.where(true_sigma > math.radians(1.0),
+                                                np.degrees(np.abs(tau - field.tau[rows])), np.nan),
+                "solid_angle_relative": np.abs(at["solid_angle"] / full["solid_angle"][rows] - 1.0),
+                "position_index": np.abs(at["position_index"] - field.position_index[rows])}
+
+
+def _geometry(lmap, score, arrays):
+    """Embedded geometry with its interpolation error, or None (no projection).
+
+    Direction, solid angle and position index are sampled every :data:`GEOMETRY_STRIDE` px
+    and interpolated bilinearly; every grid cell in which the interpolation misses any of
+    them by more than :data:`GEOMETRY_TOLERANCE` at any valid pixel (the rim of a fisheye's
+    image circle, the line of sight, the horizon where evalglare's position index changes
+    formula, small images where a cell spans degrees) stores its pixels' exact values
+    instead. σ and τ follow on the page from the direction and the observer's axes
+    (v̂, û, ĥ), as :meth:`~lsadphoto.geometry.ObserverFrame.angles` defines them: they have
+    a cone point at the line of sight that no grid interpolates. The errors stated on the
+    page are the largest over all valid pixels.
+    """
     if lmap.projection is None:
         return None
     frame, method = _frame_of(lmap, score)
     geometry = pixel_geometry(lmap.projection)
     field = visual_field(lmap.projection, frame, position_index_method=method)
-    rows, cols = lmap.shape
-    node_rows, node_cols = _nodes(rows, GEOMETRY_STRIDE), _nodes(cols, GEOMETRY_STRIDE)
-    ix = np.ix_(node_rows, node_cols)
-    node_valid = geometry.valid[ix]
     full = {"dx": geometry.directions[..., 0], "dy": geometry.directions[..., 1],
             "dz": geometry.directions[..., 2], "solid_angle": geometry.solid_angle,
-            "sigma": field.sigma, "tau": field.tau, "position_index": field.position_index,
-            "cos_sigma": field.cos_sigma}
-    grids = {key: _filled(np.asarray(full[key][ix], dtype=np.float64), node_valid)
-             for key in _GEOMETRY_FIELDS}
-    # Interpolation error, measured as the page computes it (float32 nodes).
-    valid_index = np.flatnonzero(geometry.valid)
-    errors = {}
-    if valid_index.size:
-        pick = rng.choice(valid_index, size=min(_ERROR_SAMPLE, valid_index.size), replace=False)
-        r, c = np.divmod(pick, cols)
-        at = {key: _bilinear(grids[key].astype(np.float32).astype(np.float64), node_rows,
-                             node_cols, r, c) for key in _GEOMETRY_FIELDS}
-        d = np.stack([at["dx"], at["dy"], at["dz"]], axis=-1)
-        d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        exact = geometry.directions[r, c]
-        cos_error = np.clip(np.sum(d * exact, axis=-1), -1.0, 1.0)
-        sigma = field.sigma[r, c]
-        away = sigma > math.radians(5.0)  # τ is undefined on the line of sight
-        omega = geometry.solid_angle[r, c]
-        errors = {
-            "sample_pixels": int(pick.size),
-            "direction_deg": float(np.degrees(np.max(np.arccos(cos_error)))),
-            "solid_angle_relative": float(np.max(np.abs(at["solid_angle"] / omega - 1.0))),
-            "sigma_deg": float(np.degrees(np.max(np.abs(at["sigma"] - sigma)))),
-            "tau_deg_beyond_5deg": float(np.degrees(np.max(np.abs(at["tau"] - field.tau[r, c])[away])))
-            if away.any() else None,
-            "position_index": float(np.nanmax(np.abs(at["position_index"]
-                                                     - field.position_index[r, c]))),
-        }
-    fields = {key: arrays.add(f"geometry.{key}", grids[key], np.float32)
-              for key in _GEOMETRY_FIELDS}
+            "position_index": field.position_index}
+    valid = geometry.valid
+    rows, cols = valid.shape
+    node_rows, node_cols = _nodes(rows, GEOMETRY_STRIDE), _nodes(cols, GEOMETRY_STRIDE)
+    ix = np.ix_(node_rows, node_cols)
+    grids = {key: np.where(valid[ix], np.asarray(value[ix], dtype=np.float64), 0.0)
+             .astype(np.float32) for key, value in full.items()}
+    row_cell, _ = _cells(rows, node_rows, GEOMETRY_STRIDE)
+    col_cell, _ = _cells(cols, node_cols, GEOMETRY_STRIDE)
+    col_starts = np.flatnonzero(np.diff(col_cell, prepend=-1))
+    exact = np.zeros((rows, cols), dtype=bool)
+    largest = dict.fromkeys(("direction_deg", "sigma_deg", "tau_deg_beyond_1deg",
+                             "solid_angle_relative", "position_index"), 0.0)
+    for cell in range(int(row_cell[-1]) + 1):
+        band = np.flatnonzero(row_cell == cell)
+        errors = _band_errors(full, grids, node_rows, node_cols, band, frame, field)
+        ok = valid[band]
+        bad = ~ok.copy()
+        for key, limit in GEOMETRY_TOLERANCE.items():
+            bad |= ~(errors[key] <= limit)
+        # A cell is exact if any valid pixel of it fails (invalid pixels fail trivially).
+        failing = np.logical_or.reduceat((bad & ok), col_starts, axis=1).any(axis=0)
+        exact_band = failing[col_cell][None, :] & ok
+        exact[band] = exact_band
+        kept = ok & ~exact_band
+        for key in largest:
+            values = errors[key][kept]
+            values = values[np.isfinite(values)]
+            if values.size:
+                largest[key] = max(largest[key], float(values.max()))
+    exact_index = np.flatnonzero(exact)
+    exact_values = {key: np.asarray(value.reshape(-1)[exact_index], dtype=np.float32)
+                    for key, value in full.items()}
+    largest["exact_pixels"] = int(exact_index.size)
+    largest["valid_pixels"] = int(valid.sum())
     return {"stride": GEOMETRY_STRIDE, "node_rows": node_rows.tolist(),
-            "node_cols": node_cols.tolist(), "fields": fields,
-            "valid": arrays.add("geometry.valid", geometry.valid, np.uint8),
-            "interpolation_error": _json_safe(errors), "position_index_method": method,
-            "line_of_sight": list(map(float, frame.axes()[0])),
-            "up": list(map(float, frame.axes()[1])),
-            "projection": lmap.projection.to_dict()}
+            "node_cols": node_cols.tolist(),
+            "fields": {key: arrays.add(f"geometry.{key}", grids[key], np.float32)
+                       for key in full},
+            "exact_index": arrays.add("geometry.exact_index", exact_index, np.uint32),
+            "exact": {key: arrays.add(f"geometry.exact.{key}", exact_values[key], np.float32)
+                      for key in full},
+            "valid": arrays.add("geometry.valid", valid, np.uint8),
+            "interpolation_error": _json_safe(largest), "position_index_method": method,
+            "axes": [np.asarray(a, dtype=np.float64).tolist() for a in frame.axes()],
+            "on_axis": _ON_AXIS, "projection": lmap.projection.to_dict()}
 
 
 def _json_safe(value):
@@ -283,7 +323,7 @@ def check_same_geometry(first, second, *, names=("first map", "second map")):
 
 
 def viewer_fragment(lmap, *, second=None, score=None, second_score=None,
-                    names=("photo", "model"), title=None, lazy=False, seed=0):
+                    names=("photo", "model"), title=None, lazy=False):
     """The viewer of one view as an HTML fragment (a ``<div>``) for embedding in a page.
 
     The page must also hold :func:`viewer_assets` once (the script and style).
@@ -306,8 +346,6 @@ def viewer_fragment(lmap, *, second=None, score=None, second_score=None,
     lazy : bool
         Decode the data only when the viewer is scrolled into sight (for reports with many
         views).
-    seed : int
-        Seed of the pixel sample on which the geometry interpolation error is measured.
 
     Returns
     -------
@@ -324,13 +362,12 @@ def viewer_fragment(lmap, *, second=None, score=None, second_score=None,
     if second is not None:
         check_same_geometry(lmap, second, names=names)
     arrays = _Arrays()
-    rng = np.random.default_rng(seed)
     base_score = score.to_dict() if hasattr(score, "to_dict") else score
     maps = [_map_record(lmap, names[0], score, arrays, "map0")]
     if second is not None:
         maps.append(_map_record(second, names[1], second_score, arrays, "map1"))
     data = {"version": __version__, "title": title or names[0], "maps": maps,
-            "geometry": _geometry(lmap, base_score, arrays, rng),
+            "geometry": _geometry(lmap, base_score, arrays),
             "colour_tables": _colour_tables(), "colour_maps": list(FALSE_COLOUR_MAPS)}
     meta = json.dumps(data, allow_nan=False, separators=(",", ":")).replace("</", "<\\/")
     return (f'<div class="lsad-viewer" data-lazy="{"yes" if lazy else "no"}">'

@@ -143,10 +143,12 @@
         }
         const g = this.meta.geometry;
         if (g) {
-          this.geometry = { meta: g, fields: {}, valid: await decodeArray(this.container, g.valid),
-            nodeRows: g.node_rows, nodeCols: g.node_cols, nc: g.node_cols.length };
+          this.geometry = { meta: g, fields: {}, exact: {}, valid: await decodeArray(this.container, g.valid),
+            exactIndex: await decodeArray(this.container, g.exact_index),
+            nodeRows: g.node_rows, nodeCols: g.node_cols };
           for (const [k, desc] of Object.entries(g.fields)) {
             this.geometry.fields[k] = await decodeArray(this.container, desc);
+            this.geometry.exact[k] = await decodeArray(this.container, g.exact[k]);
           }
         }
         this.decodeMs = performance.now() - t0;
@@ -182,28 +184,57 @@
       return u > 0 ? m.L[i] * u : NaN;
     }
 
-    /** Bilinearly interpolated embedded geometry at (row, col), or null where invalid. */
+    /** Geometry of pixel (row, col): direction (camera frame), solid angle [sr], position
+     * index interpolated bilinearly from the embedded grid (exact values at the rim of the
+     * image circle); σ, τ [rad] and cos σ of that direction in the observer frame (as
+     * lsadphoto.geometry.ObserverFrame.angles). null where the pixel has no geometry. */
     geometryAt(row, col) {
       const g = this.geometry, i = this.index(row, col);
       if (!g || i < 0 || !g.valid[i]) return null;
-      const nr = g.nodeRows, nc = g.nodeCols;
-      let a = Math.min(Math.floor(row / g.meta.stride), Math.max(nr.length - 2, 0));
-      let b = Math.min(Math.floor(col / g.meta.stride), Math.max(nc.length - 2, 0));
-      const a1 = Math.min(a + 1, nr.length - 1), b1 = Math.min(b + 1, nc.length - 1);
-      const ta = a1 > a ? (row - nr[a]) / (nr[a1] - nr[a]) : 0;
-      const tb = b1 > b ? (col - nc[b]) / (nc[b1] - nc[b]) : 0;
-      const w = g.nc;
-      const at = (f) => {
-        const top = f[a * w + b] * (1 - tb) + f[a * w + b1] * tb;
-        const bottom = f[a1 * w + b] * (1 - tb) + f[a1 * w + b1] * tb;
-        return top * (1 - ta) + bottom * ta;
-      };
       const F = g.fields;
-      let dx = at(F.dx), dy = at(F.dy), dz = at(F.dz);
+      let dx, dy, dz, omega, p;
+      const k = this.exactSlot(i);
+      if (k >= 0) {
+        const E = g.exact;
+        dx = E.dx[k]; dy = E.dy[k]; dz = E.dz[k]; omega = E.solid_angle[k]; p = E.position_index[k];
+      } else {
+        const nr = g.nodeRows, nc = g.nodeCols, stride = g.meta.stride;
+        const a = Math.min(Math.floor(row / stride), Math.max(nr.length - 2, 0));
+        const b = Math.min(Math.floor(col / stride), Math.max(nc.length - 2, 0));
+        const a1 = Math.min(a + 1, nr.length - 1), b1 = Math.min(b + 1, nc.length - 1);
+        const ta = a1 > a ? (row - nr[a]) / (nr[a1] - nr[a]) : 0;
+        const tb = b1 > b ? (col - nc[b]) / (nc[b1] - nc[b]) : 0;
+        const w = nc.length;
+        const at = (f) => {
+          const top = f[a * w + b] * (1 - tb) + f[a * w + b1] * tb;
+          const bottom = f[a1 * w + b] * (1 - tb) + f[a1 * w + b1] * tb;
+          return top * (1 - ta) + bottom * ta;
+        };
+        dx = at(F.dx); dy = at(F.dy); dz = at(F.dz); omega = at(F.solid_angle); p = at(F.position_index);
+      }
       const norm = Math.hypot(dx, dy, dz);
       dx /= norm; dy /= norm; dz /= norm;
-      return { direction: [dx, dy, dz], solidAngle: at(F.solid_angle), sigma: at(F.sigma),
-        tau: at(F.tau), positionIndex: at(F.position_index), cosSigma: at(F.cos_sigma) };
+      const [v, u, h] = g.meta.axes;
+      const forward = dx * v[0] + dy * v[1] + dz * v[2];
+      const up = dx * u[0] + dy * u[1] + dz * u[2];
+      const side = dx * h[0] + dy * h[1] + dz * h[2];
+      const lateral = Math.hypot(up, side);
+      const sigma = Math.atan2(lateral, forward);
+      const tau = lateral < g.meta.on_axis ? 0 : Math.atan2(Math.abs(side), up);
+      return { direction: [dx, dy, dz], solidAngle: omega, sigma: sigma, tau: tau,
+        positionIndex: p, cosSigma: Math.cos(sigma) };
+    }
+
+    /** Position of flat pixel index i in the list of exactly embedded pixels, or −1. */
+    exactSlot(i) {
+      const list = this.geometry.exactIndex;
+      let lo = 0, hi = list.length - 1;
+      while (lo <= hi) {
+        const mid = (lo + hi) >> 1, value = list[mid];
+        if (value === i) return mid;
+        if (value < i) lo = mid + 1; else hi = mid - 1;
+      }
+      return -1;
     }
 
     sourceLabelAt(row, col, which) {
@@ -431,10 +462,11 @@
       const g = meta.geometry;
       if (g) {
         const e = g.interpolation_error;
-        parts.push("Geometry (direction, σ, τ, position index [" + g.position_index_method + "], pixel solid angle, " +
-          "cos σ) computed by lsadphoto.geometry and embedded every " + g.stride + " px, interpolated bilinearly; " +
-          "largest error over " + e.sample_pixels + " random valid pixels: direction " + fmt(e.direction_deg, 2) +
-          "°, σ " + fmt(e.sigma_deg, 2) + "°, τ " + fmt(e.tau_deg_beyond_5deg, 2) + "° (σ > 5°), P " +
+        parts.push("Geometry: direction, pixel solid angle and position index [" + g.position_index_method +
+          "] computed by lsadphoto.geometry, embedded every " + g.stride + " px and interpolated bilinearly (" +
+          "exact at " + e.exact_pixels + " of " + e.valid_pixels + " valid pixels, where that would miss); σ, τ from that " +
+          "direction in the observer frame. Largest error over all valid pixels: direction " + fmt(e.direction_deg, 2) +
+          "°, σ " + fmt(e.sigma_deg, 2) + "°, τ " + fmt(e.tau_deg_beyond_1deg, 2) + "° (σ > 1°), P " +
           fmt(e.position_index, 2) + ", ω " + fmt(100 * e.solid_angle_relative, 2) + " % (relative).");
         parts.push("Regions: ω = Σω; mean = Σ Lω / Σω; median ω-weighted; illuminance contribution " +
           "E = Σ L ω cos σ over cos σ > 0 (at the eye, along the line of sight) [lx].");
