@@ -292,8 +292,7 @@ def test_side_by_side_probe_ratio_and_csv(browser, pages):
     assert float(region["mean_cd_m2"]) == pytest.approx(_reference_mean(lmap, 520, 315, 64.5)[0],
                                                         rel=REGION_TOLERANCE)
     # The ratio layout draws without errors.
-    browser.execute_script("const v = window.lsadViewer; v.layout = 'ratio'; v.layoutPanels();"
-                           "v.fit();")
+    browser.execute_script("window.lsadViewer.setLayout('ratio');")
     assert _severe(browser) == []
 
 

@@ -268,7 +268,8 @@ def _score_record(score, arrays, prefix):
                       "notes": record.get("notes", [])})
     if hasattr(score, "source_labels"):
         labels = np.asarray(score.source_labels)
-        dtype = np.uint16 if labels.max(initial=0) < 65536 else np.uint32
+        most = labels.max(initial=0)
+        dtype = np.uint8 if most < 256 else np.uint16 if most < 65536 else np.uint32
         out["labels"] = arrays.add(f"{prefix}.labels", labels, dtype)
         contrast = np.asarray(score.contrast, dtype=np.float64)
         positive = contrast[np.isfinite(contrast) & (contrast > 0)]

@@ -31,31 +31,29 @@
 
   const ITEM_SIZE = { float32: 4, float16: 2, uint8: 1, uint16: 2, uint32: 4 };
 
-  async function base64Bytes(text) {
+  /** A byte stream of base64 text: the browser's own decoder (Uint8Array.fromBase64), else
+   * a data: URL read back with fetch (both without a network). */
+  async function base64Stream(text) {
+    if (typeof Uint8Array.fromBase64 === "function") return new Blob([Uint8Array.fromBase64(text)]).stream();
     const response = await fetch("data:application/octet-stream;base64," + text);
-    return response.blob();
+    return (await response.blob()).stream();
   }
 
   async function decodeArray(container, desc) {
     const element = container.querySelector('script[data-array="' + desc.name + '"]');
     if (!element) throw new Error("missing embedded array " + desc.name);
-    const blob = await base64Bytes(element.textContent.trim());
-    const stream = blob.stream().pipeThrough(new DecompressionStream("deflate"));
+    const stream = (await base64Stream(element.textContent)).pipeThrough(new DecompressionStream("deflate"));
     const planes = new Uint8Array(await new Response(stream).arrayBuffer());
-    // Undo the byte differences (running sum mod 256), then the byte planes.
-    let previous = 0;
-    for (let i = 0; i < planes.length; i++) {
-      previous = (previous + planes[i]) & 0xff;
-      planes[i] = previous;
-    }
+    // Undo the byte differences (a running sum mod 256) and the byte planes in one pass.
     const k = ITEM_SIZE[desc.dtype];
     const n = planes.length / k;
-    let bytes = planes;
-    if (k > 1) {
-      bytes = new Uint8Array(planes.length);
-      for (let p = 0; p < k; p++) {
-        const offset = p * n;
-        for (let i = 0; i < n; i++) bytes[i * k + p] = planes[offset + i];
+    const bytes = k > 1 ? new Uint8Array(planes.length) : planes;
+    let sum = 0;
+    for (let p = 0; p < k; p++) {
+      const offset = p * n;
+      for (let i = 0, j = p; i < n; i++, j += k) {
+        sum = (sum + planes[offset + i]) & 0xff;
+        bytes[j] = sum;
       }
     }
     const buffer = bytes.buffer;
@@ -138,7 +136,7 @@
           entry.U = m.uncertainty ? await decodeArray(this.container, m.uncertainty) : null;
           const score = m.score;
           entry.labels = score && score.labels ? await decodeArray(this.container, score.labels) : null;
-          entry.contrast = score && score.contrast ? await decodeArray(this.container, score.contrast) : null;
+          entry.contrast = null; // decoded when first shown (loadContrast)
           this.maps.push(entry);
         }
         const g = this.meta.geometry;
@@ -161,6 +159,14 @@
         this.status.textContent = "the viewer could not decode its data: " + error.message;
         console.error(error);
         this._reject(error);
+      }
+    }
+
+    /** Decode the Q contrast maps (an overlay: left out of the first load). */
+    async loadContrast() {
+      for (const m of this.maps) {
+        const score = m.meta.score;
+        if (score && score.contrast && !m.contrast) m.contrast = await decodeArray(this.container, score.contrast);
       }
     }
 
@@ -383,12 +389,12 @@
       };
       const modes = [["false", "false colour"], ["tone", "tone mapped"]];
       if (meta.maps.some((m) => m.score && m.score.contrast)) modes.push(["contrast", "Q contrast K"]);
-      this.modeSelect = select("view", modes, this.mode, (v) => { this.mode = v; this.render(); });
+      this.modeSelect = select("view", modes, this.mode, (v) => this.setMode(v));
       select("colours", meta.colour_maps.map((n) => [n, n]), this.colourMap, (v) => { this.colourMap = v; this.render(); });
       if (meta.maps.length > 1) {
         const a = meta.maps[0].name, b = meta.maps[1].name;
-        select("layout", [["side", a + " | " + b], ["ratio", "ratio " + b + " / " + a], ["a", a], ["b", b]],
-          this.layout, (v) => { this.layout = v; this.layoutPanels(); this.fit(); });
+        this.layoutSelect = select("layout", [["side", a + " | " + b], ["ratio", "ratio " + b + " / " + a], ["a", a], ["b", b]],
+          this.layout, (v) => this.setLayout(v));
       }
       const number = (label, value, onchange) => {
         const wrap = el("label", null, label + " ");
@@ -488,6 +494,22 @@
         case "b": return [{ kind: "map", which: 1, label: names[1] }];
         default: return [{ kind: "map", which: 0, label: names[0] }];
       }
+    }
+
+    /** Show "false" (false colour), "tone" (tone mapped) or "contrast" (the Q contrast map K). */
+    async setMode(mode) {
+      if (mode === "contrast") await this.loadContrast();
+      this.mode = mode;
+      if (this.modeSelect) this.modeSelect.value = mode;
+      this.render();
+    }
+
+    /** Show "side" (both maps), "ratio" (second / first), "a" or "b" (one map). */
+    setLayout(layout) {
+      this.layout = layout;
+      if (this.layoutSelect) this.layoutSelect.value = layout;
+      this.layoutPanels();
+      this.fit();
     }
 
     layoutPanels() {
