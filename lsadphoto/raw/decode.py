@@ -22,9 +22,7 @@ from ..constants import SATURATION_FRACTION
 from ..errors import BadInputError, UnsupportedFileError
 from ._dngtags import dng_black_map, read_dng_tags
 from .metadata import ExposureMetadata, read_exposure_metadata
-
-#: Demosaic methods: ours ("superpixel") and LibRaw's interpolations.
-DEMOSAIC_METHODS = ("superpixel", "linear", "ahd", "dcb")
+from .methods import DEMOSAIC_METHODS
 
 _LIBRAW_ALGORITHM = {
     "linear": rawpy.DemosaicAlgorithm.LINEAR,
