@@ -311,6 +311,36 @@ def cmd_compare(args):
     return 0
 
 
+def cmd_view(args):
+    from .io import read_map
+    from .metrics.score import score_map
+    from .viewer import check_same_geometry, write_viewer
+
+    output = Path(args.output)
+    if output.suffix.lower() not in (".html", ".htm"):
+        raise BadInputError(f"output {args.output} must end in .html")
+    first = read_map(args.map)
+    second = read_map(args.map2) if args.map2 else None
+    if second is not None:
+        check_same_geometry(first, second, names=(str(args.map), str(args.map2)))
+    scores = [None, None]
+    if not args.no_score:
+        scores = [score_map(m) if m is not None and m.projection is not None else None
+                  for m in (first, second)]
+    names = (args.name or Path(args.map).stem,
+             args.name2 or (Path(args.map2).stem if args.map2 else "second"))
+    write_viewer(first, output, second=second, score=scores[0], second_score=scores[1],
+                 names=names, title=args.title)
+    record = {"output": str(output), "bytes": output.stat().st_size,
+              "maps": [str(args.map)] + ([str(args.map2)] if args.map2 else []),
+              "scored": [s is not None for s in scores[:1 + (second is not None)]]}
+    if args.json:
+        _print_json(record)
+    else:
+        print(f"wrote {output} ({record['bytes'] / 1e6:.1f} MB)")
+    return 0
+
+
 def cmd_study(args):
     from .study import run_study
 
@@ -660,6 +690,19 @@ def build_parser():
     cmp_.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
     cmp_.add_argument("--json", action="store_true", help="print the JSON record")
     cmp_.set_defaults(func=cmd_compare)
+
+    vw = sub.add_parser("view", help="interactive luminance viewer: one self-contained HTML file")
+    vw.add_argument("map", help="luminance map (.exr or .hdr)")
+    vw.add_argument("map2", nargs="?", help="a second map of the same view and camera geometry "
+                    "(e.g. the model of the photo), shown side by side and as a ratio")
+    vw.add_argument("-o", "--output", required=True, help="HTML file to write")
+    vw.add_argument("--title", help="heading of the page (default: the first map's name)")
+    vw.add_argument("--name", help="name of the first map (default: its file name)")
+    vw.add_argument("--name2", help="name of the second map (default: its file name)")
+    vw.add_argument("--no-score", action="store_true",
+                    help="leave out the metrics overlays (glare sources, Q contrast map)")
+    vw.add_argument("--json", action="store_true", help="print a JSON summary")
+    vw.set_defaults(func=cmd_view)
 
     st = sub.add_parser("study", help="correlate observers' ratings with metrics (the paper's analyses)")
     st.add_argument("ratings", help="RATINGS.csv: scene, observer, rating")
