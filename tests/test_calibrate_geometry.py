@@ -146,7 +146,7 @@ def test_rejections(pinhole_views, tmp_path):
     reasons = {r["name"]: r["reason"] for r in res.per_image}
     assert reasons == {
         "image 1": None, "image 2": "board not found", "image 3": "size differs",
-        "view.png": None, "junk.jpg": "unreadable", "missing.png": "unreadable",
+        "view.png": None, "junk.jpg": "unreadable", "missing.png": "does not exist",
         "image 7": None, "image 8": None, "image 9": None, "image 10": None,
     }
     s = res.summary()
