@@ -90,7 +90,7 @@ def meter_reading(luminance, projection, row, col):
 BOARD = ChessboardPattern(9, 6, 25.0)
 #: Board poses: Rodrigues vectors [rad] and centres [mm] in the camera frame — frontal, tilted
 #: ±0.5 rad about each axis, pushed towards the four corners and turned towards the centre,
-#: and turned in its plane (this spread recovers fx, fy to 0.1 %: tests/test_samples.py).
+#: and turned in its plane (this spread recovers fx, fy to 0.1 %: tests/test_quickstart.py).
 BOARD_POSES = [
     ((0.0, 0.0, 0.0), (0, 0, 380)),
     ((0.5, 0.0, 0.0), (0, 0, 380)),
