@@ -254,6 +254,10 @@ def cmd_compare(args):
 def cmd_study(args):
     from .study import run_study
 
+    if args.report:  # before any work: a typo must not become a report of an empty survey
+        from .report import check_survey_folder
+
+        check_survey_folder(args.report, option="--report")
     result = run_study(args.ratings, args.metrics, metric=args.metric,
                        sweep_prefix=args.sweep_prefix or None, jitter=args.jitter,
                        n_jitter=args.n_jitter, n_bootstrap=args.n_bootstrap,
@@ -274,7 +278,7 @@ def cmd_study(args):
     c = record["correlations"][args.metric]
     ci = c["pearson_ci"] or [None, None]
     print(f"{args.metric} vs mean rating over {c['n']} scenes: Pearson r = {_format(c['pearson_r'])} "
-          f"[{_format(ci[0])}, {_format(ci[1])}] ({c['chaddock']}), Spearman ρ = "
+          f"[{_format(ci[0])}, {_format(ci[1])}] ({c['chaddock'] or 'undefined'}), Spearman ρ = "
           f"{_format(c['spearman_rho'])}, Kendall τ = {_format(c['kendall_tau'])}")
     sweep = record.get("sweep")
     if sweep and sweep.get("best"):
@@ -286,8 +290,10 @@ def cmd_study(args):
               f"(in-sample {_format(loo['r_in_sample'])})")
     jit = record.get("jitter")
     if jit:
+        change = jit["max_relative_change"]
         print(f"ratings jittered ±{jit['half_width']:g} × {jit['n_trials']}: r = {_format(jit['mean'])} ± "
-              f"{_format(jit['sd'])}, largest relative change {100 * jit['max_relative_change']:.1f} %")
+              f"{_format(jit['sd'])}, largest relative change "
+              f"{'—' if change is None else f'{100 * change:.1f} %'}")
     for note in record.get("notes", []):
         print(f"  note: {note}")
     if "report" in record:

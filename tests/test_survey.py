@@ -493,9 +493,12 @@ def test_cli_survey_rerun_then_study_reads_the_survey_tables(surveyed, tmp_path)
     proc = cli("study", copy / "ratings.csv", copy / "metrics.csv", "--n-jitter", "20",
                "--n-bootstrap", "20", "--json")
     # The tables parse (the text provenance columns are skipped, the unrated view left out);
-    # two rated views are too few for a correlation, which is the one-line answer.
+    # two rated views are too few for a correlation, which is the one-line answer, naming
+    # the ratings (not metrics.csv, which has a third, unrated view).
     assert proc.returncode == 2
-    assert proc.stderr.strip().endswith("2 scene(s); a correlation needs at least 3")
+    assert proc.stderr == (f"lsadphoto: error: {copy / 'ratings.csv'}: rates 2 of the 3 scene(s) "
+                           f"of {copy / 'metrics.csv'}; a correlation needs at least 3 rated "
+                           "scenes\n")
 
 
 # --------------------------------------------------------------------------- checked first

@@ -7,9 +7,9 @@
 """
 
 from .figures import write_contrast_png, write_glare_source_png, write_ratio_png
-from .html import write_comparison_report, write_survey_report
+from .html import check_survey_folder, write_comparison_report, write_survey_report
 from .plots import figure_q_vs_ugr, figure_r_vs_n, figure_ratings_vs_metric
 
 __all__ = ["write_glare_source_png", "write_contrast_png", "write_ratio_png",
-           "write_survey_report", "write_comparison_report", "figure_ratings_vs_metric",
+           "write_survey_report", "write_comparison_report", "check_survey_folder", "figure_ratings_vs_metric",
            "figure_r_vs_n", "figure_q_vs_ugr"]

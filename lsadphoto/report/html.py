@@ -38,7 +38,7 @@ import numpy as np
 from .._version import __version__
 from ..io._atomic import atomic_text
 
-__all__ = ["write_survey_report", "write_comparison_report", "KEY_METRICS"]
+__all__ = ["write_survey_report", "write_comparison_report", "check_survey_folder", "KEY_METRICS"]
 
 #: Scalar metrics shown in the summary tables: (column of metrics.csv, label, unit).
 KEY_METRICS = (
@@ -849,6 +849,28 @@ def _provenance_section(survey, study, extra):
 # --------------------------------------------------------------------------- entry points
 
 
+def check_survey_folder(survey_dir, *, option=None):
+    """The survey output folder ``survey_dir`` as a Path; one-line error if it is no folder.
+
+    A folder without ``metrics.csv`` is accepted (its report says that nothing was
+    processed); a path that does not exist is a typo, not an empty survey.
+
+    Parameters
+    ----------
+    survey_dir : path-like
+    option : str, optional
+        The command-line option that gave the folder, named in the message.
+    """
+    survey_dir = Path(survey_dir)
+    if not survey_dir.is_dir():
+        from ..errors import BadInputError
+
+        state = "is not a folder" if survey_dir.exists() else "does not exist"
+        given = f" ({option} takes the output folder of `lsadphoto survey`)" if option else ""
+        raise BadInputError(f"survey folder {survey_dir} {state}{given}")
+    return survey_dir
+
+
 def write_survey_report(survey_dir, path=None, *, study=None, title=None,
                         max_gallery_views=None):
     """Write one self-contained HTML report of a survey folder (and its observer study).
@@ -887,7 +909,7 @@ def write_survey_report(survey_dir, path=None, *, study=None, title=None,
     ----------
     Budak, V. P. et al. (2020), GraphiCon 2020, CEUR Vol-2744 short35, Figures 1–4.
     """
-    survey_dir = Path(survey_dir)
+    survey_dir = check_survey_folder(survey_dir)
     path = Path(path) if path is not None else survey_dir / "report.html"
     if max_gallery_views is not None and (isinstance(max_gallery_views, bool)
                                           or int(max_gallery_views) != max_gallery_views
