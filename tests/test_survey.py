@@ -577,3 +577,24 @@ def test_second_run_refuses_and_a_killed_runs_lock_is_taken_over(tmp_path):
     log = (out / "failures.log").read_text()
     assert log.startswith("corrupt: ") and "not a readable RAW file" in log and log != earlier
     assert not (out / LOCK_NAME).exists()  # released at the end
+
+
+def test_interrupted_rerun_keeps_the_earlier_failures(surveyed, tmp_path, monkeypatch):
+    """A rerun interrupted before it retried the failed view rewrote failures.log empty."""
+    import lsadphoto.survey.run as run_module
+
+    manifest, outdir, first = surveyed
+    copy = tmp_path / "out"
+    shutil.copytree(outdir, copy)
+    before = (copy / "failures.log").read_text()
+    assert before.startswith("corrupt: ")
+
+    def interrupted(tasks, report):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(run_module, "run_serial", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        run_survey(manifest, copy, workers=0, progress=False)
+    assert (copy / "failures.log").read_text() == before
+    assert [r["view"] for r in read_csv(copy / "metrics.csv")] == GOOD
+    assert not (copy / LOCK_NAME).exists()  # released on the way out
