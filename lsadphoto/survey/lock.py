@@ -18,12 +18,12 @@ POSIX ``flock(2)`` (Linux man-pages); Python :mod:`fcntl`.
 """
 
 import contextlib
-import datetime
 import json
 import os
 import socket
 import warnings
 
+from .._provenance import timestamp
 from ..errors import BadInputError, LsadWarning
 
 __all__ = ["LOCK_NAME", "SurveyLockedError", "StaleLockWarning", "survey_lock"]
@@ -107,7 +107,7 @@ def survey_lock(outdir, *, manifest=None):
             warnings.warn(f"{outdir}: took over the lock of {_describe(earlier)}, which ended "
                           "without releasing it (killed?)", StaleLockWarning, stacklevel=3)
         holder = {"pid": os.getpid(), "host": socket.gethostname(),
-                  "started": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+                  "started": timestamp(),
                   "manifest": None if manifest is None else str(manifest)}
         os.ftruncate(fd, 0)
         os.lseek(fd, 0, os.SEEK_SET)

@@ -18,7 +18,6 @@ rawpy issue #265 (fork + OpenMP deadlock: workers are spawned, see executors).
 
 import contextlib
 import dataclasses
-import datetime
 import hashlib
 import json
 import math
@@ -30,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .._provenance import file_record, timestamp
 from .._version import __version__
 from ..errors import LsadError
 
@@ -116,17 +116,6 @@ def _stat(path):
     return info.st_size, info.st_mtime_ns
 
 
-def _file_digest(path):
-    digest = hashlib.sha256()
-    try:
-        with open(path, "rb") as fh:
-            for block in iter(lambda: fh.read(1 << 20), b""):
-                digest.update(block)
-    except OSError:
-        return None  # gone since the manifest was read: the view fails with a clear message
-    return digest.hexdigest()
-
-
 def make_task(manifest, view, outdir, score_options):
     """Everything a worker needs for one view, as plain picklable data."""
     profile = view.profile or manifest.profile
@@ -151,7 +140,7 @@ def make_task(manifest, view, outdir, score_options):
     identity = {k: v for k, v in task.items() if k not in ("manifest",)}
     identity["spots"] = [dataclasses.astuple(s) for s in view.spots]
     identity["raw_stat"] = [(p, *_stat(p)) for p in task["raw"]]
-    identity["profile_sha256"] = None if profile is None else _file_digest(profile)
+    identity["profile_sha256"] = None if profile is None else file_record(profile)["sha256"]
     text = json.dumps(identity, sort_keys=True, default=json_default)
     task["fingerprint"] = hashlib.sha256(text.encode("utf-8")).hexdigest()
     layout = ViewLayout(Path(outdir), view.id, with_model=view.model is not None)
@@ -237,7 +226,7 @@ def _row(task, summary, scalars, record, warning_lines):
         "demosaic": summary["demosaic"],
         "notes": " | ".join(record["notes"]) or None,
         "warnings": " | ".join(warning_lines) or None,
-        "timestamp": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "timestamp": timestamp(),
     })
     return row
 
@@ -245,7 +234,7 @@ def _row(task, summary, scalars, record, warning_lines):
 def _process_view_outputs(task, caught):
     from ..calibrate.profile import load_profile
     from ..io import write_exr, write_false_colour_png, write_hdr
-    from ..io._atomic import atomic_outputs, atomic_text
+    from .._atomic import atomic_outputs, atomic_text
     from ..luminance import luminance_from_raw
     from ..metrics.score import score_map
     from ..report import write_comparison_report, write_ratio_png

@@ -9,11 +9,11 @@ not retry those views.
 """
 
 import csv
-import datetime
 import io
 import json
 from pathlib import Path
 
+from .._provenance import timestamp
 from .._version import __version__
 from .manifest import SCHEMA
 from .pipeline import json_default, read_done
@@ -77,7 +77,7 @@ def write_tables(manifest, tasks, failures, outdir, *, earlier_failures=None):
         ``{view: reason}`` of the log before this run; kept for views not done and not
         retried now.
     """
-    from ..io._atomic import atomic_outputs
+    from .._atomic import atomic_outputs
 
     outdir = Path(outdir)
     rows = [row for row in (read_done(task) for task in tasks) if row is not None]
@@ -86,7 +86,7 @@ def write_tables(manifest, tasks, failures, outdir, *, earlier_failures=None):
     rows = [{c: row.get(c) for c in columns} for row in rows]
     metadata = {"schema": SCHEMA, "manifest": str(manifest.path), "name": manifest.name,
                 "lsadphoto_version": __version__,
-                "written": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")}
+                "written": timestamp()}
     finished = {row["view"] for row in rows}
     now = dict(failures)
     earlier = earlier_failures or {}
