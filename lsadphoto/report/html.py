@@ -40,19 +40,10 @@ from .._atomic import atomic_text
 
 __all__ = ["write_survey_report", "write_comparison_report", "check_survey_folder", "KEY_METRICS"]
 
-#: Scalar metrics shown in the summary tables: (column of metrics.csv, label, unit).
-KEY_METRICS = (
-    ("ugr_pixel", "UGR, pixel-wise", "–"),
-    ("ugr_grouped", "UGR, grouped sources", "–"),
-    ("q", "Q", "–"),
-    ("dgp", "DGP", "–"),
-    ("vertical_illuminance", "vertical illuminance", "lx"),
-    ("background_luminance", "background luminance", "cd/m²"),
-)
-
-#: Further metrics of the comparison table (keys of Comparison.metrics).
-_OTHER_METRICS = {"mean_luminance": ("mean luminance", "cd/m²"), "dgi": ("DGI", "–"),
-                  "ugp": ("UGP", "–"), "cgi": ("CGI", "–")}
+#: Scalar metrics shown in the summary tables (columns of metrics.csv); their labels and
+#: units come from :data:`lsadphoto.metrics.registry.METRICS`.
+KEY_METRICS = ("ugr_pixel", "ugr_grouped", "q", "dgp", "vertical_illuminance",
+               "background_luminance")
 
 #: Columns naming the view in metrics.csv, in order of preference.
 _ID_COLUMNS = ("view", "scene")
@@ -440,10 +431,10 @@ def _summary_section(survey, study):
                                   "no view finished" + (" — every view failed (see Failures)"
                                                         if survey.failures else "")))
         return _section("summary", "Summary", *parts)
-    metrics = [(c, label, unit) for c, label, unit in KEY_METRICS if c in survey.columns]
+    metrics = [(c, *_label_unit(c)) for c in KEY_METRICS if c in survey.columns]
     if not metrics:
         parts.append(_note("metrics.csv has none of the key metric columns ("
-                           + ", ".join(c for c, _, _ in KEY_METRICS) + ")"))
+                           + ", ".join(KEY_METRICS) + ")"))
     headers = ["view"] + [f"{label} [{unit}]" for _, label, unit in metrics]
     numeric = set(range(1, len(headers) + 1))
     if rating_column:
@@ -585,7 +576,8 @@ def _gallery_section(survey, max_views):
                            f"(max_gallery_views={max_views})"))
     for view, row in zip(shown, survey.rows):
         facts = [f"{label} {_fmt_pm(row.get(c), row.get(f'{c}_u'))}"
-                 for c, label, _ in KEY_METRICS[:4] if _number(row.get(c)) is not None]
+                 for c, (label, _) in ((c, _label_unit(c)) for c in KEY_METRICS[:4])
+                 if _number(row.get(c)) is not None]
         cells = []
         for kind, caption in _GALLERY:
             path = survey.view_file(view, kind) if survey.id_column else None
@@ -853,11 +845,16 @@ def write_survey_report(survey_dir, path=None, *, study=None, title=None,
     return path
 
 
+def _label_unit(key):
+    """Label and unit of a metric from the registry (the key itself if it is not listed)."""
+    from ..metrics.registry import METRICS
+
+    entry = METRICS.get(key)
+    return (entry.label, entry.unit) if entry is not None else (key, "")
+
+
 def _metric_label(key):
-    for column, label, unit in KEY_METRICS:
-        if column == key:
-            return f"{label} [{unit}]"
-    label, unit = _OTHER_METRICS.get(key, (key, None))
+    label, unit = _label_unit(key)
     return f"{label} [{unit}]" if unit else label
 
 
