@@ -5,6 +5,7 @@ Every error lsadphoto raises on purpose becomes one line on stderr and a non-zer
 """
 
 import argparse
+import gc
 import json
 import os
 import sys
@@ -655,10 +656,30 @@ def build_parser():
     return parser
 
 
+#: Allocations between young-generation collections in a process that is one command
+#: (default 700): importing numba and loading its kernels allocates millions of objects, and
+#: collecting them every 700 cost about a quarter of a ``score`` process (docs/performance.md).
+_COMMAND_GC_THRESHOLD = (50_000, 20, 100)
+
+
 def main(argv=None):
+    """Run one command; ``argv`` None (the ``lsadphoto`` console script) means that the process
+    ends with it, so the garbage collector runs rarely and not at all over the objects left at
+    the end (``gc.freeze``: the interpreter's exit would otherwise traverse them all)."""
+    whole_process = argv is None
+    if whole_process:
+        gc.set_threshold(*_COMMAND_GC_THRESHOLD)
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.showwarning = _warning_line
+    try:
+        return _run(args)
+    finally:
+        if whole_process:
+            gc.freeze()
+
+
+def _run(args):
     try:
         return args.func(args)
     except LsadError as exc:
