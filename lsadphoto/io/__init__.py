@@ -10,7 +10,6 @@ from .._lazy import lazy_exports
 from ..errors import UnsupportedFileError
 
 __getattr__, __dir__, _LAZY = lazy_exports(__name__, globals(), {
-    "._atomic": ["atomic_outputs", "atomic_path"],
     ".exr": ["read_exr", "write_exr"],
     ".hdr": ["read_hdr", "write_hdr"],
     ".falsecolour": ["write_false_colour_png"],

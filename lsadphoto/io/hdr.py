@@ -27,7 +27,7 @@ from ..errors import BadInputError, UnsupportedFileError
 from ..geometry.fisheye import RADIANCE_VIEW_NAMES, IdealFisheyeProjection
 from ..geometry.pinhole import PinholeProjection
 from ..luminance_map import LuminanceMap
-from ._atomic import atomic_path
+from .._atomic import atomic_path
 from ._metadata import metadata_fields, metadata_json
 
 _RESOLUTION = re.compile(rb"^-Y\s+(\d+)\s+\+X\s+(\d+)$")  # Radiance 6 pads the numbers
@@ -252,9 +252,14 @@ def write_hdr(lmap, path):
 
     Pixels are grey with R = G = B = L/179; unknown (NaN) pixels are written as 0, which is
     what evalglare does with invalid pixels. ``EXPOSURE`` is not written (1). The
-    ``VIEW=`` line comes from the projection where it has a Radiance equivalent.
+    ``VIEW=`` line comes from the projection where it has a Radiance equivalent. RGBE cannot
+    hold negative values: negative luminances (noise around zero in a measured map) are
+    written as 0, and a ``CLAMPED=`` header line says how many, since means over dark
+    regions of such a file are biased upwards (the OpenEXR map keeps the signed values).
     """
     luminance = np.nan_to_num(np.asarray(lmap.luminance, np.float64), nan=0.0)
+    negative = int(np.count_nonzero(luminance < 0))
+    luminance = np.maximum(luminance, 0.0)
     value = luminance / RADIANCE_WHITE_EFFICACY
     rgbe = float_to_rgbe(np.repeat(value[..., None], 3, axis=-1))
     rows, cols = luminance.shape
@@ -264,6 +269,9 @@ def write_hdr(lmap, path):
             lines.append(f"VIEW= {lmap.projection.radiance_view()}")
         except BadInputError:
             pass  # no Radiance view type for this projection (e.g. equisolid): no VIEW= line
+    if negative:
+        lines.append(f"CLAMPED= {negative} pixels of negative luminance (noise) written as 0; "
+                     "means over dark regions are biased upwards; the OpenEXR map keeps them signed")
     lines.append(f"LSADPHOTO={metadata_json(lmap)}")
     lines.append("FORMAT=32-bit_rle_rgbe")
     head = ("\n".join(lines) + f"\n\n-Y {rows} +X {cols}\n").encode("latin-1", "replace")
