@@ -42,7 +42,14 @@ def _print_json(record):
 
 class _Choices:
     """Valid values of an option, defined in the library (``module.name``) and imported only
-    when argparse checks a value or prints help, so that ``lsadphoto`` starts fast."""
+    when argparse checks a value or prints help, so that ``lsadphoto`` starts fast.
+
+    ``add_argument`` formats every option's choices once to check its metavar: while
+    :func:`build_parser` runs (``building``) they are empty, otherwise building the parser
+    would import every command's modules (the study's SciPy, the solver) in every process.
+    """
+
+    building = False
 
     def __init__(self, module, name):
         self.module, self.name = module, name
@@ -56,7 +63,7 @@ class _Choices:
         return value in self._values()
 
     def __iter__(self):
-        return iter(self._values())
+        return iter(()) if _Choices.building else iter(self._values())
 
 
 def _given(**options):
@@ -590,6 +597,14 @@ def _add_cache_options(sub):
 
 
 def build_parser():
+    _Choices.building = True
+    try:
+        return _build_parser()
+    finally:
+        _Choices.building = False
+
+
+def _build_parser():
     from .constants import LS100_ACCEPTANCE_ANGLE
 
     demosaic = _Choices("lsadphoto.raw.methods", "DEMOSAIC_METHODS")
