@@ -5,6 +5,7 @@ Every error lsadphoto raises on purpose becomes one line on stderr and a non-zer
 """
 
 import argparse
+import gc
 import json
 import os
 import sys
@@ -41,7 +42,14 @@ def _print_json(record):
 
 class _Choices:
     """Valid values of an option, defined in the library (``module.name``) and imported only
-    when argparse checks a value or prints help, so that ``lsadphoto`` starts fast."""
+    when argparse checks a value or prints help, so that ``lsadphoto`` starts fast.
+
+    ``add_argument`` formats every option's choices once to check its metavar: while
+    :func:`build_parser` runs (``building``) they are empty, otherwise building the parser
+    would import every command's modules (the study's SciPy, the solver) in every process.
+    """
+
+    building = False
 
     def __init__(self, module, name):
         self.module, self.name = module, name
@@ -55,7 +63,7 @@ class _Choices:
         return value in self._values()
 
     def __iter__(self):
-        return iter(self._values())
+        return iter(()) if _Choices.building else iter(self._values())
 
 
 def _given(**options):
@@ -595,6 +603,14 @@ def _add_cache_options(sub):
 
 
 def build_parser():
+    _Choices.building = True
+    try:
+        return _build_parser()
+    finally:
+        _Choices.building = False
+
+
+def _build_parser():
     from .constants import LS100_ACCEPTANCE_ANGLE
 
     demosaic = _Choices("lsadphoto.raw.methods", "DEMOSAIC_METHODS")
@@ -782,10 +798,30 @@ def build_parser():
     return parser
 
 
+#: Allocations between young-generation collections in a process that is one command
+#: (default 700): importing numba and loading its kernels allocates millions of objects, and
+#: collecting them every 700 cost about a quarter of a ``score`` process (docs/performance.md).
+_COMMAND_GC_THRESHOLD = (50_000, 20, 100)
+
+
 def main(argv=None):
+    """Run one command; ``argv`` None (the ``lsadphoto`` console script) means that the process
+    ends with it, so the garbage collector runs rarely and not at all over the objects left at
+    the end (``gc.freeze``: the interpreter's exit would otherwise traverse them all)."""
+    whole_process = argv is None
+    if whole_process:
+        gc.set_threshold(*_COMMAND_GC_THRESHOLD)
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.showwarning = _warning_line
+    try:
+        return _run(args)
+    finally:
+        if whole_process:
+            gc.freeze()
+
+
+def _run(args):
     try:
         return args.func(args)
     except LsadError as exc:
