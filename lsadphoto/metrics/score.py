@@ -28,12 +28,16 @@ from ..geometry import ObserverFrame, position_index
 from ..geometry.field import pixel_geometry, visual_field
 from ..geometry.position_index import METHODS as POSITION_INDEX_METHODS
 from .field import BACKGROUND_METHODS, field_sums
+from .analyses import centre_direction, evalglare_analyses, zone_split
+from .corrections import fill_rows_evalglare
 from .glare_indices import (
-    DGP_COEFFICIENTS,
     cgi_Einhorn1979,
     dgi_Hopkinson1972,
     dgi_mod_Fisekis2003,
     dgp_Wienold2006,
+)
+from .glare_indices import (
+    dgp_coefficients as dgp_coefficients_of,
     dgr_Guth1963,
     ugp2_Hirning2016,
     ugp_Hirning2014,
@@ -45,6 +49,7 @@ from .grouping import (
     DEFAULT_SEARCH_ANGLE,
     group_sources_evalglare,
 )
+from .grouping import _describe as describe_sources
 from .quality import q_Budak2021, q_sweep
 from .sources import SOURCE_METHODS, select_source_pixels
 from .statistics import luminance_statistics
@@ -105,6 +110,10 @@ class Score:
     provenance: dict
     notes: list = field(default_factory=list)
     q_sweep: dict | None = None
+    #: evalglare 3.06's optional analyses (band, zones, mask, task) and the per-source
+    #: ``-d`` columns, in the order of ``sources`` (:mod:`~lsadphoto.metrics.analyses`).
+    analyses: dict = field(default_factory=dict)
+    source_details: list = field(default_factory=list)
 
     def to_dict(self):
         """JSON-ready record: every metric at the top level (None where undefined)."""
@@ -121,9 +130,12 @@ class Score:
              "direction": list(s.direction), "row": s.row, "col": s.col,
              "position_index": s.position_index, "sigma_deg": s.sigma_deg,
              "tau_deg": s.tau_deg, "max_luminance": s.max_luminance,
-             "min_luminance": s.min_luminance, "n_pixels": s.n_pixels, "peak": s.peak}
-            for s in self.sources
+             "min_luminance": s.min_luminance, "n_pixels": s.n_pixels, "peak": s.peak,
+             **{k: clean(v) if k != "zone" else v for k, v in detail.items()}}
+            for s, detail in zip(self.sources, self.source_details or [{}] * len(self.sources),
+                                 strict=True)
         ]
+        out.update(_clean_record(self.analyses, clean))
         out["statistics"] = self.statistics
         if self.q_sweep is not None:
             out["q_sweep"] = self.q_sweep
@@ -131,6 +143,17 @@ class Score:
         out["provenance"] = self.provenance
         out["notes"] = list(self.notes)
         return out
+
+
+def _clean_record(record, clean):
+    """Floats of a nested record through ``clean`` (None where not finite)."""
+    if isinstance(record, dict):
+        return {k: _clean_record(v, clean) for k, v in record.items()}
+    if isinstance(record, list):
+        return [_clean_record(v, clean) for v in record]
+    if isinstance(record, float):
+        return clean(record)
+    return record
 
 
 @dataclass(frozen=True)
@@ -172,8 +195,10 @@ def _indices(sources_l, sources_w, sources_p, *, e_v, e_dir, l_b, mean_l, pixel_
     values = {
         "ugr_grouped": ugr_CIE117(sources_l, sources_w, sources_p, l_b),
         "ugr_pixel": _ugr_pixel(*pixel_sum, l_b),
-        "dgp": dgp_Wienold2006(e_v, sources_l, sources_w, sources_p,
-                               coefficients=settings["dgp_coefficients"]),
+        "dgp": dgp_Wienold2006(e_v if settings["illuminance"] is None else settings["illuminance"],
+                               sources_l, sources_w, sources_p,
+                               coefficients=settings["dgp_coefficients"],
+                               low_light_correction=settings["low_light_correction"]),
         "dgp_low_light": dgp_Wienold2006(e_v, sources_l, sources_w, sources_p,
                                          coefficients=settings["dgp_coefficients"],
                                          low_light_correction=True),
@@ -221,7 +246,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
               background_method="CIE", position_index_method="evalglare", guth_field=None,
               n_thresholds=50.0, size_arcmin=10.0, q_weight_exponent=1, q_threshold="Adrian1989",
               q_cutoff="difference", dgp_coefficients="evalglare", vcp_constant=6.374,
-              sweep=None):
+              sweep=None, band_deg=None, zone_centre=None, zone_opening_deg=None, mask=None,
+              age=None, illuminance=None, illuminance_fill=None, low_light_correction=False):
     """Score a luminance map with every metric (see the module notes).
 
     Parameters
@@ -255,6 +281,28 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         6.374 as published; evalglare's code uses 6.347.
     sweep : sequence of float, optional
         N values for the one-pass Q(N) sweep (e.g. ``range(1, 101)``).
+    band_deg : float, optional
+        evalglare ``-B``: half-width [deg] of the horizontal band about the middle row;
+        gives ``band`` (:mod:`~lsadphoto.metrics.regions`).
+    zone_centre, zone_opening_deg : optional
+        evalglare ``-l``/``-L``: zone centre (direction X,Y,Z or image point (row, col)) and
+        one or two full opening angles [deg]; gives ``zones`` and splits the sources at
+        the zone borders (every index follows), each source with its ``zone``.
+    mask : ndarray or LuminanceMap, optional
+        evalglare ``-A``: a picture of the map's size, pixels above 0.1 cd·m⁻² selected (or
+        a boolean array); gives ``mask`` with PGSV, PGSV_sat and PGSV_con.
+    age : float, optional
+        Observer age [years]: CIE 146 age factor of the veiling luminance Lveil_cie.
+    illuminance : float, optional
+        evalglare ``-i``: external vertical illuminance [lx] used for DGP.
+    illuminance_fill : (float, int, int), optional
+        evalglare ``-I``: (E_v [lx], row_max, row_min), filling cut rows first
+        (:func:`~lsadphoto.metrics.corrections.fill_rows_evalglare`).
+    low_light_correction : bool
+        evalglare ``-C l+``: DGP with the low-light correction (off by default, as evalglare).
+
+    ``task_direction`` may also be an image point (row, col); with it the record holds
+    ``task`` (evalglare ``-t``: its mean luminance L_t) whatever the source rule.
 
     Returns
     -------
@@ -266,7 +314,17 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     check_choice(source_method, "glare-source method", SOURCE_METHODS)
     check_choice(background_method, "background luminance method", BACKGROUND_METHODS)
     check_choice(position_index_method, "position index method", POSITION_INDEX_METHODS)
-    check_choice(dgp_coefficients, "DGP coefficient set", tuple(DGP_COEFFICIENTS))
+    coefficients = dgp_coefficients_of(dgp_coefficients)
+    region_mask = mask  # the evalglare -A mask (``mask`` below is the glare-source mask)
+    if illuminance_fill is not None:
+        if illuminance is not None:
+            raise BadInputError("give either illuminance (-i) or illuminance_fill (-I), not both")
+        if len(illuminance_fill) != 3:
+            raise BadInputError("illuminance_fill is (E_v, row_max, row_min), got "
+                                f"{illuminance_fill!r}")
+        illuminance = illuminance_fill[0]
+    if illuminance is not None:
+        illuminance = check_positive(illuminance, "external vertical illuminance")
     if guth_field not in (None, 1, 2):
         raise BadInputError(f"guth_field must be 1, 2 or None, got {guth_field!r}")
     frame = _frame(lmap, line_of_sight, up)
@@ -280,7 +338,11 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         evaluated = geometry.valid & guth_field_mask(vf.sigma, vf.tau, kind=guth_field)
     # One pass: the valid pixels (in the evaluated part of the picture, finite luminance, in
     # front of the observer), the luminance (NaN elsewhere) and solid angle (0 elsewhere).
-    valid, luminance, omega = _field_inputs(np.asarray(lmap.luminance), evaluated,
+    image = np.asarray(lmap.luminance)
+    if illuminance_fill is not None:
+        image = fill_rows_evalglare(image, geometry.valid & (vf.cos_sigma >= 0),
+                                    row_max=illuminance_fill[1], row_min=illuminance_fill[2])
+    valid, luminance, omega = _field_inputs(image, evaluated,
                                             geometry.solid_angle, vf.cos_sigma)
     pindex = vf.position_index
     notes = []
@@ -291,9 +353,14 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         "background_method": background_method, "position_index_method": position_index_method,
         "guth_field": guth_field, "n_thresholds": float(n_thresholds),
         "size_arcmin": float(size_arcmin), "q_weight_exponent": q_weight_exponent,
-        "q_threshold": q_threshold, "q_cutoff": q_cutoff, "dgp_coefficients": dgp_coefficients,
+        "q_threshold": q_threshold, "q_cutoff": q_cutoff,
+        "dgp_coefficients": dgp_coefficients if isinstance(dgp_coefficients, str) else
+        list(coefficients), "illuminance": illuminance,
+        "low_light_correction": bool(low_light_correction),
         "vcp_constant": float(vcp_constant),
     }
+    if task_direction is not None:
+        task_direction = centre_direction(task_direction, lmap.projection, "task centre")
     task = None
     if source_method == "task":
         task = frame.axes()[0] if task_direction is None else task_direction
@@ -309,13 +376,30 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     groups, labels = group_sources_evalglare(luminance, geometry.directions, omega, mask,
                                              search_angle=search_angle,
                                              peak_luminance=peak_luminance)
-    sources = []
-    for g in groups:
-        sigma, tau = frame.angles(np.asarray(g.direction))
-        p = float(position_index(sigma, tau, method=position_index_method))
-        sources.append(ScoredSource(g.luminance, g.solid_angle, g.direction, g.row, g.col, p,
+
+    def scored(groups):
+        out = []
+        for g in groups:
+            sigma, tau = frame.angles(np.asarray(g.direction))
+            p = float(position_index(sigma, tau, method=position_index_method))
+            out.append(ScoredSource(g.luminance, g.solid_angle, g.direction, g.row, g.col, p,
                                     math.degrees(sigma), math.degrees(tau), g.max_luminance,
                                     g.min_luminance, g.n_pixels, g.peak))
+        return out
+
+    sources = unsplit_sources = scored(groups)
+    zones = source_zones = None
+    if zone_opening_deg is not None or zone_centre is not None:
+        if zone_opening_deg is None or zone_centre is None:
+            raise BadInputError("zones need both a centre and opening angles")
+        zones, labels, parent, source_zones = zone_split(
+            labels, directions=geometry.directions, valid=valid, projection=lmap.projection,
+            zone_centre=zone_centre, zone_opening_deg=zone_opening_deg)
+        groups = describe_sources(labels, len(parent), luminance, geometry.directions, omega,
+                                  [groups[k].peak for k in parent])
+        sources = scored(groups)
+        settings["zones"] = {"centre": list(np.asarray(zone_centre, dtype=float)),
+                             "opening_deg": list(np.atleast_1d(zone_opening_deg).astype(float))}
     s_l = np.array([s.luminance for s in sources])
     s_w = np.array([s.solid_angle for s in sources])
     s_p = np.array([s.position_index for s in sources])
@@ -344,6 +428,17 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         return values
 
     values = evaluate(1.0)
+    dgp_raw = dgp_Wienold2006(values["vertical_illuminance"], s_l, s_w, s_p,
+                              coefficients=coefficients)
+    analyses, details, extra = evalglare_analyses(
+        luminance=luminance, solid_angle=omega, directions=geometry.directions,
+        cos_sigma=vf.cos_sigma, valid=valid, frame=frame, projection=lmap.projection,
+        labels=labels, sources=sources, unsplit_sources=unsplit_sources,
+        values=dict(values, dgp_raw=dgp_raw), dgp_coefficients=coefficients, zones=zones,
+        source_zones=source_zones, band_deg=band_deg, mask=region_mask,
+        task_direction=task_direction, task_opening_deg=task_opening_deg, age=age)
+    values.update(extra)
+    settings.update(band_deg=band_deg, mask=region_mask is not None, age=age)
     quality = q_Budak2021(luminance, geometry.directions, omega, pindex,
                           n_thresholds=n_thresholds, size_arcmin=size_arcmin,
                           weight_exponent=q_weight_exponent, threshold=q_threshold,
@@ -392,4 +487,5 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     return Score(values=values, uncertainty=uncertainty, sources=sources, source_mask=mask,
                  source_labels=labels, contrast=quality.contrast,
                  statistics=luminance_statistics(luminance, omega, vf.cos_sigma),
-                 settings=settings, provenance=provenance, notes=notes, q_sweep=sweep_record)
+                 settings=settings, provenance=provenance, notes=notes, q_sweep=sweep_record,
+                 analyses=analyses, source_details=details)
