@@ -140,20 +140,22 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid, 
         ``band``, ``zones``, ``mask``, ``task`` entries that apply.
     per_source : list of dict
         evalglare's ``-d`` columns per source (:func:`~lsadphoto.metrics.contributions.source_columns`).
+    regions : dict
+        The band and mask pixels (boolean arrays) where computed, for the check picture.
     extra_values : dict
         ``veiling_luminance_poynter``, ``veiling_luminance_cie`` [cd·m⁻²], ``max_luminance``
         [cd·m⁻²] (evalglare's Max_Lum) and ``task_luminance`` [cd·m⁻²] (L_t: the task's, else
         the mean luminance, as evalglare prints).
     """
-    record = {}
+    record, regions = {}, {}
     e_v = float(values["vertical_illuminance"])
     mean_l = float(values["mean_luminance"])
     if band_deg is not None:
         deg = check_positive(band_deg, "band angle")
         if deg > 180.0:
             raise BadInputError(f"band angle must be at most 180°, got {deg:g}°")
-        record["band"] = region_statistics(
-            luminance, solid_angle, band_region(directions, valid, half_width=math.radians(deg)))
+        regions["band"] = band_region(directions, valid, half_width=math.radians(deg))
+        record["band"] = region_statistics(luminance, solid_angle, regions["band"])
     if zones is not None:
         record["zones"] = zone_statistics(luminance, solid_angle, cos_sigma, zones)
     task_l = None
@@ -168,7 +170,7 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid, 
                           "direction": [float(c) for c in centre / np.linalg.norm(centre)]}
     if mask is not None:
         picture = getattr(mask, "luminance", mask)
-        region = mask_region(picture, valid)
+        region = regions["mask"] = mask_region(picture, valid)
         stats = region_statistics(luminance, solid_angle, region)
         stats["illuminance"] = float(np.sum(np.where(region, luminance * cos_sigma * solid_angle,
                                                      0.0)))
@@ -206,4 +208,4 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid, 
         "max_luminance": float(np.max(luminance[finite])) if finite.any() else math.nan,
         "task_luminance": task_l if task_l is not None else mean_l,
     }
-    return record, per_source, extra
+    return record, per_source, regions, extra

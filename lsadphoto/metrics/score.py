@@ -29,6 +29,7 @@ from ..geometry.field import pixel_geometry, visual_field
 from ..geometry.position_index import METHODS as POSITION_INDEX_METHODS
 from .field import BACKGROUND_METHODS, field_sums
 from .analyses import centre_direction, evalglare_analyses, zone_split
+from .checkfile import check_checkfile_path, check_picture, write_checkfile
 from .corrections import fill_rows_evalglare
 from .glare_indices import (
     cgi_Einhorn1979,
@@ -247,7 +248,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
               n_thresholds=50.0, size_arcmin=10.0, q_weight_exponent=1, q_threshold="Adrian1989",
               q_cutoff="difference", dgp_coefficients="evalglare", vcp_constant=6.374,
               sweep=None, band_deg=None, zone_centre=None, zone_opening_deg=None, mask=None,
-              age=None, illuminance=None, illuminance_fill=None, low_light_correction=False):
+              age=None, illuminance=None, illuminance_fill=None, low_light_correction=False,
+              checkfile=None):
     """Score a luminance map with every metric (see the module notes).
 
     Parameters
@@ -300,6 +302,9 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         (:func:`~lsadphoto.metrics.corrections.fill_rows_evalglare`).
     low_light_correction : bool
         evalglare ``-C l+``: DGP with the low-light correction (off by default, as evalglare).
+    checkfile : path, optional
+        evalglare ``-c``: write the check picture there (:mod:`~lsadphoto.metrics.checkfile`)
+        once everything is computed.
 
     ``task_direction`` may also be an image point (row, col); with it the record holds
     ``task`` (evalglare ``-t``: its mean luminance L_t) whatever the source rule.
@@ -316,6 +321,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     check_choice(position_index_method, "position index method", POSITION_INDEX_METHODS)
     coefficients = dgp_coefficients_of(dgp_coefficients)
     region_mask = mask  # the evalglare -A mask (``mask`` below is the glare-source mask)
+    if checkfile is not None:
+        checkfile = check_checkfile_path(checkfile)
     if illuminance_fill is not None:
         if illuminance is not None:
             raise BadInputError("give either illuminance (-i) or illuminance_fill (-I), not both")
@@ -430,7 +437,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     values = evaluate(1.0)
     dgp_raw = dgp_Wienold2006(values["vertical_illuminance"], s_l, s_w, s_p,
                               coefficients=coefficients)
-    analyses, details, extra = evalglare_analyses(
+    analyses, details, regions, extra = evalglare_analyses(
         luminance=luminance, solid_angle=omega, directions=geometry.directions,
         cos_sigma=vf.cos_sigma, valid=valid, frame=frame, projection=lmap.projection,
         labels=labels, sources=sources, unsplit_sources=unsplit_sources,
@@ -484,6 +491,9 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
                   "calibration_factor": lmap.calibration_factor,
                   "calibration_uncertainty": lmap.calibration_uncertainty,
                   "calibrated": lmap.calibrated, "projection": lmap.projection.to_dict()}
+    if checkfile is not None:
+        write_checkfile(checkfile, check_picture(luminance, labels=labels, zones=zones,
+                                                 **regions), projection=lmap.projection)
     return Score(values=values, uncertainty=uncertainty, sources=sources, source_mask=mask,
                  source_labels=labels, contrast=quality.contrast,
                  statistics=luminance_statistics(luminance, omega, vf.cos_sigma),
