@@ -211,6 +211,10 @@ def _evalglare_options(args):
         options["mask"] = read_map(args.mask)
     if args.checkfile:
         options["checkfile"] = args.checkfile
+    if args.smooth:
+        options["smooth"] = True
+    if args.patch_deg is not None:
+        options["patch_deg"] = args.patch_deg
     if args.age is not None:
         options["age"] = args.age
     if args.illuminance is not None:
@@ -640,6 +644,11 @@ def build_parser():
     eg.add_argument("--mask", metavar="FILE",
                     help="evalglare -A: statistics of the pixels of a same-size picture above "
                          "0.1 cd/m² (the window), with PGSV, PGSV_sat, PGSV_con; JSON 'mask'")
+    eg.add_argument("--smooth", action="store_true",
+                    help="evalglare -s: pixels around sources join them (smoothing)")
+    eg.add_argument("--patch-deg", type=float, metavar="A",
+                    help="evalglare -z A 1: sources are fixed patches of A degrees instead of "
+                         "grouped pixels (angular fisheye only)")
     eg.add_argument("--checkfile", metavar="OUT.hdr",
                     help="evalglare -c: write a Radiance picture with the sources, band, mask and "
                          "zones in colour")

@@ -51,6 +51,7 @@ from .grouping import (
     group_sources_evalglare,
 )
 from .grouping import _describe as describe_sources
+from .grouping_options import regroup_sources
 from .quality import q_Budak2021, q_sweep
 from .sources import SOURCE_METHODS, select_source_pixels
 from .statistics import luminance_statistics
@@ -249,7 +250,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
               q_cutoff="difference", dgp_coefficients="evalglare", vcp_constant=6.374,
               sweep=None, band_deg=None, zone_centre=None, zone_opening_deg=None, mask=None,
               age=None, illuminance=None, illuminance_fill=None, low_light_correction=False,
-              checkfile=None):
+              checkfile=None, smooth=False, patch_deg=None):
     """Score a luminance map with every metric (see the module notes).
 
     Parameters
@@ -302,6 +303,12 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         (:func:`~lsadphoto.metrics.corrections.fill_rows_evalglare`).
     low_light_correction : bool
         evalglare ``-C l+``: DGP with the low-light correction (off by default, as evalglare).
+    smooth : bool
+        evalglare ``-s``: smoothing adds pixels around sources
+        (:mod:`~lsadphoto.metrics.grouping_options`).
+    patch_deg : float, optional
+        evalglare ``-z patch_deg 1``: sources are fixed patches of this size [deg] (angular
+        fisheye only).
     checkfile : path, optional
         evalglare ``-c``: write the check picture there (:mod:`~lsadphoto.metrics.checkfile`)
         once everything is computed.
@@ -383,6 +390,11 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     groups, labels = group_sources_evalglare(luminance, geometry.directions, omega, mask,
                                              search_angle=search_angle,
                                              peak_luminance=peak_luminance)
+    if smooth or patch_deg is not None:
+        groups, labels = regroup_sources(luminance, geometry.directions, omega, mask, valid,
+                                         projection=lmap.projection, search_angle=search_angle,
+                                         peak_luminance=peak_luminance, smooth=smooth,
+                                         patch_deg=patch_deg)
 
     def scored(groups):
         out = []
@@ -445,7 +457,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         source_zones=source_zones, band_deg=band_deg, mask=region_mask,
         task_direction=task_direction, task_opening_deg=task_opening_deg, age=age)
     values.update(extra)
-    settings.update(band_deg=band_deg, mask=region_mask is not None, age=age)
+    settings.update(band_deg=band_deg, mask=region_mask is not None, age=age, smooth=bool(smooth),
+                    patch_deg=patch_deg)
     quality = q_Budak2021(luminance, geometry.directions, omega, pindex,
                           n_thresholds=n_thresholds, size_arcmin=size_arcmin,
                           weight_exponent=q_weight_exponent, threshold=q_threshold,
