@@ -133,6 +133,9 @@ def scene(request, camera, tmp_path_factory):
                  dict(source_threshold=2500, mask=read_hdr(mask_path), task_direction=task_px,
                       task_opening_deg=math.degrees(0.35), illuminance=3000,
                       low_light_correction=True, dgp_coefficients=DGP_W)),
+        # Smoothing and patch mode (25° patches) change which pixels form the sources.
+        "smoothing": (["-d", "-s", "-b", 2500], dict(source_threshold=2500, smooth=True)),
+        "patches": (["-d", "-z", 25, 1, "-b", 2500], dict(source_threshold=2500, patch_deg=25)),
     }
     results = {name: (run_evalglare(path, args), score_map(lmap, **options))
                for name, (args, options) in runs.items()}
@@ -274,3 +277,69 @@ def test_checkfile_colours_the_pixels_evalglare_colours(scene):
     lum_ours, lum_peer = 179 * (ours @ weights), 179 * (peer @ weights)
     scale = np.maximum(lum_peer, 1e-6)
     assert np.max(np.abs(lum_ours - lum_peer) / scale) < 1e-2
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["smoothing", "patches"])
+def test_smoothing_and_patch_sources_agree_with_evalglare(scene, name):
+    peer, ours = scene["results"][name]
+    for k, p in _pairs(ours, peer):
+        s = ours.sources[k]
+        assert s.n_pixels == p["n_pixels"]
+        assert s.luminance == pytest.approx(p["L_s"], rel=REL_STAT)
+        assert s.solid_angle == pytest.approx(p["omega"], rel=REL_STAT)
+        assert ours.source_details[k]["Eglare"] == pytest.approx(p["Eglare"], rel=REL_STAT)
+    assert ours.values["dgp"] == pytest.approx(peer["summary"]["dgp"], abs=0.005)
+    if name == "patches":
+        assert len(ours.sources) > 4  # the window is cut into patches
+
+
+@pytest.mark.slow
+def test_fill_of_cut_rows_agrees_with_evalglare(camera, tmp_path):
+    """evalglare -I on a fisheye picture cut at the top and bottom (a sensor shorter than the
+    image circle): the filled picture's E_v, mean luminance and DGP."""
+    d = camera.directions(*camera.pixel_grid())
+    L = disk_sources_scene(d, background=90.0, sources=[
+        (_direction(70, 0), 0.3, 6000.0), (_direction(60, 180), 0.2, 4000.0),
+        (_direction(30, 90), 0.1, 12000.0)])
+    with np.errstate(invalid="ignore"):
+        L = L * (1.0 - 0.5 * d[..., 1])
+    L[:40] = 0.0   # cut: evalglare y ≥ 360
+    L[370:] = 0.0  # cut: evalglare y ≤ 29
+    path = tmp_path / "cut.hdr"
+    write_hdr(LuminanceMap(L, projection=camera, calibrated=True), path)
+    y_max, y_min = 360, 29
+    peer = run_evalglare(path, ["-d", "-I", 2500, y_max, y_min])
+    ours = score_map(read_hdr(path), illuminance_fill=(2500, SIZE - 1 - y_max, SIZE - 1 - y_min))
+    assert ours.values["vertical_illuminance"] == pytest.approx(peer["summary"]["E_v"],
+                                                                rel=REL_STAT)
+    assert ours.values["mean_luminance"] == pytest.approx(peer["summary"]["av_lum"], rel=REL_STAT)
+    assert ours.values["dgp"] == pytest.approx(peer["summary"]["dgp"], abs=0.005)
+    # Without the fill the cut rows are dark: E_v is far lower (the test can tell).
+    assert score_map(read_hdr(path)).values["vertical_illuminance"] < 0.9 * peer["summary"]["E_v"]
+
+
+def test_age_factor_of_the_cie_veiling_luminance(camera):
+    """CIE 146:2002: L_veil/E = 10·(1 + (A/70)⁴)/θ², so A = 70 doubles the veiling luminance
+    and A = 35 multiplies it by 1.0625; the Poynter form has no age."""
+    d = camera.directions(*camera.pixel_grid())
+    L = disk_sources_scene(d, background=50.0, sources=[(_direction(20, 30), 0.05, 20000.0)])
+    lmap = LuminanceMap(L, projection=camera, calibrated=True)
+    base = score_map(lmap)
+    for age, factor in ((70, 2.0), (35, 1.0625)):
+        aged = score_map(lmap, age=age)
+        assert aged.values["veiling_luminance_cie"] == pytest.approx(
+            factor * base.values["veiling_luminance_cie"], rel=1e-12)
+        assert aged.source_details[0]["Lveil_cie"] == pytest.approx(
+            factor * base.source_details[0]["Lveil_cie"], rel=1e-12)
+        assert aged.values["veiling_luminance_poynter"] == base.values["veiling_luminance_poynter"]
+    # Stiles–Holladay for a small source: 10·E/θ² with E ≈ L·ω·cos θ (θ = 20°). The cap of
+    # 0.05 rad is about 13 px across: its pixels hold its solid angle to 2 %.
+    e = 20000.0 * 2 * math.pi * (1 - math.cos(0.05)) * math.cos(math.radians(20))
+    e_glare = base.source_details[0]["Eglare"]
+    assert e_glare == pytest.approx(e, rel=0.02)
+    # θ is taken at the pixel holding the centroid (coordinates truncated as evalglare does):
+    # within one pixel diagonal (0.64° at 400 px over 180°) of 20°.
+    step = math.sqrt(2) * 180.0 / SIZE
+    veil = base.values["veiling_luminance_cie"]
+    assert 10 * e_glare / (20.0 + step) ** 2 <= veil <= 10 * e_glare / (20.0 - step) ** 2

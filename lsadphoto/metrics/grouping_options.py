@@ -10,7 +10,10 @@ Smoothing (``-s``)
     whole picture: r/(1.75·δ) pixels, r the ``-r`` search angle and δ twice the angle between
     the centre pixel and the one 10 columns right and 10 rows up, divided by 10
     (:func:`smoothing_radius_px`). The window is a square clipped to the picture as evalglare
-    clips it (its last column and top row are left out when the square reaches them). A pixel
+    clips it (its last column and top row are left out when the square reaches them). The
+    circle's solid angle counts every pixel Radiance traces, also those behind the observer:
+    for the angular fisheye the pixels beyond the 180° circle up to the picture's corners
+    (:func:`traced_solid_angle`), which matters for sources at the rim. A pixel
     near two sources would join both in evalglare (counted twice); sources are more than r/2
     apart and the circle is smaller than r/4, so this does not occur at the resolutions
     evalglare accepts, and here a pixel joins the last qualifying source only.
@@ -38,10 +41,26 @@ from .._validation import check_positive
 from ..errors import BadInputError
 from .grouping import _describe, group_sources_evalglare
 
-__all__ = ["smoothing_radius_px", "smoothing_labels", "patch_labels", "regroup_sources"]
+__all__ = ["traced_solid_angle", "smoothing_radius_px", "smoothing_labels", "patch_labels", "regroup_sources"]
 
 #: Fraction of the circle's solid angle above which a pixel joins a source (evalglare -s).
 SMOOTHING_FRACTION = 0.2
+
+
+def traced_solid_angle(projection, solid_angle):
+    """Solid angle [sr] of every pixel Radiance traces: for an equidistant fisheye (``-vta``)
+    the same mapping continued to θ = 180° (the corners of a square picture); otherwise
+    ``solid_angle`` as given."""
+    from ..geometry import IdealFisheyeProjection
+    from ..geometry.field import pixel_geometry
+
+    if isinstance(projection, IdealFisheyeProjection) and projection.kind == "equidistant":
+        scale = 360.0 / projection.fov_deg
+        extended = IdealFisheyeProjection("equidistant", projection.cx, projection.cy,
+                                          projection.radius * scale, 360.0, projection.width,
+                                          projection.height)
+        return pixel_geometry(extended).solid_angle
+    return np.asarray(solid_angle, dtype=np.float64)
 
 
 def smoothing_radius_px(directions, search_angle):
@@ -102,7 +121,7 @@ def smoothing_labels(labels, source_mask, solid_angle, valid, *, radius):
     source_mask : ndarray of bool
         Threshold-passing pixels (evalglare's primary pixels).
     solid_angle : ndarray
-        ω [sr] (0 where invalid).
+        ω [sr] of every traced pixel (:func:`traced_solid_angle`).
     valid : ndarray of bool
         Pixels that may join.
     radius : float
@@ -244,7 +263,8 @@ def regroup_sources(luminance, directions, solid_angle, source_mask, valid, *, p
                                       search_angle=search_angle, peak_luminance=None)[1]
     n_pre = int(pre.max()) if pre.size else 0
     if smooth and n_pre:
-        added = smoothing_labels(pre, source_mask, solid_angle, valid,
+        added = smoothing_labels(pre, source_mask, traced_solid_angle(projection, solid_angle),
+                                 valid,
                                  radius=smoothing_radius_px(directions, search_angle))
         pre = np.where(added > 0, added, pre)
     peak_groups = []
