@@ -33,7 +33,7 @@ def pictures(tmp_path_factory):
     window = np.array([math.sin(0.75), 0.0, math.cos(0.75)])
     L = disk_sources_scene(d, background=70.0, sources=[(window, 0.5, 6000.0)])
     with np.errstate(invalid="ignore"):
-        inside = d @ (window / np.linalg.norm(window)) >= math.cos(0.55)
+        inside = d @ (window / np.linalg.norm(window)) >= math.cos(0.45)
     write_hdr(LuminanceMap(L, projection=cam, calibrated=True), folder / "map.hdr")
     write_hdr(LuminanceMap(np.where(inside, 500.0, 0.0), projection=cam), folder / "mask.hdr")
     small = IdealFisheyeProjection("equidistant", 49.5, 49.5, 50.0, 180.0, 100, 100)
