@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._version import __version__
+from ._provenance import build_provenance
 from .calibrate.profile import CameraProfile
 from .calibrate.spot import calibrate_spots
 from .calibrate.vignetting import vignetting_gain
@@ -149,6 +149,8 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         for im, e, shift in zip(images, exposures, merged.shifts)
     ]
     summary = {
+        **build_provenance(inputs=[im.path for im in images], profile=profile.id,
+                           calibration_factor=factor, calibration_uncertainty=u_factor),
         "calibration_factor": factor,
         "calibration_uncertainty": u_factor,
         "calibrated": calibrated,
@@ -163,7 +165,6 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         "spots": spot_records,
         "shape": list(relative.shape),
         "black_map_used": first.black_map_used,
-        "lsadphoto_version": __version__,
     }
     lmap = LuminanceMap(
         luminance=luminance,

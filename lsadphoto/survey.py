@@ -47,7 +47,6 @@ Dask.distributed ``Client``. rawpy issue #265 (fork + OpenMP deadlock).
 import contextlib
 import csv
 import dataclasses
-import datetime
 import hashlib
 import io
 import json
@@ -68,6 +67,7 @@ from pathlib import Path
 import numpy as np
 
 from ._validation import check_choice, check_file
+from ._provenance import file_record, timestamp
 from ._version import __version__
 from .calibrate.spot import SpotReading
 from .errors import BadInputError, LsadError
@@ -579,7 +579,7 @@ def _row(task, summary, scalars, record, warning_lines):
         "demosaic": summary["demosaic"],
         "notes": " | ".join(record["notes"]) or None,
         "warnings": " | ".join(warning_lines) or None,
-        "timestamp": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds"),
+        "timestamp": timestamp(),
     })
     return row
 
@@ -587,7 +587,7 @@ def _row(task, summary, scalars, record, warning_lines):
 def _process_view_outputs(task, caught):
     from .calibrate.profile import load_profile
     from .io import write_exr, write_false_colour_png, write_hdr
-    from .io._atomic import atomic_text
+    from ._atomic import atomic_text
     from .luminance import luminance_from_raw
     from .metrics.score import score_map
     from .report.figures import write_contrast_png, write_glare_source_png
@@ -640,7 +640,7 @@ def _compare_with_model(task, photo, outputs, options):
     """Render the view's scene model through the photo's camera and compare (issue: model vs photo)."""
     from .compare import compare_maps
     from .io import write_exr
-    from .io._atomic import atomic_text
+    from ._atomic import atomic_text
     from .report import write_comparison_report, write_ratio_png
     from .solver import camera_to_world, load_scene, render, simulate
 
@@ -746,15 +746,6 @@ def _stat(path):
     return info.st_size, info.st_mtime_ns
 
 
-def _file_digest(path):
-    digest = hashlib.sha256()
-    try:
-        with open(path, "rb") as fh:
-            for block in iter(lambda: fh.read(1 << 20), b""):
-                digest.update(block)
-    except OSError:
-        return None  # gone since the manifest was read: the view fails with a clear message
-    return digest.hexdigest()
 
 
 def _task(manifest, view, outdir, score_options):
@@ -781,7 +772,7 @@ def _task(manifest, view, outdir, score_options):
     identity = {k: v for k, v in task.items() if k not in ("manifest",)}
     identity["spots"] = [dataclasses.astuple(s) for s in view.spots]
     identity["raw_stat"] = [(p, *_stat(p)) for p in task["raw"]]
-    identity["profile_sha256"] = None if profile is None else _file_digest(profile)
+    identity["profile_sha256"] = None if profile is None else file_record(profile)["sha256"]
     text = json.dumps(identity, sort_keys=True, default=_json_default)
     task["fingerprint"] = hashlib.sha256(text.encode("utf-8")).hexdigest()
     task["outputs"] = {k: str(v) for k, v in _outputs(Path(outdir) / "views" / view.id, view.id,
@@ -915,7 +906,7 @@ def _progress_bar(*, total, initial, enabled):
 
 
 def _write_csv(path, columns, rows):
-    from .io._atomic import atomic_text
+    from ._atomic import atomic_text
 
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
@@ -929,7 +920,7 @@ def _write_parquet(path, columns, rows, metadata):
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from .io._atomic import atomic_path
+    from ._atomic import atomic_path
 
     arrays = {c: pa.array([row.get(c) for row in rows]) for c in columns}
     if not rows:
@@ -942,7 +933,7 @@ def _write_parquet(path, columns, rows, metadata):
 
 def _write_tables(manifest, tasks, failures, outdir):
     """metrics.csv/.parquet from every current done marker; failures.log; ratings.csv."""
-    from .io._atomic import atomic_text
+    from ._atomic import atomic_text
 
     rows = [row for row in (_read_done(task) for task in tasks) if row is not None]
     columns = list(dict.fromkeys(["view", *(c for row in rows for c in row)]))
@@ -950,7 +941,7 @@ def _write_tables(manifest, tasks, failures, outdir):
     rows = [{c: row.get(c) for c in columns} for row in rows]
     metadata = {"schema": SCHEMA, "manifest": str(manifest.path), "name": manifest.name,
                 "lsadphoto_version": __version__,
-                "written": datetime.datetime.now(datetime.UTC).isoformat(timespec="seconds")}
+                "written": timestamp()}
     _write_csv(outdir / "metrics.csv", columns, rows)
     _write_parquet(outdir / "metrics.parquet", columns, rows, metadata)
     atomic_text(outdir / "failures.log", "".join(f"{view}: {reason}\n" for view, reason in failures))

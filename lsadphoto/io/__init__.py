@@ -3,14 +3,11 @@
 from pathlib import Path
 
 from ..errors import UnsupportedFileError
-from ._atomic import atomic_outputs, atomic_path
 from .exr import read_exr, write_exr
 from .falsecolour import write_false_colour_png
 from .hdr import read_hdr, write_hdr
 
 __all__ = [
-    "atomic_outputs",
-    "atomic_path",
     "read_exr",
     "write_exr",
     "read_hdr",

@@ -27,7 +27,7 @@ from ..errors import BadInputError, UnsupportedFileError
 from ..geometry.fisheye import RADIANCE_VIEW_NAMES, IdealFisheyeProjection
 from ..geometry.pinhole import PinholeProjection
 from ..luminance_map import LuminanceMap
-from ._atomic import atomic_path
+from .._atomic import atomic_path
 from ._metadata import metadata_fields, metadata_json
 
 _RESOLUTION = re.compile(rb"^-Y\s+(\d+)\s+\+X\s+(\d+)$")  # Radiance 6 pads the numbers
