@@ -143,9 +143,9 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid, 
     regions : dict
         The band and mask pixels (boolean arrays) where computed, for the check picture.
     extra_values : dict
-        ``veiling_luminance_poynter``, ``veiling_luminance_cie`` [cd·m⁻²], ``max_luminance``
-        [cd·m⁻²] (evalglare's Max_Lum) and ``task_luminance`` [cd·m⁻²] (L_t: the task's, else
-        the mean luminance, as evalglare prints).
+        ``veiling_luminance_poynter``, ``veiling_luminance_cie`` [cd·m⁻²] and
+        ``task_luminance`` [cd·m⁻²] (L_t: the task's, else the mean luminance, as evalglare
+        prints).
     """
     record, regions = {}, {}
     e_v = float(values["vertical_illuminance"])
@@ -201,11 +201,9 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid, 
     per_source = source_columns(s_l, s_w, s_p, theta, e_glare, vertical_illuminance=e_v,
                                 dgp=float(values["dgp_raw"]), unsplit_sum=unsplit, c2=c2, a3=a3,
                                 zones=source_zones, age=age)
-    finite = np.isfinite(luminance)
     extra = {
         "veiling_luminance_poynter": veiling_luminance_Poynter(s_l, s_w, theta),
         "veiling_luminance_cie": float(np.sum(veiling_luminance_CIE146(e_glare, theta, age=age))),
-        "max_luminance": float(np.max(luminance[finite])) if finite.any() else math.nan,
         "task_luminance": task_l if task_l is not None else mean_l,
     }
     return record, per_source, regions, extra

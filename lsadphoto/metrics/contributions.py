@@ -64,11 +64,17 @@ def source_illuminance(labels, n_sources, luminance, cos_sigma, solid_angle):
     -------
     ndarray, shape (n_sources,)
     """
-    labels = np.asarray(labels).ravel()
+    labels = np.asarray(labels)
+    rows = np.flatnonzero(labels.any(axis=1))
+    if rows.size == 0 or n_sources == 0:
+        return np.zeros(n_sources)
+    # Only the sources' bounding rows hold source pixels.
+    box = slice(rows[0], rows[-1] + 1)
+    labels = labels[box].ravel()
     inside = labels > 0
-    e = (np.asarray(luminance, np.float64).ravel()[inside]
-         * np.asarray(cos_sigma, np.float64).ravel()[inside]
-         * np.asarray(solid_angle, np.float64).ravel()[inside])
+    e = (np.asarray(luminance, np.float64)[box].ravel()[inside]
+         * np.asarray(cos_sigma, np.float64)[box].ravel()[inside]
+         * np.asarray(solid_angle, np.float64)[box].ravel()[inside])
     return np.bincount(labels[inside] - 1, weights=e, minlength=n_sources)[:n_sources]
 
 

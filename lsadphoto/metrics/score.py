@@ -27,24 +27,22 @@ from ..errors import BadInputError
 from ..geometry import ObserverFrame, position_index
 from ..geometry.field import pixel_geometry, visual_field
 from ..geometry.position_index import METHODS as POSITION_INDEX_METHODS
-from .field import BACKGROUND_METHODS, field_sums
 from .analyses import centre_direction, evalglare_analyses, zone_split
 from .checkfile import check_checkfile_path, check_picture, write_checkfile
 from .corrections import fill_rows_evalglare
+from .field import BACKGROUND_METHODS, field_sums
 from .glare_indices import (
     cgi_Einhorn1979,
     dgi_Hopkinson1972,
     dgi_mod_Fisekis2003,
     dgp_Wienold2006,
-)
-from .glare_indices import (
-    dgp_coefficients as dgp_coefficients_of,
     dgr_Guth1963,
     ugp2_Hirning2016,
     ugp_Hirning2014,
     ugr_exp_Fisekis2003,
     vcp_Guth1963,
 )
+from .glare_indices import dgp_coefficients as dgp_coefficients_of
 from .grouping import (
     DEFAULT_PEAK_LUMINANCE,
     DEFAULT_SEARCH_ANGLE,
@@ -509,8 +507,12 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if checkfile is not None:
         write_checkfile(checkfile, check_picture(luminance, labels=labels, zones=zones,
                                                  **regions), projection=lmap.projection)
+    statistics = luminance_statistics(luminance, omega, vf.cos_sigma)
+    # evalglare's Max_Lum: the largest luminance of the evaluated field [cd·m⁻²].
+    values["max_luminance"] = statistics["field"]["max"] if statistics["field"]["max"] \
+        is not None else math.nan
     return Score(values=values, uncertainty=uncertainty, sources=sources, source_mask=mask,
                  source_labels=labels, contrast=quality.contrast,
-                 statistics=luminance_statistics(luminance, omega, vf.cos_sigma),
+                 statistics=statistics,
                  settings=settings, provenance=provenance, notes=notes, q_sweep=sweep_record,
                  analyses=analyses, source_details=details)
