@@ -343,3 +343,33 @@ def test_age_factor_of_the_cie_veiling_luminance(camera):
     step = math.sqrt(2) * 180.0 / SIZE
     veil = base.values["veiling_luminance_cie"]
     assert 10 * e_glare / (20.0 + step) ** 2 <= veil <= 10 * e_glare / (20.0 - step) ** 2
+
+
+REAL = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "realdata", "hdr",
+                    "raytraverse_rendered_desk_vta.hdr")
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not os.path.exists(REAL), reason="shared real data (../shared/realdata) absent")
+def test_real_rendering_regression_run_agrees_with_evalglare():
+    """evalglare's regression options on a real Radiance rendering (an office desk, 1000² -vta,
+    the sun in view; raytraverse test data): band, both zones and the split sources."""
+    lmap = read_hdr(REAL)
+    rows = lmap.luminance.shape[0]
+    peer = run_evalglare(REAL, ["-d", "-B", 0.4, "-L", 500, 500, 0.6, 1.2, "-b", 2500])
+    ours = score_map(lmap, source_threshold=2500, band_deg=math.degrees(0.4),
+                     zone_centre=(rows - 1 - 500, 500),
+                     zone_opening_deg=(math.degrees(0.6), math.degrees(1.2)))
+    _check_stats(ours.analyses["band"], peer["band"], BAND_COLS)
+    for zone, peer_zone in zip(ours.analyses["zones"], peer["zones"], strict=True):
+        _check_stats(zone, peer_zone, STAT_KEYS + ("illuminance",))
+    assert ours.analyses["zones"][0]["n_pixels"] == peer["zones"][0]["n_pixels"]
+    for k, p in _pairs(ours, peer):
+        s, d = ours.sources[k], ours.source_details[k]
+        assert (s.n_pixels, d["zone"]) == (p["n_pixels"], p["zone"])
+        assert s.luminance == pytest.approx(p["L_s"], rel=REL_STAT)
+        if d["zone"] == 0:  # see test_sources_split_at_zone_borders_as_evalglare
+            assert d["Eglare"] == pytest.approx(p["Eglare"], rel=REL_STAT)
+    assert {d["zone"] for d in ours.source_details} == {0, 1, 2}
+    assert ours.values["veiling_luminance_poynter"] == pytest.approx(peer["summary"]["Lveil"],
+                                                                     rel=REL_STAT)
