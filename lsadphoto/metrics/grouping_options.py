@@ -36,6 +36,7 @@ import math
 
 import numpy as np
 from numba import njit
+from scipy.ndimage import distance_transform_edt
 
 from .._validation import check_positive
 from ..errors import BadInputError
@@ -142,16 +143,8 @@ def smoothing_labels(labels, source_mask, solid_angle, valid, *, radius):
         np.asarray(source_mask, dtype=bool)[flip])
     omega = np.ascontiguousarray(np.asarray(solid_angle, dtype=np.float64)[flip])
     cand = np.asarray(valid, dtype=bool)[flip] & (lab == 0)
-    reach = int(math.ceil(radius))
     # Only pixels within the radius of a source pixel can qualify.
-    near = np.zeros_like(prim)
-    ys, xs = np.nonzero(prim)
-    for dy in range(-reach, reach + 1):
-        for dx in range(-reach, reach + 1):
-            if dx * dx + dy * dy <= radius * radius:
-                yy, xx = ys + dy, xs + dx
-                ok = (yy >= 0) & (yy < prim.shape[0]) & (xx >= 0) & (xx < prim.shape[1])
-                near[yy[ok], xx[ok]] = True
+    near = distance_transform_edt(~prim) <= radius
     candidates = np.argwhere(cand & near).astype(np.int64)
     result = np.zeros_like(lab)
     _smooth(lab, prim, omega, candidates, float(radius), n, result)
