@@ -33,7 +33,7 @@ import numpy as np
 
 from .._validation import check_array, check_positive
 from ..errors import BadInputError
-from .contributions import centroid_pixel, glare_term_sum, source_columns, source_illuminance
+from .contributions import glare_term_sum, source_columns, source_illuminance
 from .regions import (
     band_region,
     mask_region,
@@ -98,7 +98,7 @@ def zone_split(labels, *, directions, valid, projection, zone_centre, zone_openi
     return zones, new_labels, parent, source_zone
 
 
-def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid, frame,
+def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid,
                        projection, labels, sources, unsplit_sources, values, dgp_coefficients,
                        zones=None, source_zones=None, band_deg=None, mask=None,
                        task_direction=None, task_opening_deg=20.0, age=None):
@@ -111,12 +111,11 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid, 
     directions : ndarray, shape (rows, cols, 3)
     valid : ndarray of bool
         The evaluated field.
-    frame : ObserverFrame
     projection : Projection
     labels : ndarray of int
         Source labels after any zone split.
     sources, unsplit_sources : list
-        Scored sources (luminance, solid_angle, position_index, row, col) after and before
+        Scored sources (luminance, solid_angle, position_index, sigma_deg) after and before
         the zone split.
     values : dict
         The scalar metrics so far (``vertical_illuminance``, ``mean_luminance``, ``dgp_raw``).
@@ -181,15 +180,10 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid, 
         stats["PGSV_sat"] = pgsv_saturation(e_v)
         stats["PGSV_con"] = pgsv_Tokura1996(l_w, w, mean_l)
         record["mask"] = stats
-    # Per-source -d columns; angles at each source's centroid pixel.
+    # Per-source -d columns; θ is σ where the position index is taken (evalglare: the pixel
+    # of the source's pixel centroid, whose angle evalglare prints as both Sigma and teta).
     n = len(sources)
-    v_axis = frame.axes()[0]
-    theta = np.empty(n)
-    for i, s in enumerate(sources):
-        r, c = centroid_pixel(s.row, s.col)
-        d = directions[min(max(r, 0), directions.shape[0] - 1), min(max(c, 0),
-                                                                    directions.shape[1] - 1)]
-        theta[i] = math.acos(max(-1.0, min(1.0, float(d @ v_axis))))
+    theta = np.radians([s.sigma_deg for s in sources]) if n else np.zeros(0)
     s_l = np.array([s.luminance for s in sources], dtype=float)
     s_w = np.array([s.solid_angle for s in sources], dtype=float)
     s_p = np.array([s.position_index for s in sources], dtype=float)

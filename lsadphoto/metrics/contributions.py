@@ -19,9 +19,9 @@ index and centroid:
     The zone the source lies in after the zone split (0 outside, 1, 2; see
     :mod:`~lsadphoto.metrics.regions`).
 
-evalglare takes a source's angles at the pixel that holds its L·ω-weighted pixel centroid:
-evalglare's coordinates (x, y) = (column, rows − 1 − row) truncated to integers, i.e. column
-⌊col⌋ and row ⌈row⌉ here (:func:`centroid_pixel`).
+evalglare takes a source's angles at the pixel that holds its L·ω-weighted pixel centroid
+(:func:`~lsadphoto.metrics.grouping.position_pixel_evalglare`), where the score takes its
+position index and σ.
 
 References
 ----------
@@ -35,18 +35,7 @@ import numpy as np
 
 from .veiling import veiling_luminance_CIE146
 
-__all__ = ["centroid_pixel", "source_illuminance", "glare_term_sum", "source_columns"]
-
-
-def centroid_pixel(row, col):
-    """The pixel (row, col) evalglare evaluates a source at: ⌈row⌉, ⌊col⌋ of its centroid.
-
-    Examples
-    --------
-    >>> centroid_pixel(10.3, 20.7)
-    (11, 20)
-    """
-    return int(math.ceil(row)), int(math.floor(col))
+__all__ = ["source_illuminance", "glare_term_sum", "source_columns"]
 
 
 def source_illuminance(labels, n_sources, luminance, cos_sigma, solid_angle):
