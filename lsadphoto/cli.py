@@ -351,6 +351,33 @@ def _bias_matters(bias, record, key):
     return abs(bias) > 2 * error and abs(bias) > 0.1 * u
 
 
+def cmd_design(args):
+    from ._progress import progress_callback
+    from .design.run import run_design
+
+    callback, close = progress_callback("design", enabled=False if args.quiet else None)
+    try:
+        record = run_design(args.problem, args.output,
+                            progress=None if callback is None else (lambda _stage, f: callback(f, None)),
+                            log=(lambda line: None) if args.quiet or args.json else
+                            (lambda line: print(line, file=sys.stderr)))
+    finally:
+        close()
+    if args.json:
+        _print_json(record)
+    else:
+        best = record["best"]
+        if best is None:
+            print(f"no design meets the constraints; wrote {args.output}/design.json with the "
+                  f"{len(record['closest'])} closest designs")
+        else:
+            parts = [f"{v['ugr_grouped'] if v['ugr_grouped'] is not None else '—'}" for v in best["views"].values()]
+            print(f"best design: {best['luminaires']} luminaires, {best['power_w']:g} W, grouped UGR "
+                  f"{', '.join(parts)} ({', '.join(best['views'])}); {len(record['pareto'])} Pareto "
+                  f"designs; wrote {args.output}/design.json, best.toml, report.html")
+    return 0
+
+
 def cmd_compare(args):
     from .compare import compare_maps
     from .io import read_map
@@ -814,6 +841,13 @@ def _build_parser():
     cmp_.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
     cmp_.add_argument("--json", action="store_true", help="print the JSON record")
     cmp_.set_defaults(func=cmd_compare)
+
+    dsg = sub.add_parser("design", help="choose luminaires and their layout for a quality (Q, UGR, DGP, illuminance)")
+    dsg.add_argument("problem", help="design problem (TOML, schema lsadphoto.design/1)")
+    dsg.add_argument("-o", "--output", required=True, metavar="OUT", help="output folder")
+    dsg.add_argument("--json", action="store_true", help="print the design.json record")
+    dsg.add_argument("--quiet", action="store_true", help="no progress bar or stage lines")
+    dsg.set_defaults(func=cmd_design)
 
     vw = sub.add_parser("view", help="interactive luminance viewer: one self-contained HTML file")
     vw.add_argument("map", help="luminance map (.exr or .hdr)")
