@@ -95,10 +95,12 @@ def browser(folder):
 
 def _open(browser, page):
     browser.get(page.resolve().as_uri())
+    # A report's viewers decode when scrolled into sight: scroll to the first one.
     state = browser.execute_async_script(
         "const done = arguments[0];"
-        "const wait = () => window.lsadViewer ? window.lsadViewer.ready.then("
-        "() => done('ready'), (e) => done('failed: ' + e)) : setTimeout(wait, 20); wait();")
+        "const wait = () => { const v = window.lsadViewer; if (!v) return setTimeout(wait, 20);"
+        "  v.container.scrollIntoView();"
+        "  v.ready.then(() => done('ready'), (e) => done('failed: ' + e)); }; wait();")
     assert state == "ready"
 
 
@@ -335,3 +337,52 @@ def test_bad_inputs_are_one_line_and_write_nothing(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "different camera geometries" in err
     assert not out.exists() and not list(tmp_path.glob(".v.*"))
+
+
+@pytest.mark.slow
+def test_comparison_report_embeds_the_viewer(browser, pages, folder):
+    from lsadphoto.compare import compare_maps
+    from lsadphoto.report import write_comparison_report
+
+    photo, model = pages["map"], read_map(folder / "model.hdr")
+    comparison = compare_maps(photo, model)
+    report = write_comparison_report(comparison, folder / "comparison.html", photo=photo,
+                                     model=model)
+    _open(browser, report)
+    rng = np.random.default_rng(3)
+    rows, cols = rng.integers(0, photo.shape[0], 50), rng.integers(0, photo.shape[1], 50)
+    got = browser.execute_script(
+        "const v = window.lsadViewer;"
+        "return arguments[0].map((r, k) => [v.valueAt(r, arguments[1][k], 0),"
+        "                                   v.valueAt(r, arguments[1][k], 1)]);",
+        rows.tolist(), cols.tolist())
+    for (a, b), r, c in zip(got, rows, cols, strict=True):
+        for value, lmap in ((a, photo), (b, model)):
+            expected = float(lmap.luminance[r, c])
+            assert (value is None and math.isnan(expected)) or value == expected
+    # The photo's glare sources are those of the comparison's score of the photo.
+    shown = browser.execute_script("return window.lsadViewer.sources(0)")
+    assert [s["luminance"] for s in shown] == [s.luminance for s in comparison.scores[0].sources]
+    assert _severe(browser) == []
+
+
+@pytest.mark.slow
+def test_survey_report_embeds_a_viewer_per_view(browser, pages, folder):
+    from lsadphoto.report import write_survey_report
+
+    survey = folder / "survey"
+    view = survey / "views" / "v1"
+    view.mkdir(parents=True)
+    (survey / "metrics.csv").write_text("view,ugr_pixel\nv1,12.5\n", encoding="utf-8")
+    shutil.copy(pages["exr"], view / "v1.exr")
+    (view / "v1-score.json").write_text(json.dumps(pages["score"]), encoding="utf-8")
+    report = write_survey_report(survey)
+    text = report.read_text(encoding="utf-8")
+    assert text.count('class="lsad-viewer"') == 1 and 'data-lazy="yes"' in text
+    _open(browser, report)
+    row, col = 630, 360
+    assert browser.execute_script("return window.lsadViewer.valueAt(arguments[0], arguments[1])",
+                                  row, col) == float(pages["map"].luminance[row, col])
+    shown = browser.execute_script("return window.lsadViewer.sources()")
+    assert len(shown) == pages["score"]["n_sources"]
+    assert _severe(browser) == []

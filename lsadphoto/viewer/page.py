@@ -48,15 +48,15 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
-from ..errors import BadInputError
+from ..errors import BadInputError, LsadError
 from ..geometry import ObserverFrame, pixel_geometry, visual_field
 from ..geometry.observer import _ON_AXIS  # τ's on-axis rule, as ObserverFrame.angles has it
-from ..io._atomic import atomic_text
+from .._atomic import atomic_text
 from ..io.falsecolour import false_colour_range
 from ..luminance_map import LuminanceMap
 
-__all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "viewer_assets", "viewer_fragment",
-           "write_viewer"]
+__all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "report_viewer", "viewer_assets",
+           "viewer_fragment", "write_viewer"]
 
 #: Rows and columns between the embedded geometry samples [px].
 GEOMETRY_STRIDE = 8
@@ -374,6 +374,31 @@ def viewer_fragment(lmap, *, second=None, score=None, second_score=None,
     return (f'<div class="lsad-viewer" data-lazy="{"yes" if lazy else "no"}">'
             f'<script type="application/json" data-meta="1">{meta}</script>'
             + "".join(arrays.scripts) + "</div>")
+
+
+def report_viewer(lmap, *, second=None, score=None, second_score=None,
+                  names=("photo", "model"), title=None):
+    """The lazily decoded viewer fragment a report embeds for one view, or why there is none.
+
+    ``lmap`` and ``second`` are :class:`LuminanceMap` objects or paths of map files (read
+    with :func:`lsadphoto.io.read_map`); the other parameters are those of
+    :func:`viewer_fragment`. A report never fails for a view it cannot show: an unreadable
+    map, or two maps of different geometry, come back as the reason.
+
+    Returns
+    -------
+    (str, None) or (None, str)
+        The HTML fragment, or None and the reason.
+    """
+    from ..io import read_map
+
+    try:
+        maps = [m if m is None or isinstance(m, LuminanceMap) else read_map(m)
+                for m in (lmap, second)]
+        return viewer_fragment(maps[0], second=maps[1], score=score, second_score=second_score,
+                               names=names, title=title, lazy=True), None
+    except LsadError as error:
+        return None, str(error)
 
 
 def _asset(name):
