@@ -386,3 +386,62 @@ def test_survey_report_embeds_a_viewer_per_view(browser, pages, folder):
     shown = browser.execute_script("return window.lsadViewer.sources()")
     assert len(shown) == pages["score"]["n_sources"]
     assert _severe(browser) == []
+
+
+@pytest.mark.slow
+def test_mouse_draws_regions_pins_zooms_and_pans(browser, pages):
+    # The same actions a user takes, as real mouse events through chromedriver.
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
+
+    _open(browser, pages["view"])
+    canvas = browser.find_element("css selector", ".lv-panel .lv-over")
+    width, height = canvas.size["width"], canvas.size["height"]
+
+    def at(row, col):
+        """Offset from the canvas centre (selenium's origin) of pixel (row, col)."""
+        x, y = browser.execute_script("return window.lsadViewer.toScreen(arguments[0], "
+                                      "arguments[1])", row, col)
+        return int(round(x - width / 2)), int(round(y - height / 2))
+
+    scale = browser.execute_script("return window.lsadViewer.scale")  # screen px per pixel
+    browser.execute_script("window.lsadViewer.setTool('circle')")
+    x0, y0 = at(520, 315)
+    ActionChains(browser).move_to_element_with_offset(canvas, x0, y0).click_and_hold() \
+        .move_by_offset(20, 0).move_by_offset(40, 0).release().perform()
+    browser.execute_script("window.lsadViewer.setTool('polygon')")
+    corners = [(300, 300), (300, 600), (600, 600), (600, 300)]
+    chain = ActionChains(browser)
+    for row, col in corners[:-1]:
+        chain.move_to_element_with_offset(canvas, *at(row, col)).click()
+    chain.move_to_element_with_offset(canvas, *at(*corners[-1])).double_click().perform()
+    browser.execute_script("window.lsadViewer.setTool('probe')")
+    ActionChains(browser).move_to_element_with_offset(canvas, *at(630, 360)).click().perform()
+    regions, points = browser.execute_script(
+        "const v = window.lsadViewer; return [v.regions, v.points];")
+    assert [r["shape"] for r in regions] == ["circle", "polygon"]
+    circle, polygon = regions
+    # Mouse positions are whole screen pixels: within one screen pixel of the target.
+    tolerance = 1.0 / scale + 0.5
+    assert abs(circle["row"] - 520) <= tolerance and abs(circle["col"] - 315) <= tolerance
+    assert circle["radius"] == pytest.approx(60 / scale, abs=tolerance)
+    assert len(polygon["points"]) == 4
+    for (row, col), (r, c) in zip(corners, polygon["points"], strict=True):
+        assert abs(r - row) <= tolerance and abs(c - col) <= tolerance
+    assert len(points) == 1 and abs(points[0]["row"] - 630) <= tolerance
+    # The tables list them.
+    text = browser.find_element("css selector", ".lv-tables").text
+    assert "R1" in text and "R2" in text and "P1" in text
+    # Wheel: zoom about the cursor, the pixel under it stays put.
+    x, y = at(400, 500)
+    before = browser.execute_script("return window.lsadViewer.scale")
+    ActionChains(browser).scroll_from_origin(ScrollOrigin.from_element(canvas, x, y), 0, -100) \
+        .perform()
+    after = browser.execute_script("return window.lsadViewer.scale")
+    assert after == pytest.approx(1.25 * before)
+    assert at(400, 500) == pytest.approx((x, y), abs=1)
+    # Drag: pan by the mouse's movement.
+    ActionChains(browser).move_to_element_with_offset(canvas, x, y).click_and_hold() \
+        .move_by_offset(30, 20).move_by_offset(30, 20).release().perform()
+    assert at(400, 500) == pytest.approx((x + 60, y + 40), abs=1)
+    assert _severe(browser) == []

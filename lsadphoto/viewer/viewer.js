@@ -433,7 +433,7 @@
       }
       this.toolSelect = select("tool", [["probe", "probe / pin (click), pan (drag)"], ["circle", "circle region (drag)"],
         ["polygon", "polygon region (click vertices, double-click to close)"]], this.tool,
-      (v) => { this.tool = v; this.draft = null; this.drawOverlay(); });
+      (v) => this.setTool(v));
       button("fit", () => this.fit(), "fit the map to the panel");
       button("export CSV", () => this.download(), "points and regions as CSV");
       button("clear", () => { this.points = []; this.regions = []; this.updateTables(); this.drawOverlay(); },
@@ -494,6 +494,14 @@
         case "b": return [{ kind: "map", which: 1, label: names[1] }];
         default: return [{ kind: "map", which: 0, label: names[0] }];
       }
+    }
+
+    /** The mouse's tool: "probe" (click pins, drag pans), "circle" or "polygon". */
+    setTool(tool) {
+      this.tool = tool;
+      this.draft = null;
+      if (this.toolSelect) this.toolSelect.value = tool;
+      this.drawOverlay();
     }
 
     /** Show "false" (false colour), "tone" (tone mapped) or "contrast" (the Q contrast map K). */
