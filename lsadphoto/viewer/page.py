@@ -120,19 +120,6 @@ def _nodes(n, stride):
     return np.asarray(nodes)
 
 
-def _bilinear(grid, node_rows, node_cols, stride, rows, cols):
-    """Bilinear interpolation of ``grid`` (values on the nodes, every ``stride`` px) at
-    integer pixels ``(rows, cols)``, as the page does it."""
-    i = np.minimum(rows // stride, max(len(node_rows) - 2, 0))
-    j = np.minimum(cols // stride, max(len(node_cols) - 2, 0))
-    i1, j1 = np.minimum(i + 1, len(node_rows) - 1), np.minimum(j + 1, len(node_cols) - 1)
-    ti = np.where(i1 > i, (rows - node_rows[i]) / np.maximum(node_rows[i1] - node_rows[i], 1), 0.0)
-    tj = np.where(j1 > j, (cols - node_cols[j]) / np.maximum(node_cols[j1] - node_cols[j], 1), 0.0)
-    top = grid[i, j] * (1 - tj) + grid[i, j1] * tj
-    bottom = grid[i1, j] * (1 - tj) + grid[i1, j1] * tj
-    return top * (1 - ti) + bottom * ti
-
-
 def _frame_of(lmap, score):
     """The observer frame and position-index method: the score's, else the map's line of
     sight (or the optical axis) with the camera's up, as :func:`score_map` takes them."""
@@ -150,14 +137,25 @@ def _cells(n, nodes, stride):
     return i, np.minimum(i + 1, len(nodes) - 1)
 
 
-def _band_errors(full, grids, node_rows, node_cols, rows, frame, field):
-    """Errors of the page's interpolation at every pixel of the image rows ``rows``:
-    direction [deg], σ [deg], τ [deg] (NaN within 1° of the line of sight, where τ is
-    undefined), solid angle (relative) and position index (absolute), each (rows, cols)."""
+def _band_errors(full, grids, node_rows, node_cols, cell, rows, frame, field):
+    """Errors of the page's interpolation at every pixel of the image rows ``rows`` (all in
+    grid cell row ``cell``): direction [deg], σ [deg], τ [deg] (NaN within 1° of the line of
+    sight, where τ is undefined), solid angle (relative) and position index (absolute), each
+    (len(rows), cols). Bilinear in the page's order: along the columns on the two node rows,
+    then between them."""
     cols = full["dx"].shape[1]
-    r, c = rows[:, None], np.arange(cols)[None, :]
-    at = {key: _bilinear(grids[key].astype(np.float64), node_rows, node_cols,
-                         GEOMETRY_STRIDE, r, c) for key in full}
+    i, i1 = cell, min(cell + 1, len(node_rows) - 1)
+    j, j1 = _cells(cols, node_cols, GEOMETRY_STRIDE)
+    span = np.maximum(node_cols[j1] - node_cols[j], 1)
+    tj = np.where(j1 > j, (np.arange(cols) - node_cols[j]) / span, 0.0)
+    ti = ((rows - node_rows[i]) / (node_rows[i1] - node_rows[i]) if i1 > i
+          else np.zeros(rows.size))[:, None]
+    at = {}
+    for key in full:
+        g = grids[key].astype(np.float64)
+        top = g[i, j] * (1 - tj) + g[i, j1] * tj
+        bottom = g[i1, j] * (1 - tj) + g[i1, j1] * tj
+        at[key] = top * (1 - ti) + bottom * ti
     d = np.stack([at["dx"], at["dy"], at["dz"]], axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
@@ -208,7 +206,7 @@ def _geometry(lmap, score, arrays):
                              "solid_angle_relative", "position_index"), 0.0)
     for cell in range(int(row_cell[-1]) + 1):
         band = np.flatnonzero(row_cell == cell)
-        errors = _band_errors(full, grids, node_rows, node_cols, band, frame, field)
+        errors = _band_errors(full, grids, node_rows, node_cols, cell, band, frame, field)
         ok = valid[band]
         bad = ~ok.copy()
         for key, limit in GEOMETRY_TOLERANCE.items():
