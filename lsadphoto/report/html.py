@@ -9,10 +9,10 @@ columns, an empty survey, every view failed, no study) never stop a report: the 
 what is missing and why.
 
 * :func:`write_survey_report` — summary, the paper's Figures 1–4 for the survey's data,
-  per-view gallery (false colour, glare sources, contrast), failures, observer-study
-  statistics, provenance.
+  per-view gallery (the interactive viewer, glare sources, contrast), failures,
+  observer-study statistics, provenance.
 * :func:`write_comparison_report` — ratio statistics over the field and per region, metric
-  agreement within the combined uncertainty, ratio map and both false-colour maps.
+  agreement within the combined uncertainty, ratio map and the viewer of both maps.
 
 The contents are described in ``docs/user-guide-report.md``.
 
@@ -1035,7 +1035,8 @@ def write_comparison_report(comparison, path, *, photo=None, model=None, title=N
 
     Sections: summary, metric agreement (photo, model, difference ± combined standard
     uncertainty, agreement within 2u), ratio statistics over the field, per σ ring and per
-    image block, the ratio map and both false-colour maps (on one luminance scale), and
+    image block, the interactive viewer of both maps (:mod:`lsadphoto.viewer`; where it
+    cannot be made, both false-colour maps on one luminance scale) with the ratio map, and
     provenance.
 
     Parameters
