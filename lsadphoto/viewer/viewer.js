@@ -293,7 +293,15 @@
         max: max, illuminance: geometric ? sumE : NaN };
     }
 
+    /** Statistics of a region of map `which` (cached on the region: the maps never change). */
     regionStats(region, which) {
+      const k = which || 0;
+      region.cache = region.cache || {};
+      if (!(k in region.cache)) region.cache[k] = this.computeRegionStats(region, k);
+      return region.cache[k];
+    }
+
+    computeRegionStats(region, which) {
       if (region.shape === "circle") {
         const [row, col, radius] = [region.row, region.col, region.radius];
         const r2 = radius * radius;
