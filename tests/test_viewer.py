@@ -317,6 +317,23 @@ def test_page_of_a_real_map_is_at_most_twice_the_exr(tmp_path):
     assert (tmp_path / "desk.html").stat().st_size <= 2 * exr.stat().st_size
 
 
+def test_page_of_a_small_wide_map_is_at_most_twice_the_exr(tmp_path):
+    # A small wide-angle map (320 × 212 px, 98° across: a grid cell of 8 px spans 2.5°)
+    # with a per-pixel uncertainty, like the quickstart's office map: the page takes a finer
+    # geometry grid rather than storing most pixels exactly.
+    from lsadphoto.geometry import PinholeProjection
+
+    cam = PinholeProjection(140.0, 140.0, 159.5, 105.5, 320, 212)
+    rows, cols = cam.pixel_grid()
+    rng = np.random.default_rng(4)
+    L = (50.0 + 2.0 * cols + rows) * rng.normal(1.0, 0.02, rows.shape)
+    lmap = LuminanceMap(L.astype(np.float32), uncertainty=(0.012 * L).astype(np.float32),
+                        projection=cam, calibrated=True, calibration_uncertainty=0.012)
+    write_exr(lmap, tmp_path / "office.exr")
+    assert main(["view", str(tmp_path / "office.exr"), "-o", str(tmp_path / "v.html")]) == 0
+    assert (tmp_path / "v.html").stat().st_size <= 2 * (tmp_path / "office.exr").stat().st_size
+
+
 def test_bad_inputs_are_one_line_and_write_nothing(tmp_path, capsys):
     garbage = tmp_path / "bad.exr"
     garbage.write_bytes(b"not an exr file")

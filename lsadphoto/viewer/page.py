@@ -20,9 +20,9 @@ file's size on the real maps of ``docs/performance.md``.
 * the Q criterion's contrast map K [rad⁻¹]: float16 (3 significant digits), an overlay;
 * the pixel geometry — direction, solid angle ω [sr] and position index — from
   :func:`~lsadphoto.geometry.pixel_geometry` and :func:`~lsadphoto.geometry.visual_field`
-  on a grid of every :data:`GEOMETRY_STRIDE`-th row and column (plus the last), float32,
-  interpolated bilinearly by the page; the pixels of every grid cell where that misses by
-  more than :data:`GEOMETRY_TOLERANCE` carry their exact values. σ, τ and cos σ follow
+  on a grid of every :data:`GEOMETRY_STRIDE`-th row and column (plus the last; a finer grid
+  for small images), float32, interpolated bilinearly by the page; the pixels of every grid
+  cell where that misses by more than :data:`GEOMETRY_TOLERANCE` carry their exact values. σ, τ and cos σ follow
   from the direction and the observer frame's axes, as
   :meth:`~lsadphoto.geometry.ObserverFrame.angles` defines them. The largest remaining
   error against the package's full-resolution maps, over all valid pixels, is stated on
@@ -58,7 +58,7 @@ from ..luminance_map import LuminanceMap
 __all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "report_viewer", "viewer_assets",
            "viewer_fragment", "write_viewer"]
 
-#: Rows and columns between the embedded geometry samples [px].
+#: Rows and columns between the embedded geometry samples [px] (at most; see _geometry).
 GEOMETRY_STRIDE = 8
 #: Largest interpolation errors accepted in a grid cell (else its pixels are stored
 #: exactly): pixel solid angle (relative: region means and solid angles within 10⁻⁴, ten
@@ -137,7 +137,7 @@ def _cells(n, nodes, stride):
     return i, np.minimum(i + 1, len(nodes) - 1)
 
 
-def _band_errors(full, grids, node_rows, node_cols, cell, rows, frame, field):
+def _band_errors(full, grids, node_rows, node_cols, stride, cell, rows, frame, field):
     """Errors of the page's interpolation at every pixel of the image rows ``rows`` (all in
     grid cell row ``cell``): direction [deg], σ [deg], τ [deg] (NaN within 1° of the line of
     sight, where τ is undefined), solid angle (relative) and position index (absolute), each
@@ -145,7 +145,7 @@ def _band_errors(full, grids, node_rows, node_cols, cell, rows, frame, field):
     then between them."""
     cols = full["dx"].shape[1]
     i, i1 = cell, min(cell + 1, len(node_rows) - 1)
-    j, j1 = _cells(cols, node_cols, GEOMETRY_STRIDE)
+    j, j1 = _cells(cols, node_cols, stride)
     span = np.maximum(node_cols[j1] - node_cols[j], 1)
     tj = np.where(j1 > j, (np.arange(cols) - node_cols[j]) / span, 0.0)
     ti = ((rows - node_rows[i]) / (node_rows[i1] - node_rows[i]) if i1 > i
@@ -171,42 +171,24 @@ def _band_errors(full, grids, node_rows, node_cols, cell, rows, frame, field):
                 "position_index": np.abs(at["position_index"] - field.position_index[rows])}
 
 
-def _geometry(lmap, score, arrays):
-    """Embedded geometry with its interpolation error, or None (no projection).
-
-    Direction, solid angle and position index are sampled every :data:`GEOMETRY_STRIDE` px
-    and interpolated bilinearly; every grid cell in which the interpolation misses any of
-    them by more than :data:`GEOMETRY_TOLERANCE` at any valid pixel (the rim of a fisheye's
-    image circle, the line of sight, the horizon where evalglare's position index changes
-    formula, small images where a cell spans degrees) stores its pixels' exact values
-    instead. σ and τ follow on the page from the direction and the observer's axes
-    (v̂, û, ĥ), as :meth:`~lsadphoto.geometry.ObserverFrame.angles` defines them: they have
-    a cone point at the line of sight that no grid interpolates. The errors stated on the
-    page are the largest over all valid pixels.
-    """
-    if lmap.projection is None:
-        return None
-    frame, method = _frame_of(lmap, score)
-    geometry = pixel_geometry(lmap.projection)
-    field = visual_field(lmap.projection, frame, position_index_method=method)
-    full = {"dx": geometry.directions[..., 0], "dy": geometry.directions[..., 1],
-            "dz": geometry.directions[..., 2], "solid_angle": geometry.solid_angle,
-            "position_index": field.position_index}
-    valid = geometry.valid
+def _grid_plan(full, valid, frame, field, stride):
+    """The node grid of ``stride`` px, the pixels that must be stored exactly (a mask) and
+    the largest errors of the interpolation at the others."""
     rows, cols = valid.shape
-    node_rows, node_cols = _nodes(rows, GEOMETRY_STRIDE), _nodes(cols, GEOMETRY_STRIDE)
+    node_rows, node_cols = _nodes(rows, stride), _nodes(cols, stride)
     ix = np.ix_(node_rows, node_cols)
     grids = {key: np.where(valid[ix], np.asarray(value[ix], dtype=np.float64), 0.0)
              .astype(np.float32) for key, value in full.items()}
-    row_cell, _ = _cells(rows, node_rows, GEOMETRY_STRIDE)
-    col_cell, _ = _cells(cols, node_cols, GEOMETRY_STRIDE)
+    row_cell, _ = _cells(rows, node_rows, stride)
+    col_cell, _ = _cells(cols, node_cols, stride)
     col_starts = np.flatnonzero(np.diff(col_cell, prepend=-1))
     exact = np.zeros((rows, cols), dtype=bool)
     largest = dict.fromkeys(("direction_deg", "sigma_deg", "tau_deg_beyond_1deg",
                              "solid_angle_relative", "position_index"), 0.0)
     for cell in range(int(row_cell[-1]) + 1):
         band = np.flatnonzero(row_cell == cell)
-        errors = _band_errors(full, grids, node_rows, node_cols, cell, band, frame, field)
+        errors = _band_errors(full, grids, node_rows, node_cols, stride, cell, band, frame,
+                              field)
         ok = valid[band]
         bad = ~ok.copy()
         for key, limit in GEOMETRY_TOLERANCE.items():
@@ -221,12 +203,53 @@ def _geometry(lmap, score, arrays):
             values = values[np.isfinite(values)]
             if values.size:
                 largest[key] = max(largest[key], float(values.max()))
+    return node_rows, node_cols, grids, exact, largest
+
+
+def _payload(plan):
+    """Bytes the plan embeds before compression: five float32 per node, and five float32
+    and a uint32 index per exact pixel."""
+    node_rows, node_cols, _, exact, _ = plan
+    return 20 * node_rows.size * node_cols.size + 24 * int(exact.sum())
+
+
+def _geometry(lmap, score, arrays):
+    """Embedded geometry with its interpolation error, or None (no projection).
+
+    Direction, solid angle and position index are sampled every :data:`GEOMETRY_STRIDE` px
+    and interpolated bilinearly; every grid cell in which the interpolation misses any of
+    them by more than :data:`GEOMETRY_TOLERANCE` at any valid pixel (the rim of a fisheye's
+    image circle, the line of sight, the horizon where evalglare's position index changes
+    formula) stores its pixels' exact values instead. Where that leaves more than a tenth of
+    the pixels exact (small images, where a cell spans degrees), the grid is halved while
+    that makes the page smaller. σ and τ follow on the page from the direction and the
+    observer's axes (v̂, û, ĥ), as :meth:`~lsadphoto.geometry.ObserverFrame.angles` defines
+    them: they have a cone point at the line of sight that no grid interpolates. The errors
+    stated on the page are the largest over all valid pixels.
+    """
+    if lmap.projection is None:
+        return None
+    frame, method = _frame_of(lmap, score)
+    geometry = pixel_geometry(lmap.projection)
+    field = visual_field(lmap.projection, frame, position_index_method=method)
+    full = {"dx": geometry.directions[..., 0], "dy": geometry.directions[..., 1],
+            "dz": geometry.directions[..., 2], "solid_angle": geometry.solid_angle,
+            "position_index": field.position_index}
+    valid = geometry.valid
+    stride = GEOMETRY_STRIDE
+    plan = _grid_plan(full, valid, frame, field, stride)
+    while stride > 1 and plan[3].sum() > 0.1 * valid.sum():
+        finer = _grid_plan(full, valid, frame, field, stride // 2)
+        if _payload(finer) >= _payload(plan):
+            break
+        stride, plan = stride // 2, finer
+    node_rows, node_cols, grids, exact, largest = plan
     exact_index = np.flatnonzero(exact)
     exact_values = {key: np.asarray(value.reshape(-1)[exact_index], dtype=np.float32)
                     for key, value in full.items()}
     largest["exact_pixels"] = int(exact_index.size)
     largest["valid_pixels"] = int(valid.sum())
-    return {"stride": GEOMETRY_STRIDE, "node_rows": node_rows.tolist(),
+    return {"stride": stride, "node_rows": node_rows.tolist(),
             "node_cols": node_cols.tolist(),
             "fields": {key: arrays.add(f"geometry.{key}", grids[key], np.float32)
                        for key in full},
