@@ -27,6 +27,23 @@ def realdata(relative):
     return path
 
 
+#: File name endings of camera RAW files looked for by :func:`raw_samples`.
+RAW_SUFFIXES = (".dng", ".arw", ".cr2", ".cr3", ".nef", ".raf", ".orf", ".rw2", ".pef", ".srw")
+
+
+def raw_samples():
+    """Real camera RAW files: ../shared/realdata/raw and the folders in LSADPHOTO_RAW_SAMPLES
+    (``os.pathsep``-separated; files of other people, never part of the repository)."""
+    folders = [REALDATA / "raw"]
+    folders += [Path(p) for p in __import__("os").environ.get("LSADPHOTO_RAW_SAMPLES", "").split(
+        __import__("os").pathsep) if p]
+    found = []
+    for folder in folders:
+        if folder.is_dir():
+            found += sorted(p for p in folder.rglob("*") if p.suffix.lower() in RAW_SUFFIXES)
+    return found
+
+
 @pytest.fixture
 def camera():
     return SyntheticCamera(width=256, height=192)
@@ -81,4 +98,22 @@ def smooth_mask(truth, radius=4, tolerance=0.01):
     return maximum_filter(truth, size) <= (1 + tolerance) * minimum_filter(truth, size)
 
 
-__all__ = ["realdata", "binned_truth", "smooth_mask", "interior_scene"]
+__all__ = ["raw_samples", "realdata", "binned_truth", "smooth_mask", "interior_scene"]
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Count of fuzzed mutants per reader and command (tests/test_fuzz.py records them as the
+    user property ``fuzz_mutants``, which pytest-xdist carries back from its workers)."""
+    counts = {}
+    for reports in terminalreporter.stats.values():
+        for report in reports:
+            if getattr(report, "when", None) != "call":
+                continue
+            for key, value in getattr(report, "user_properties", ()):
+                if key == "fuzz_mutants":
+                    name, n = value
+                    counts[name] = counts.get(name, 0) + n
+    if counts:
+        terminalreporter.write_sep("-", f"fuzz: {sum(counts.values())} mutated files read (per reader and command)")
+        for name in sorted(counts):
+            terminalreporter.write_line(f"{counts[name]:6d}  {name}")

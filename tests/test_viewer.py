@@ -462,3 +462,30 @@ def test_mouse_draws_regions_pins_zooms_and_pans(browser, pages):
         .move_by_offset(30, 20).move_by_offset(30, 20).release().perform()
     assert at(400, 500) == pytest.approx((x + 60, y + 40), abs=1)
     assert _severe(browser) == []
+
+
+@pytest.mark.slow
+def test_band_and_zone_overlays_match_the_score_json(browser, pages, folder):
+    options = ["--band-deg", "20", "--zones", "0.2,-0.3,0.93,30,60"]
+    page, record = folder / "regions.html", folder / "regions.json"
+    assert main(["view", str(pages["exr"]), "-o", str(page), *options]) == 0
+    assert main(["score", str(pages["exr"]), "--output-json", str(record), *options]) == 0
+    record = json.loads(record.read_text())
+    _open(browser, page)
+    sums = browser.execute_script(
+        "const v = window.lsadViewer, out = {band: [0, 0], zone1: [0, 0], zone2: [0, 0]};"
+        "for (let r = 0; r < v.rows; r++) for (let c = 0; c < v.cols; c++) {"
+        "  const b = v.bandAt(r, c), z = v.zoneAt(r, c); if (!b && !z) continue;"
+        "  const w = v.geometryAt(r, c).solidAngle;"
+        "  if (b) { out.band[0] += w; out.band[1] += 1; }"
+        "  if (z) { out['zone' + z][0] += w; out['zone' + z][1] += 1; } }"
+        "return out;")
+    expected = {"band": record["band"], "zone1": record["zones"][0], "zone2": record["zones"][1]}
+    for key, stats in expected.items():
+        omega, count = sums[key]
+        assert count == stats["n_pixels"], key
+        # ω from the page's interpolated geometry (within 10⁻⁴ per pixel).
+        assert omega == pytest.approx(stats["solid_angle"], rel=REGION_TOLERANCE), key
+    text = browser.find_element("css selector", ".lv-tables").text
+    assert "Band and zones" in text and "zone 2" in text
+    assert _severe(browser) == []

@@ -7,5 +7,6 @@ from .._lazy import lazy_exports
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
     ".synthetic": ["SyntheticCamera", "write_dng"],
-    ".scenes": ["interior_scene", "uniform_field", "disk_sources_scene"],
+    ".scenes": ["interior_scene", "uniform_field", "disk_sources_scene",
+                   "window_scene"],
 })

@@ -36,13 +36,16 @@ from numba import njit
 
 from .._validation import check_positive
 
-__all__ = ["GlareSource", "group_sources_evalglare", "DEFAULT_SEARCH_ANGLE",
-           "DEFAULT_PEAK_LUMINANCE"]
+__all__ = ["GlareSource", "group_sources_evalglare", "position_pixel_evalglare",
+           "SOURCE_POSITIONS", "DEFAULT_SEARCH_ANGLE", "DEFAULT_PEAK_LUMINANCE"]
 
 #: evalglare's ``-r`` search opening angle [rad].
 DEFAULT_SEARCH_ANGLE = 0.2
 #: evalglare's peak-extraction limit ``-Y`` [cd·m⁻²].
 DEFAULT_PEAK_LUMINANCE = 50000.0
+#: Where a source's position index is evaluated: evalglare's pixel of the mean pixel
+#: position (default), or the mean direction (see :func:`position_pixel_evalglare`).
+SOURCE_POSITIONS = ("evalglare", "direction")
 
 @dataclass(frozen=True)
 class GlareSource:
@@ -75,6 +78,48 @@ class GlareSource:
     min_luminance: float
     n_pixels: int
     peak: bool = False
+
+
+def position_pixel_evalglare(row, col, shape):
+    """The pixel at which evalglare evaluates a source's position index.
+
+    evalglare keeps each source's L·ω-weighted mean pixel position (``add_pixel_to_gs``,
+    L·ω weights since v2.14) in its own pixel coordinates — x the column, y the row counted
+    from the *bottom* of the picture — and hands it to ``get_posindex(float x, float y)``,
+    whose angle functions (``pict_get_sigma`` …) pass it on to ``pict_get_dir(int x, int y)``:
+    the position is truncated to a pixel, and σ, τ are those of that pixel's centre
+    direction. In our row/column convention (row 0 at the top) that is column ⌊col⌋ and row
+    rows − 1 − ⌊rows − 1 − row⌋ (= ⌈row⌉), with the coordinates rounded to float32 first
+    as the ``float`` parameters do. The result can lie off the valid image (a crescent
+    along a fisheye's rim); it is clipped to the picture.
+
+    Parameters
+    ----------
+    row, col : float
+        L·ω-weighted mean pixel position [px] (:attr:`GlareSource.row`, ``col``).
+    shape : (int, int)
+        Picture shape (rows, cols).
+
+    Returns
+    -------
+    (int, int)
+        Row and column of the pixel.
+
+    Examples
+    --------
+    >>> position_pixel_evalglare(116.85, 295.85, (400, 400))
+    (117, 295)
+
+    References
+    ----------
+    Radiance ``src/util/evalglare.c`` (add_pixel_to_gs, get_posindex) and
+    ``src/util/pictool.c`` (pict_get_sigma, pict_get_tau, pict_get_vangle, pict_get_dir,
+    pict_read_fp: bottom-up rows of a standard ``-Y N +X M`` picture).
+    """
+    rows, cols = (int(n) for n in shape)
+    y = math.floor(float(np.float32(rows - 1 - float(row))))
+    x = math.floor(float(np.float32(float(col))))
+    return min(max(rows - 1 - y, 0), rows - 1), min(max(x, 0), cols - 1)
 
 
 def _chord(angle):

@@ -15,8 +15,9 @@ file's size on the real maps of ``docs/performance.md``.
 
 * luminance (and its per-pixel standard uncertainty where the map has one): float32, every
   pixel — the probe and the regions read these exact values;
-* the validity of every pixel's geometry (uint8) and the glare-source labels (uint16 or
-  uint32, 0 = no source) of :func:`~lsadphoto.metrics.score.score_map`;
+* the validity of every pixel's geometry (uint8), the glare-source labels (uint8, 16 or 32,
+  0 = no source) of :func:`~lsadphoto.metrics.score.score_map`, and its evalglare band and
+  zones where it was asked for them (uint8);
 * the Q criterion's contrast map K [rad⁻¹]: float16 (3 significant digits), an overlay;
 * the pixel geometry — direction, solid angle ω [sr] and position index — from
   :func:`~lsadphoto.geometry.pixel_geometry` and :func:`~lsadphoto.geometry.visual_field`
@@ -277,8 +278,42 @@ def _json_safe(value):
     return value
 
 
-def _score_record(score, arrays, prefix):
-    """Sources, values and (from a :class:`Score`) the label and contrast maps."""
+def _regions(lmap, record, arrays, prefix):
+    """evalglare's band and zones of the score (``band_deg``, ``zones`` in its settings) as
+    pixel maps, drawn by the package's own :func:`~lsadphoto.metrics.regions.band_region`
+    and :func:`~lsadphoto.metrics.regions.zone_map` over the pixels the score evaluated
+    (valid geometry, finite luminance, in front of the observer), with the score's
+    statistics of them."""
+    settings = record.get("settings") or {}
+    band_deg, zones = settings.get("band_deg"), settings.get("zones")
+    if lmap.projection is None or (band_deg is None and not zones):
+        return {}
+    from ..metrics.analyses import centre_direction
+    from ..metrics.regions import band_region, zone_map
+
+    frame, method = _frame_of(lmap, record)
+    geometry = pixel_geometry(lmap.projection)
+    field = visual_field(lmap.projection, frame, position_index_method=method)
+    valid = geometry.valid & np.isfinite(lmap.luminance) & (field.cos_sigma >= 0)
+    out = {}
+    if band_deg is not None:
+        band = band_region(geometry.directions, valid, half_width=math.radians(band_deg))
+        out["band"] = arrays.add(f"{prefix}.band", band, np.uint8)
+        out["band_deg"] = float(band_deg)
+        out["band_stats"] = _json_safe(record.get("band"))
+    if zones:
+        centre = centre_direction(zones["centre"], lmap.projection, "zone centre")
+        opening = np.radians(np.atleast_1d(np.asarray(zones["opening_deg"], dtype=float)))
+        zone = zone_map(geometry.directions, valid, centre, opening_angles=opening)
+        out["zones"] = arrays.add(f"{prefix}.zones", zone, np.uint8)
+        out["zone_opening_deg"] = _json_safe(list(zones["opening_deg"]))
+        out["zone_stats"] = _json_safe(record.get("zones"))
+    return out
+
+
+def _score_record(score, lmap, arrays, prefix):
+    """Sources, values, band and zones and (from a :class:`Score`) the label and contrast
+    maps."""
     if score is None:
         return None
     record = score.to_dict() if hasattr(score, "to_dict") else score
@@ -300,6 +335,7 @@ def _score_record(score, arrays, prefix):
         if positive.size:
             low, high = np.percentile(positive, [1.0, 99.9])
             out["contrast_range"] = [float(low), float(max(high, low * 10))]
+    out.update(_regions(lmap, record, arrays, prefix))
     return out
 
 
@@ -318,7 +354,7 @@ def _map_record(lmap, name, score, arrays, prefix):
         "log_average": float(np.exp(np.mean(np.log(finite)))) if finite.size else 1.0,
         "source": str(lmap.provenance.get("source", "")) if isinstance(lmap.provenance, dict)
         else "",
-        "score": _score_record(score, arrays, prefix),
+        "score": _score_record(score, lmap, arrays, prefix),
     }
     return record
 
