@@ -393,6 +393,9 @@ def test_survey_report_embeds_a_viewer_per_view(browser, pages, folder):
     (survey / "metrics.csv").write_text("view,ugr_pixel\nv1,12.5\n", encoding="utf-8")
     shutil.copy(pages["exr"], view / "v1.exr")
     (view / "v1-score.json").write_text(json.dumps(pages["score"]), encoding="utf-8")
+    # The view's done marker lists its files (lsadphoto.survey.ViewLayout).
+    (view / "v1-done.json").write_text(json.dumps(
+        {"outputs": {"exr": "v1.exr", "score": "v1-score.json"}}), encoding="utf-8")
     report = write_survey_report(survey)
     text = report.read_text(encoding="utf-8")
     assert text.count('class="lsad-viewer"') == 1 and 'data-lazy="yes"' in text
