@@ -758,10 +758,9 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
             cos_x = np.einsum("ij,ij->i", w, nx)
             is_cos = src["kind"] == KIND_COSINE
             g = np.where(is_cos, -np.einsum("ij,ij->i", w, src["normal"]), 0.0)
-            for li, lum in enumerate(scene.point_luminaires):
-                m = (src["kind"] == KIND_POINT) & (src["luminaire"] == li)
-                if m.any():
-                    g[m] = lum.intensity(-w[m])
+            pt = np.flatnonzero(src["kind"] == KIND_POINT)
+            if pt.size:
+                g[pt] = sampler.point_intensity(src["luminaire"][pt], -w[pt])
             ok = (cos_x > 0) & (g > 0) & (rho > 0)
             if ok.any():
                 tgt = src["position"][ok] + eps * src["normal"][ok] * is_cos[ok, None]
