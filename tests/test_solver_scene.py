@@ -234,3 +234,19 @@ def test_emission_sampler_vectorised_over_luminaires():
     want = [scene.point_luminaires[k].intensity(d[None])[0] for k, d in zip(which, dirs)]
     np.testing.assert_allclose(got, want, rtol=1e-12)
     assert len(sampler.tables) == 4  # isotropic tables are made per luminaire
+
+
+def test_luminaires_of_one_file_share_its_table(tmp_path):
+    from lsadphoto.solver.chains import EmissionSampler
+
+    ies = tmp_path / "a.ies"
+    from lsadphoto.datasets.design import write_ies_cosine
+
+    write_ies_cosine(ies, exponent=2, flux=1000.0, length=0.2, width=0.2)
+    scene = scene_from_dict({
+        "materials": {"w": {"reflectance": 0.5}},
+        "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [6, 4, 3], "facing": "inward", "material": "w"}],
+        "luminaires": [{"type": "point", "position": [1.0 + k, 2.0, 2.9], "photometry": "a.ies"} for k in range(5)],
+    }, base=tmp_path)
+    assert len({id(l.table) for l in scene.point_luminaires}) == 1
+    assert len(EmissionSampler(scene).tables) == 1
