@@ -590,6 +590,7 @@ def scene_from_dict(data, *, base=None, photometry_reader=None):
             mat_list.append(np.full(len(tris), mat))
             emit_list.append(np.full(len(tris), -1))
     area_lums, point_lums = [], []
+    tables = {}
     luminaires = data.get("luminaires", [])
     if not isinstance(luminaires, list):
         raise BadInputError("luminaires must be an array of tables ([[luminaires]])")
@@ -635,7 +636,10 @@ def scene_from_dict(data, *, base=None, photometry_reader=None):
                 table = IntensityTable.isotropic(
                     _number(spec["flux"], f"{ctx} flux", positive=True) / (4 * math.pi))
             else:
-                table, extent = _photometry_table(spec["photometry"], ctx, base, photometry_reader)
+                key = (str(Path(base or ".") / spec["photometry"]), photometry_reader)
+                if key not in tables:  # luminaires of one file share its table (one draw each)
+                    tables[key] = _photometry_table(spec["photometry"], ctx, base, photometry_reader)
+                table, extent = tables[key]
             if "extent" in spec:
                 ext = spec["extent"]
                 if not (isinstance(ext, list) and len(ext) == 2):
