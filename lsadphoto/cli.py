@@ -597,8 +597,8 @@ def build_parser():
     sc.add_argument("--noise-samples", type=int, default=256,
                     help="draws of the field sums for the per-pixel noise of maps that carry a "
                          "per-pixel uncertainty (0: off; default 256)")
-    sc.add_argument("--q-noise-samples", type=int, default=4,
-                    help="resampled maps for Q's noise and bias (0: off; default 4)")
+    sc.add_argument("--q-noise-samples", type=int, default=8,
+                    help="resampled maps for Q's noise and bias (0: off; default 8)")
     sc.add_argument("--sources-png", metavar="OUT.png", help="write the glare-source map")
     sc.add_argument("--contrast-png", metavar="OUT.png", help="write the Q contrast map")
     sc.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
