@@ -80,8 +80,8 @@ def test_linear_metrics_have_the_analytic_variance(camera, truth):
     field = np.isfinite(truth) & (w > 0) & (d[..., 2] >= 0)
     var_e = np.sum((sigma * d[..., 2] * w)[field] ** 2)
     var_mean = np.sum((sigma * w)[field] ** 2) / np.sum(w[field]) ** 2
-    # 4000 draws: the sample standard deviation is within 1/√(2·3999) = 1.1 % (one σ) of
-    # the true one; 5 % is 4.5σ.
+    # 2000 antithetic pairs: the sample standard deviation is within 1/√(2·2000) = 1.6 %
+    # (one σ) of the true one; 5 % is 3σ.
     assert score.uncertainty_noise["vertical_illuminance"] == pytest.approx(math.sqrt(var_e),
                                                                             rel=0.05)
     assert score.uncertainty_noise["mean_luminance"] == pytest.approx(math.sqrt(var_mean),
