@@ -39,11 +39,35 @@ def _print_json(record):
     print(_json_text(record))
 
 
-def _write_json(path, record):
-    """Write ``record`` as JSON to ``path``, atomically (``--output-json``)."""
-    from .io._atomic import atomic_text
+class _Choices:
+    """Valid values of an option, defined in the library (``module.name``) and imported only
+    when argparse checks a value or prints help, so that ``lsadphoto`` starts fast."""
 
-    atomic_text(path, _json_text(record))
+    def __init__(self, module, name):
+        self.module, self.name = module, name
+
+    def _values(self):
+        import importlib
+
+        return getattr(importlib.import_module(self.module), self.name)
+
+    def __contains__(self, value):
+        return value in self._values()
+
+    def __iter__(self):
+        return iter(self._values())
+
+
+def _given(**options):
+    """The options given on the command line; the others take the library's defaults."""
+    return {k: v for k, v in options.items() if v is not None}
+
+
+def _plan(files, folders=None):
+    """The command's outputs, checked before any work (lsadphoto._atomic)."""
+    from ._atomic import plan_outputs
+
+    return plan_outputs(files, folders=folders)
 
 
 def _load_profile(path):
@@ -54,27 +78,24 @@ def _load_profile(path):
 
 def cmd_luminance(args):
     from .calibrate.spot import SpotReading
-    from .io import atomic_outputs, write_exr, write_false_colour_png, write_hdr
+    from .io import write_exr, write_false_colour_png, write_hdr
     from .luminance import luminance_from_raw
     from .raw.decode import read_dark_frame
 
-    angle = np.deg2rad(args.acceptance_angle_deg)
-    spots = [SpotReading.parse(s, acceptance_angle=angle) for s in args.spot or []]
-    outputs = {"exr": Path(args.output)}
-    if outputs["exr"].suffix.lower() != ".exr":
+    if Path(args.output).suffix.lower() != ".exr":
         raise BadInputError(f"output {args.output} must end in .exr")
-    if args.hdr:
-        outputs["hdr"] = Path(args.hdr)
-    if args.png:
-        outputs["png"] = Path(args.png)
+    plan = _plan({"exr": args.output, "hdr": args.hdr, "png": args.png})
+    outputs = plan.files
+    angle = {} if args.acceptance_angle_deg is None else {"acceptance_angle": np.deg2rad(args.acceptance_angle_deg)}
+    spots = [SpotReading.parse(s, **angle) for s in args.spot or []]
     dark = read_dark_frame(args.dark_frame) if args.dark_frame else None
     result = luminance_from_raw(
-        args.raw, spots=spots, profile=_load_profile(args.profile), demosaic=args.demosaic,
-        colour_method=args.colour_method, dark_frame=dark,
+        args.raw, spots=spots, profile=_load_profile(args.profile), dark_frame=dark,
+        **_given(demosaic=args.demosaic, colour_method=args.colour_method),
     )
     writers = {"exr": write_exr, "hdr": write_hdr, "png": write_false_colour_png}
-    with atomic_outputs(*outputs.values()) as temps:
-        for (kind, _), temp in zip(outputs.items(), temps):
+    with plan.write() as temps:
+        for kind, temp in temps.items():
             writers[kind](result.map, temp)
     summary = dict(result.summary, outputs={k: str(v) for k, v in outputs.items()})
     if args.json:
@@ -90,11 +111,13 @@ def cmd_luminance(args):
 
 
 def cmd_calibrate_vignetting(args):
+    from ._provenance import timestamp
     from .calibrate.profile import CameraProfile, save_profile
     from .calibrate.vignetting import fit_vignetting_polynomial
     from .raw.decode import decode_raw
 
-    frames = [decode_raw(p, demosaic=args.demosaic) for p in args.flat]
+    plan = _plan({"profile": args.output})
+    frames = [decode_raw(p, **_given(demosaic=args.demosaic)) for p in args.flat]
     shape = frames[0].sensor_shape
     for f in frames[1:]:
         if f.sensor_shape != shape:
@@ -102,12 +125,13 @@ def cmd_calibrate_vignetting(args):
     rgb = np.mean([f.rgb for f in frames], axis=0)
     saturated = np.any([f.saturated.any(axis=-1) for f in frames], axis=0)
     model = fit_vignetting_polynomial(rgb.sum(axis=-1), shape, binning=frames[0].binning,
-                                      degree=args.degree, saturated=saturated)
+                                      saturated=saturated, **_given(degree=args.degree))
     profile = _load_profile(args.profile) or CameraProfile(id=args.id or "vignetting-fit")
     profile.vignetting = model
-    profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__} from "
+    profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__}, {timestamp()}: from "
                               + ", ".join(Path(p).name for p in args.flat))
-    save_profile(profile, args.output)
+    with plan.write() as temps:
+        save_profile(profile, temps["profile"])
     record = {"output": args.output, "coefficients": model.coefficients, "rms_residual": model.rms_residual,
               "frames": [str(p) for p in args.flat]}
     if args.json:
@@ -121,21 +145,24 @@ def cmd_calibrate_vignetting(args):
 
 def cmd_calibrate_geometry(args):
     from .calibrate.geometric import calibrate_geometry, parse_pattern
+    from ._provenance import timestamp
     from .calibrate.profile import CameraProfile, save_profile
 
-    result = calibrate_geometry(args.images, pattern=parse_pattern(args.pattern), model=args.model)
+    plan = _plan({"profile": args.output})
+    result = calibrate_geometry(args.images, pattern=parse_pattern(args.pattern), **_given(model=args.model))
     profile = _load_profile(args.profile) or CameraProfile(id=args.id or "geometry-fit")
     profile.lens_projection = result.projection
     profile.width, profile.height = result.width, result.height
     profile.provenance = dict(profile.provenance, geometry_fit=(
-        f"lsadphoto {__version__}: {args.model} model, pattern {result.pattern}, RMS {result.rms_px:.3f} px, "
+        f"lsadphoto {__version__}, {timestamp()}: {result.model} model, pattern {result.pattern}, RMS {result.rms_px:.3f} px, "
         f"{len(result.summary()['used_images'])} views"))
-    save_profile(profile, args.output)
+    with plan.write() as temps:
+        save_profile(profile, temps["profile"])
     summary = dict(result.summary(), output=args.output)
     if args.json:
         _print_json(summary)
     else:
-        print(f"wrote {args.output}: {args.model} model, RMS {result.rms_px:.3f} px, "
+        print(f"wrote {args.output}: {result.model} model, RMS {result.rms_px:.3f} px, "
               f"{len(summary['used_images'])} views used, {len(summary['rejected_images'])} rejected")
         for item in summary["rejected_images"]:
             print(f"  rejected {item['name']}: {item['reason']}")
@@ -175,8 +202,8 @@ def _format(value, digits=3):
 def cmd_score(args):
     from .io import read_map
     from .metrics.score import score_map
-    from .report import write_contrast_png, write_glare_source_png
 
+    plan = _plan({"sources": args.sources_png, "contrast": args.contrast_png, "json": args.output_json})
     lmap = read_map(args.map)
     if lmap.projection is None:
         raise BadInputError(f"{args.map} has no camera geometry (no VIEW= line or lsadphoto metadata)")
@@ -196,12 +223,17 @@ def cmd_score(args):
     )
     record = score.to_dict()
     record["provenance"]["input"] = str(args.map)
-    if args.sources_png:
-        write_glare_source_png(lmap.luminance, score.source_labels, args.sources_png)
-    if args.contrast_png:
-        write_contrast_png(score.contrast, args.contrast_png)
-    if args.output_json:
-        _write_json(args.output_json, record)
+    with plan.write() as temps:
+        if "sources" in temps:
+            from .report import write_glare_source_png
+
+            write_glare_source_png(lmap.luminance, score.source_labels, temps["sources"])
+        if "contrast" in temps:
+            from .report import write_contrast_png
+
+            write_contrast_png(score.contrast, temps["contrast"])
+        if "json" in temps:
+            temps["json"].write_text(_json_text(record), encoding="utf-8")
     if args.json:
         _print_json(record)
     else:
@@ -249,21 +281,23 @@ def _bias_matters(bias, record, key):
 def cmd_compare(args):
     from .compare import compare_maps
     from .io import read_map
-    from .report import write_ratio_png
+    from .report import write_comparison_report, write_ratio_png
 
+    plan = _plan({"ratio": args.ratio_png, "report": args.report, "json": args.output_json})
     photo, model = read_map(args.photo), read_map(args.model)
     result = compare_maps(photo, model,
                           line_of_sight=_line_of_sight(args.line_of_sight, photo) if photo.projection else None)
     record = result.to_dict()
     record["inputs"] = {"photo": str(args.photo), "model": str(args.model)}
-    if args.ratio_png:
-        write_ratio_png(result.ratio, args.ratio_png)
     if args.report:
-        from .report import write_comparison_report
-
-        record["report"] = str(write_comparison_report(result, args.report, photo=photo, model=model))
-    if args.output_json:
-        _write_json(args.output_json, record)
+        record["report"] = str(args.report)
+    with plan.write() as temps:
+        if "ratio" in temps:
+            write_ratio_png(result.ratio, temps["ratio"])
+        if "report" in temps:
+            write_comparison_report(result, temps["report"], photo=photo, model=model)
+        if "json" in temps:
+            temps["json"].write_text(_json_text(record), encoding="utf-8")
     if args.json:
         _print_json(record)
     else:
@@ -277,23 +311,56 @@ def cmd_compare(args):
     return 0
 
 
+def cmd_view(args):
+    from .io import read_map
+    from .metrics.score import score_map
+    from .viewer import check_same_geometry, write_viewer
+
+    output = Path(args.output)
+    if output.suffix.lower() not in (".html", ".htm"):
+        raise BadInputError(f"output {args.output} must end in .html")
+    first = read_map(args.map)
+    second = read_map(args.map2) if args.map2 else None
+    if second is not None:
+        check_same_geometry(first, second, names=(str(args.map), str(args.map2)))
+    scores = [None, None]
+    if not args.no_score:
+        scores = [score_map(m) if m is not None and m.projection is not None else None
+                  for m in (first, second)]
+    names = (args.name or Path(args.map).stem,
+             args.name2 or (Path(args.map2).stem if args.map2 else "second"))
+    write_viewer(first, output, second=second, score=scores[0], second_score=scores[1],
+                 names=names, title=args.title)
+    record = {"output": str(output), "bytes": output.stat().st_size,
+              "maps": [str(args.map)] + ([str(args.map2)] if args.map2 else []),
+              "scored": [s is not None for s in scores[:1 + (second is not None)]]}
+    if args.json:
+        _print_json(record)
+    else:
+        print(f"wrote {output} ({record['bytes'] / 1e6:.1f} MB)")
+    return 0
+
+
 def cmd_study(args):
     from .study import run_study
 
+    report = Path(args.report) / "report.html" if args.report else None
+    plan = _plan({"report": report, "json": args.output_json}, folders={"figures": args.figures})
     result = run_study(args.ratings, args.metrics, metric=args.metric,
                        sweep_prefix=args.sweep_prefix or None, jitter=args.jitter,
                        n_jitter=args.n_jitter, n_bootstrap=args.n_bootstrap,
-                       confidence=args.confidence, seed=args.seed, direction=args.direction)
+                       confidence=args.confidence, seed=args.seed, **_given(direction=args.direction))
     record = result.to_dict()
-    if args.figures:
-        Path(args.figures).mkdir(parents=True, exist_ok=True)
-        record["figures"] = [str(p) for p in result.figures(args.figures)]
-    if args.report:
-        from .report import write_survey_report
+    with plan.write() as temps:
+        if "figures" in temps:
+            record["figures"] = [str(Path(args.figures) / p.name) for p in result.figures(temps["figures"])]
+        if "report" in temps:
+            from .report import write_survey_report
 
-        record["report"] = str(write_survey_report(args.report, study=result))
-    if args.output_json:
-        _write_json(args.output_json, record)
+            write_survey_report(args.report, temps["report"], study=result)
+            record["report"] = str(report)
+        if "json" in temps:
+            temps["json"].write_text(_json_text(record), encoding="utf-8")
     if args.json:
         _print_json(record)
         return 0
@@ -322,13 +389,15 @@ def cmd_study(args):
 
 
 def cmd_survey(args):
-    from .survey import run_survey
+    from .survey import check_score_options, run_survey
 
     score_options = {}
     if args.N is not None:
         score_options["n_thresholds"] = args.N
     if args.alpha_arcmin is not None:
         score_options["size_arcmin"] = args.alpha_arcmin
+    # Checked here to name the options as the user gave them; run_survey checks them again.
+    score_options = check_score_options(score_options, source="--N/--alpha-arcmin")
     result = run_survey(args.manifest, args.output, workers=args.workers, dask_address=args.dask,
                         progress=not args.quiet, score_options=score_options or None)
     report = None
@@ -362,18 +431,20 @@ def cmd_simulate(args):
     from ._progress import progress_callback
     from .solver import simulate
 
+    plan = _plan({"store": args.output})
     if args.samples is None and args.target_error is None:
         args.samples = 65536
     scene = _load_any_scene(args.scene)
     callback, close = progress_callback("simulating", enabled=False if args.quiet else None)
     try:
         store = simulate(scene, samples=args.samples, target_error=args.target_error, seed=args.seed,
-                         near_field=args.near_field, progress=callback)
+                         progress=callback, **_given(near_field=args.near_field))
     finally:
         close()
     if args.surface_cache:
         store.surface_cache = _build_cache(store, args)
-    store.save(args.output)
+    with plan.write() as temps:
+        store.save(temps["store"])
     record = {"output": str(args.output), "scene": str(args.scene), "chains": store.chains,
               "nodes": store.nodes, "provenance": store.provenance}
     if args.json:
@@ -413,9 +484,10 @@ def _render_pose(args, scene):
         return projection, position, rotation
     if args.profile:
         profile = _load_profile(args.profile)
-        projection = profile.lens_projection
-        if projection is None:
-            raise BadInputError(f"profile {args.profile} has no lens model")
+        if not (profile.width and profile.height):
+            raise BadInputError(f"profile {args.profile} gives no image size (sensor.width_px, sensor.height_px)")
+        # The calibrated lens model, or the nominal pinhole of [lens_model] focal_length_mm.
+        projection = profile.projection((profile.height, profile.width))
         if args.size:
             width, height = _size(args.size)
             factor = projection.width // width
@@ -453,9 +525,13 @@ def _size(text):
 
 def cmd_render(args):
     from ._progress import progress_callback
-    from .io import atomic_outputs, write_exr, write_hdr
+    from .io import write_exr, write_hdr
     from .solver import LsadStore, load_store, render
 
+    if Path(args.output).suffix.lower() != ".exr":
+        raise BadInputError(f"output {args.output} must end in .exr")
+    plan = _plan({"exr": args.output, "hdr": args.hdr})
+    outputs = plan.files
     source = Path(args.source)
     if source.suffix.lower() == ".npz":
         store_or_scene = load_store(source)
@@ -463,11 +539,6 @@ def cmd_render(args):
     else:
         store_or_scene = scene = _load_any_scene(source)
     projection, position, rotation = _render_pose(args, scene)
-    outputs = {"exr": Path(args.output)}
-    if outputs["exr"].suffix.lower() != ".exr":
-        raise BadInputError(f"output {args.output} must end in .exr")
-    if args.hdr:
-        outputs["hdr"] = Path(args.hdr)
     nodes = args.nodes_per_pixel
     if nodes not in ("auto", "all"):
         try:
@@ -495,8 +566,8 @@ def cmd_render(args):
     finally:
         close()
     writers = {"exr": write_exr, "hdr": write_hdr}
-    with atomic_outputs(*outputs.values()) as temps:
-        for (kind, _), temp in zip(outputs.items(), temps):
+    with plan.write() as temps:
+        for kind, temp in temps.items():
             writers[kind](lmap, temp)
     record = {"outputs": {k: str(v) for k, v in outputs.items()}, "provenance": lmap.provenance}
     if args.json:
@@ -518,9 +589,9 @@ def _add_cache_options(sub):
 
 
 def build_parser():
-    from .raw.colour import COLOUR_METHODS
-    from .raw.decode import DEMOSAIC_METHODS
+    from .constants import LS100_ACCEPTANCE_ANGLE
 
+    demosaic = _Choices("lsadphoto.raw.methods", "DEMOSAIC_METHODS")
     parser = argparse.ArgumentParser(prog=PROG, description="Calibrated luminance maps from RAW photographs.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
@@ -530,11 +601,13 @@ def build_parser():
     lum.add_argument("raw", nargs="+", help="RAW file, or several forming an exposure bracket")
     lum.add_argument("--spot", action="append", metavar="ROW,COL,CD_M2",
                      help="spot-meter reading at a full-resolution pixel (repeatable)")
-    lum.add_argument("--acceptance-angle-deg", type=float, default=1.0,
-                     help="spot meter acceptance angle, full cone [deg] (LS-100: 1)")
+    lum.add_argument("--acceptance-angle-deg", type=float,
+                     help=f"spot meter acceptance angle, full cone [deg] (default: LS-100, "
+                          f"{np.rad2deg(LS100_ACCEPTANCE_ANGLE):g})")
     lum.add_argument("--profile", help="camera profile (TOML)")
-    lum.add_argument("--demosaic", choices=DEMOSAIC_METHODS, default="superpixel")
-    lum.add_argument("--colour-method", choices=COLOUR_METHODS, default="auto")
+    lum.add_argument("--demosaic", choices=demosaic, help="demosaicing (default: the first)")
+    lum.add_argument("--colour-method", choices=_Choices("lsadphoto.raw.colour", "COLOUR_METHODS"),
+                     help="camera RGB → XYZ source (default: the first)")
     lum.add_argument("--dark-frame", action="append", metavar="RAW", help="dark frame(s) for a black-level map")
     lum.add_argument("-o", "--output", required=True, help="output OpenEXR map (.exr)")
     lum.add_argument("--hdr", help="also write a Radiance HDR map")
@@ -549,8 +622,8 @@ def build_parser():
     vig.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
     vig.add_argument("--profile", help="profile to start from (its other sections are kept)")
     vig.add_argument("--id", help="profile id when no --profile is given")
-    vig.add_argument("--degree", type=int, default=3, help="number of even polynomial terms")
-    vig.add_argument("--demosaic", choices=DEMOSAIC_METHODS, default="superpixel")
+    vig.add_argument("--degree", type=int, help="number of even polynomial terms (default 3, at most 6)")
+    vig.add_argument("--demosaic", choices=demosaic, help="demosaicing (default: the first)")
     vig.add_argument("--json", action="store_true")
     vig.set_defaults(func=cmd_calibrate_vignetting)
     geo = calsub.add_parser("geometry", help="calibrate the camera geometry from chessboard or ChArUco images (OpenCV)")
@@ -560,7 +633,8 @@ def build_parser():
                           "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT] (squares, square and marker "
                           "sides [mm], ArUco dictionary, default DICT_5X5_100); e.g. chessboard:9x6:25, "
                           "charuco:9x6:35:26")
-    geo.add_argument("--model", choices=("pinhole", "fisheye"), default="pinhole")
+    geo.add_argument("--model", choices=_Choices("lsadphoto.calibrate.geometric", "MODELS"),
+                     help="camera model (default: the first)")
     geo.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
     geo.add_argument("--profile", help="profile to start from (its other sections are kept)")
     geo.add_argument("--id", help="profile id when no --profile is given")
@@ -573,7 +647,7 @@ def build_parser():
                     help="line of sight in the camera frame (x right, y down, z forward) or through "
                          "an image point; default the map's, else the optical axis")
     sc.add_argument("--up", metavar="X,Y,Z", help="view-up vector in the camera frame (default camera up)")
-    sc.add_argument("--source-method", choices=("fixed", "task", "mean", "contrast"), default="fixed",
+    sc.add_argument("--source-method", choices=_Choices("lsadphoto.metrics.sources", "SOURCE_METHODS"), default="fixed",
                     help="glare-source rule (default: fixed threshold)")
     sc.add_argument("--threshold", type=float,
                     help="glare-source threshold [cd/m²] (fixed, default 2000) or factor (task, mean; default 5)")
@@ -582,9 +656,11 @@ def build_parser():
     sc.add_argument("--search-angle", type=float, default=0.2, help="evalglare -r grouping opening angle [rad]")
     sc.add_argument("--peak-luminance", type=float, default=50000.0, help="peak-extraction limit [cd/m²]")
     sc.add_argument("--no-peak-extraction", action="store_true")
-    sc.add_argument("--background", choices=("CIE", "mean", "Ev"), default="CIE", help="background luminance definition")
-    sc.add_argument("--position-index", choices=("evalglare", "Guth", "Kim2011"), default="evalglare")
-    sc.add_argument("--source-position", choices=("evalglare", "direction"), default="evalglare",
+    sc.add_argument("--background", choices=_Choices("lsadphoto.metrics.field", "BACKGROUND_METHODS"),
+                    default="CIE", help="background luminance definition")
+    sc.add_argument("--position-index", choices=_Choices("lsadphoto.geometry.position_index", "METHODS"),
+                    default="evalglare")
+    sc.add_argument("--source-position", choices=_Choices("lsadphoto.metrics.grouping", "SOURCE_POSITIONS"), default="evalglare",
                     help="where a source's position index is taken: evalglare's pixel of its "
                          "L·ω-weighted mean pixel position (default, as evalglare 3.06), or its "
                          "L·ω-weighted mean direction")
@@ -615,13 +691,26 @@ def build_parser():
     cmp_.add_argument("--json", action="store_true", help="print the JSON record")
     cmp_.set_defaults(func=cmd_compare)
 
+    vw = sub.add_parser("view", help="interactive luminance viewer: one self-contained HTML file")
+    vw.add_argument("map", help="luminance map (.exr or .hdr)")
+    vw.add_argument("map2", nargs="?", help="a second map of the same view and camera geometry "
+                    "(e.g. the model of the photo), shown side by side and as a ratio")
+    vw.add_argument("-o", "--output", required=True, help="HTML file to write")
+    vw.add_argument("--title", help="heading of the page (default: the first map's name)")
+    vw.add_argument("--name", help="name of the first map (default: its file name)")
+    vw.add_argument("--name2", help="name of the second map (default: its file name)")
+    vw.add_argument("--no-score", action="store_true",
+                    help="leave out the metrics overlays (glare sources, Q contrast map)")
+    vw.add_argument("--json", action="store_true", help="print a JSON summary")
+    vw.set_defaults(func=cmd_view)
+
     st = sub.add_parser("study", help="correlate observers' ratings with metrics (the paper's analyses)")
     st.add_argument("ratings", help="RATINGS.csv: scene, observer, rating")
     st.add_argument("metrics", help="METRICS.csv: scene and metric columns (the survey's metrics.csv)")
     st.add_argument("--metric", default="q", help="metric analysed in detail (default q)")
     st.add_argument("--sweep-prefix", default="q_n", help="prefix of the Q(N) sweep columns ('' for none)")
-    st.add_argument("--direction", choices=("positive", "negative", "either"), default="positive",
-                    help="which correlation counts as best in the N sweep")
+    st.add_argument("--direction", choices=_Choices("lsadphoto.study.selection", "DIRECTIONS"),
+                    help="which correlation counts as best in the N sweep (default: the first)")
     st.add_argument("--jitter", type=float, default=0.25, help="half-width of the rating jitter")
     st.add_argument("--n-jitter", type=int, default=10000, help="jitter repetitions")
     st.add_argument("--n-bootstrap", type=int, default=10000, help="bootstrap resamples")
@@ -653,8 +742,8 @@ def build_parser():
     sim.add_argument("--target-error", type=float,
                      help="stop at this relative standard error of the scene's mean luminance (e.g. 0.01)")
     sim.add_argument("--seed", type=int, default=0)
-    sim.add_argument("--near-field", choices=("unbiased", "clamp"), default="unbiased",
-                     help="near-field treatment (clamp is biased and reported as such)")
+    sim.add_argument("--near-field", choices=_Choices("lsadphoto.solver.rendering", "NEAR_FIELD_TREATMENTS"),
+                     help="near-field treatment (default: the first; clamp is biased and reported as such)")
     _add_cache_options(sim)
     sim.add_argument("--surface-cache", action="store_true",
                      help="also store the indirect illuminance on the surfaces (render --estimator cache)")

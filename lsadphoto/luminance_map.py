@@ -20,7 +20,9 @@ class LuminanceMap:
     ----------
     luminance : array_like, shape (rows, cols)
         Luminance [cd·m⁻²], stored as float32; NaN where unknown (saturated beyond
-        recovery, outside the image circle).
+        recovery, outside the image circle). Values are signed: a measured map keeps the
+        slightly negative values of noise around zero, so that means over dark regions are
+        unbiased; ``uncertainty`` says where a pixel is noise.
     uncertainty : array_like, shape (rows, cols), optional
         Standard uncertainty of each pixel's luminance [cd·m⁻²] (calibration and noise
         combined); NaN where unknown.
@@ -54,8 +56,6 @@ class LuminanceMap:
         self.luminance = check_array(self.luminance, "luminance", ndim=2, dtype=STORAGE_DTYPE)
         if self.luminance.size == 0:
             raise BadInputError("luminance map is empty")
-        if np.any(self.luminance < 0):
-            raise BadInputError("luminance map has negative values")
         if np.any(np.isinf(self.luminance)):
             raise BadInputError("luminance map has infinite values")
         if self.uncertainty is not None:

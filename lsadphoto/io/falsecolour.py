@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from ._atomic import atomic_path
+from .._atomic import atomic_path
 
 
 def false_colour_range(luminance):
@@ -59,4 +59,6 @@ def write_false_colour_png(lmap, path, *, luminance_range=None, title=None, colo
         label += " (uncalibrated)"
     ax.set_title(label, fontsize=10)
     with atomic_path(path) as temp:
-        fig.savefig(temp, format="png")
+        fig.savefig(temp, format="png", metadata={"Comment": (
+            "false colour; luminance <= 0 (noise around zero) shown at the legend's lower end; "
+            "the OpenEXR map keeps signed values")})

@@ -7,7 +7,7 @@ two pixels share a source exactly when a chain of source pixels links them in wh
 step is at most r/2 apart (r the ``-r`` search *opening* angle, 0.2 rad by default; the
 code tests 2·arccos(d̂₁·d̂₂) ≤ r). That fixed point is single-linkage clustering at an
 angular distance of r/2, which this module computes directly: links between neighbouring
-pixels plus, through a k-d tree on the unit directions, links between boundary pixels of
+pixels plus, through a grid of cubes on the unit directions, links between boundary pixels of
 different patches (the closest pair of two patches always includes a boundary pixel). It
 does not depend on scan order, which evalglare's merge rule (a source moves into a *larger*
 one) only affects for exact ties in solid angle.
@@ -33,7 +33,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
-from scipy.spatial import cKDTree
 
 from .._validation import check_positive
 
@@ -222,6 +221,46 @@ def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, l
     return n
 
 
+@njit(**_OPTIONS)
+def _close_pairs(directions, rows, cols, chord):
+    """Index pairs (a < b) of the pixels (rows[a], cols[a]), (rows[b], cols[b]) whose directions
+    are :func:`_close`: each direction falls in a cube of side ``chord``, and only the 27 cubes
+    around a pixel's can hold its partners (a grid hash; one pass counts, one fills)."""
+    m = rows.size
+    cell = np.empty((m, 3), np.int64)
+    for a in range(m):
+        for k in range(3):
+            cell[a, k] = np.int64(math.floor((np.float64(directions[rows[a], cols[a], k]) + 1.0) / chord))
+    span = np.int64(math.floor(2.0 / chord)) + 3  # cube indices −1 … span − 2 along each axis
+    key = ((cell[:, 0] + 1) * span + cell[:, 1] + 1) * span + cell[:, 2] + 1
+    order = np.argsort(key)
+    sorted_key = key[order]
+    count = 0
+    pair_a = np.empty(0, np.int64)
+    pair_b = np.empty(0, np.int64)
+    for fill in (False, True):
+        if fill:
+            pair_a = np.empty(count, np.int64)
+            pair_b = np.empty(count, np.int64)
+            count = 0
+        for a in range(m):
+            for dx in range(-1, 2):
+                for dy in range(-1, 2):
+                    for dz in range(-1, 2):
+                        near = (((cell[a, 0] + dx + 1) * span + cell[a, 1] + dy + 1) * span
+                                + cell[a, 2] + dz + 1)
+                        s = np.searchsorted(sorted_key, near)
+                        while s < m and sorted_key[s] == near:
+                            b = order[s]
+                            s += 1
+                            if b > a and _close(directions, rows[a], cols[a], rows[b], cols[b], chord):
+                                if fill:
+                                    pair_a[count] = a
+                                    pair_b[count] = b
+                                count += 1
+    return pair_a, pair_b
+
+
 def _link(mask, directions, separation):
     """Single-linkage labels (1…n, 0 elsewhere) of ``mask`` pixels at angular ``separation``."""
     labels = np.zeros(mask.shape, dtype=np.int64)
@@ -232,12 +271,8 @@ def _link(mask, directions, separation):
     # Boundary pixels of different patches within reach of each other (the closest pair of
     # two patches always includes a boundary pixel).
     bnodes = np.flatnonzero(boundary)
-    pairs = np.empty((0, 2), dtype=np.int64)
-    if bnodes.size > 1:
-        pts = directions[node_rows[bnodes], node_cols[bnodes]].astype(np.float64)
-        pairs = cKDTree(pts).query_pairs(chord, output_type="ndarray")
-    n = _components(node, node_rows, node_cols, directions, chord,
-                    bnodes[pairs[:, 0]].astype(np.int64), bnodes[pairs[:, 1]].astype(np.int64),
+    pair_a, pair_b = _close_pairs(directions, node_rows[bnodes], node_cols[bnodes], chord)
+    n = _components(node, node_rows, node_cols, directions, chord, bnodes[pair_a], bnodes[pair_b],
                     labels)
     return labels, n
 

@@ -29,8 +29,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numba import njit, prange
 
+from .._provenance import build_provenance
 from .._validation import check_choice, check_positive, check_positive_int
-from .._version import __version__
 from ..errors import BadInputError
 from ..geometry import ObserverFrame, position_index
 from ..geometry.field import pixel_geometry, visual_field
@@ -521,10 +521,12 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     settings["q"] = quality.settings
     if lmap.calibrated is False:
         notes.append("map is uncalibrated: absolute metrics carry the exposure-equation scale")
-    provenance = {"lsadphoto_version": __version__, "map": lmap.provenance,
-                  "calibration_factor": lmap.calibration_factor,
-                  "calibration_uncertainty": lmap.calibration_uncertainty,
-                  "calibrated": lmap.calibrated, "projection": lmap.projection.to_dict()}
+    provenance = build_provenance(profile=(lmap.provenance or {}).get("profile"),
+                                  calibration_factor=lmap.calibration_factor,
+                                  calibration_uncertainty=lmap.calibration_uncertainty)
+    provenance.update({"map": lmap.provenance, "calibration_factor": lmap.calibration_factor,
+                       "calibration_uncertainty": lmap.calibration_uncertainty,
+                       "calibrated": lmap.calibrated, "projection": lmap.projection.to_dict()})
     return Score(values=values, uncertainty=uncertainty, sources=sources, source_mask=mask,
                  source_labels=labels, contrast=quality.contrast,
                  statistics=luminance_statistics(luminance, omega, vf.cos_sigma),

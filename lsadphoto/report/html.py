@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
-from ..io._atomic import atomic_text
+from .._atomic import atomic_text
 
 __all__ = ["write_survey_report", "write_comparison_report", "KEY_METRICS"]
 

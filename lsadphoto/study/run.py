@@ -1,15 +1,13 @@
 """The whole observer-study analysis in one call: :func:`run_study` → :class:`StudyResult`."""
 
-import hashlib
 import json
 import math
-import platform
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .._version import __version__
+from .._provenance import build_provenance, file_record
 from ..errors import BadInputError
 from .correlation import chaddock_label, correlate, fisher_interval_Fisher1921, pearson_r
 from .resampling import (
@@ -63,10 +61,6 @@ def _json_ready(value):
 def _n_label(n):
     """N as an int where it is integral (50, not 50.0)."""
     return int(n) if float(n).is_integer() else float(n)
-
-
-def _sha256(path):
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 @dataclass
@@ -375,25 +369,21 @@ def run_study(ratings_csv, metrics_csv, *, metric="q", sweep_prefix="q_n", jitte
             "rmse": loo["rmse"],
         }
 
-    provenance = {
-        "lsadphoto": __version__,
-        "numpy": np.__version__,
-        "scipy": __import__("scipy").__version__,
-        "python": platform.python_version(),
-        "ratings_csv": {"path": str(ratings_csv), "sha256": _sha256(ratings_csv),
+    provenance = build_provenance()
+    provenance.update({
+        "ratings_csv": {**file_record(ratings_csv),
                         "n_ratings": int(ratings.rating.size),
                         "n_missing": ratings.n_missing,
                         "n_observers": len(set(ratings.observer)),
                         "rating_min": float(ratings.rating.min()),
                         "rating_max": float(ratings.rating.max())},
-        "metrics_csv": {"path": str(metrics_csv), "sha256": _sha256(metrics_csv),
-                        "n_scenes": n_scenes},
+        "metrics_csv": {**file_record(metrics_csv), "n_scenes": n_scenes},
         "arguments": {"metric": metric, "sweep_prefix": sweep_prefix, "jitter": jitter,
                       "n_jitter": n_jitter, "n_bootstrap": n_bootstrap,
                       "confidence": confidence, "seed": seed, "direction": direction,
                       "jitter_level": jitter_level,
                       "rating_scale": None if rating_scale is None else list(rating_scale)},
-    }
+    })
     plot = {"metric": x, "mean": summary.mean, "sem": summary.sem,
             "scenes": list(metrics.scenes), **plot_sweep}
     return StudyResult(provenance, metric, scenes, correlations, between, sweep_result,
