@@ -100,7 +100,7 @@ def test_spread_and_bias_match_independently_noised_copies(camera, truth, monte_
     clean, copies = monte_carlo
     observed = _noisy(truth, np.random.default_rng(12).standard_normal(truth.shape))
     score = score_map(LuminanceMap(observed, uncertainty=NOISE * truth, projection=camera),
-                      q_noise_samples=16)
+                      noise_samples=256, q_noise_samples=16)
     for key in ("vertical_illuminance", "background_luminance", "ugr_grouped", "ugr_pixel",
                 "dgp", "dgi", "dgi_mod", "cgi", "ugr_exp", "ugp", "dgr", "q"):
         spread = np.std(copies[key], ddof=1)

@@ -228,7 +228,7 @@ def _scaled_thresholds(quality, n_thresholds, size_arcmin, method, scales):
 
 
 #: Resamples of the field sums for the per-pixel noise (cheap: a few vectors per sample).
-DEFAULT_NOISE_SAMPLES = 256
+DEFAULT_NOISE_SAMPLES = 64
 #: Resampled maps for Q's per-pixel noise (each one a full Q evaluation).
 DEFAULT_Q_NOISE_SAMPLES = 8
 #: Seed of the noise resampling: every run draws the same numbers (common random numbers).
