@@ -14,11 +14,21 @@ takes it, at the pixel of the source's L·ω-weighted mean *pixel position*
 large sources in a non-gnomonic projection (the mean of pixel positions is not the image of
 the mean direction): 2–3° for a window of 1–2 sr in an equidistant fisheye.
 
-Uncertainty: a calibrated map carries the relative standard uncertainty u of its
-calibration factor, a common scale of every pixel. Each metric is re-evaluated with the
-luminances scaled by 1 ± u (the same source pixels and groups) and half the difference is
-reported as its standard uncertainty (``uncertainty`` in the result). For UGR-type indices
-this is exactly 8·u/ln 10 to first order.
+Uncertainty, two parts combined in quadrature (``uncertainty``):
+
+* calibration (``uncertainty_calibration``): a calibrated map carries the relative standard
+  uncertainty u of its calibration factor, a common scale of every pixel. Each metric is
+  re-evaluated with the luminances scaled by 1 ± u (the same source pixels and groups) and
+  half the difference is its standard uncertainty; for UGR-type indices 8·u/ln 10 to first
+  order;
+* per-pixel noise (``uncertainty_noise``), where the map has a per-pixel ``uncertainty``:
+  its variance less the calibration part (:func:`noise_variance`), independent between
+  pixels. Every index but Q is a function of field sums that are then jointly Gaussian with
+  exactly known moments (:func:`~lsadphoto.metrics.field.noise_moments`); ``noise_samples``
+  antithetic draws of them are evaluated like noisy maps. Q is evaluated on
+  ``q_noise_samples`` maps L ± √v·z. The mean change over the draws is each metric's bias
+  from noise (``noise_bias``): large for Q, whose gradients noise inflates. Source pixels
+  and groups are held fixed; the draws come from a fixed seed (common random numbers).
 
 Undefined values are ``None`` in :meth:`Score.to_dict` with the reason in ``notes``.
 """
