@@ -487,12 +487,12 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
                      threshold=q_threshold, cutoff=q_cutoff, valid=valid)
     # Calibration: a common scale k = 1 ± u of every luminance (same sources and groups).
     u = float(lmap.calibration_uncertainty)
-    uncertainty = {}
+    calibration = {}
     extra_n = []
     if u > 0:
         hi, lo = indices(sums.scaled(1.0 + u), s_l * (1.0 + u)), indices(sums.scaled(1.0 - u),
                                                                          s_l * (1.0 - u))
-        uncertainty = {k: abs(hi[k] - lo[k]) / 2.0 for k in hi}
+        calibration = {k: abs(hi[k] - lo[k]) / 2.0 for k in hi}
         extra_n = _scaled_thresholds(quality, n_thresholds, size_arcmin, q_threshold, (1 + u, 1 - u))
     sweep_n = [] if sweep is None else [float(n) for n in sweep]
     sweep_record = None
@@ -507,8 +507,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
             # Q(k·L; N) = Q(L; N')·N/N' with N' = N·ΔL(k·L̄)/(k·ΔL(L̄)) (see _scaled_thresholds).
             scaled = [q * factor for q, (_, factor) in zip(q_values[len(sweep_n):], extra_n,
                                                             strict=True)]
-            uncertainty["q"] = abs(scaled[0] - scaled[1]) / 2.0
-    calibration = dict(uncertainty)
+            calibration["q"] = abs(scaled[0] - scaled[1]) / 2.0
+    # Per-pixel noise, where the map has a per-pixel uncertainty; both parts combined.
     noise, bias, bias_error = _pixel_noise(
         lmap, values, indices, sums, s_w, labels, len(sources),
         arrays=(luminance, omega, vf.cos_sigma, pindex), noise_samples=noise_samples,
