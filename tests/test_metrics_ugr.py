@@ -228,10 +228,22 @@ def test_mean_luminance_of_hemisphere(fisheye):
 
 
 @pytest.mark.parametrize("shape", [(1, 1), (2, 2)])
-def test_tiny_maps_are_defined(shape):
+def test_tiny_maps(shape):
+    """One or four pixels of 5000 cd/m²: every pixel is a source (above the fixed 2000 cd/m²),
+    each its own group (the four pixel directions lie ≈ 79° apart, far beyond the 0.2 rad
+    search angle); with no background L_b = (E_v − E_dir)/π = 0 and UGR, ∝ log(1/L_b), is
+    undefined (NaN); with a given L_b it is CIE 117's 8·log10(0.25/L_b · Σ L²ω/P²)."""
     cam = IdealFisheyeProjection("equidistant", (shape[1] - 1) / 2, (shape[0] - 1) / 2,
                                  shape[0] / 2, 180.0, shape[1], shape[0])
-    score = _score(cam, np.full(shape, 5000.0))
-    value = score.values["ugr_pixel"]
-    assert math.isnan(value) or math.isfinite(value)
-    assert sum(s.n_pixels for s in score.sources) == int(score.source_mask.sum())
+    r, c = cam.pixel_grid()
+    d = cam.directions(r, c)
+    w = cam.solid_angles(r, c)
+    L = np.full(shape, 5000.0)
+    cos_sigma, P = _maps(d, w)
+    score = _score(cam, L)
+    assert score.source_mask.all()
+    assert len(score.sources) == L.size and all(s.n_pixels == 1 for s in score.sources)
+    assert score.values["background_luminance"] == 0.0
+    assert math.isnan(score.values["ugr_pixel"]) and math.isnan(score.values["ugr_grouped"])
+    expected = 8.0 * math.log10(0.25 / 20.0 * float(np.sum(L**2 * w / P**2)))
+    assert ugr_pixel(L, w, P, score.source_mask, 20.0) == pytest.approx(expected, rel=1e-12)
