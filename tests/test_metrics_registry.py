@@ -30,7 +30,8 @@ def lmap():
 
 
 def test_every_reported_value_is_registered_once(lmap):
-    names = [m.name for m in registry.FIELD + registry.INDICES + registry.OTHER]
+    names = [m.name for m in registry.FIELD + registry.INDICES + registry.OTHER
+             + registry.ANALYSES]
     assert len(names) == len(set(names)) == len(registry.METRICS)
     score = score_map(lmap, q_noise_samples=0)
     assert set(score.values) == set(names)
