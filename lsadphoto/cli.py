@@ -569,7 +569,8 @@ def _build_cache(store, args):
 
     callback, close = progress_callback("surface cache", enabled=False if args.quiet else None)
     try:
-        return build_surface_cache(store, spacing=args.cache_spacing, nodes=args.cache_nodes,
+        return build_surface_cache(store, spacing=args.cache_spacing,
+                                   **({} if args.cache_nodes is None else {"nodes": args.cache_nodes}),
                                    seed=args.seed, workers=os.cpu_count() or 1, progress=callback)
     finally:
         close()
@@ -640,9 +641,20 @@ def cmd_render(args):
     plan = _plan({"exr": args.output, "hdr": args.hdr})
     outputs = plan.files
     source = Path(args.source)
+    cache_options = [o for o, v in (("--cache-spacing", args.cache_spacing),
+                                    ("--cache-nodes", args.cache_nodes)) if v is not None]
+    if cache_options and args.estimator != "cache":
+        raise BadInputError(f"{', '.join(cache_options)} apply to --estimator cache only")
     if source.suffix.lower() == ".npz":
         store_or_scene = load_store(source)
         scene = store_or_scene.scene
+        if args.samples is not None:
+            raise BadInputError(f"--samples applies when rendering a scene directly; the store "
+                                f"{source} holds {store_or_scene.chains} chains (simulate again for more)")
+        if cache_options and store_or_scene.surface_cache is not None:
+            raise BadInputError(f"{', '.join(cache_options)} cannot apply: the store {source} already holds "
+                                f"a surface cache (spacing {store_or_scene.surface_cache.spacing:.3g} m); "
+                                "build another with simulate --surface-cache")
     else:
         store_or_scene = scene = _load_any_scene(source)
     projection, position, rotation = _render_pose(args, scene)
@@ -691,7 +703,7 @@ def cmd_render(args):
 def _add_cache_options(sub):
     sub.add_argument("--cache-spacing", type=float, metavar="M",
                      help="surface-cache point spacing [m] (default 1/24 of the scene's diagonal)")
-    sub.add_argument("--cache-nodes", type=int, default=8192, metavar="N",
+    sub.add_argument("--cache-nodes", type=int, metavar="N",
                      help="node draws per surface-cache point (default 8192)")
 
 

@@ -267,19 +267,31 @@ def write_hdr(lmap, path):
                      "means over dark regions are biased upwards; the OpenEXR map keeps them signed")
     lines.append(f"LSADPHOTO={metadata_json(lmap)}")
     write_hdr_rgb(np.repeat(value[..., None], 3, axis=-1), path, projection=lmap.projection,
-                  header_lines=lines)
+                  header_lines=lines, view_pose=(lmap.provenance or {}).get("view_pose"))
 
 
-def write_hdr_rgb(rgb, path, *, projection=None, header_lines=()):
+def _placed(view, pose):
+    """Radiance view options with ``-vp``/``-vd``/``-vu`` taken from ``pose`` (when given)."""
+    if not pose:
+        return view
+    vectors = " ".join(f"-{k} " + " ".join(f"{float(c):.17g}" for c in pose[k]) for k in ("vp", "vd", "vu"))
+    return re.sub(r"-vp \S+ \S+ \S+ -vd \S+ \S+ \S+ -vu \S+ \S+ \S+", vectors, view, count=1)
+
+
+def write_hdr_rgb(rgb, path, *, projection=None, header_lines=(), view_pose=None):
     """Write Radiance RGB values ``(rows, cols, 3)`` (W·sr⁻¹·m⁻², luminance = 179·(0.265074 R
     + 0.670115 G + 0.064811 B)) as a Radiance picture (atomic), with a ``VIEW=`` line from
-    ``projection`` where it has a Radiance equivalent and the given extra header lines."""
+    ``projection`` where it has a Radiance equivalent and the given extra header lines.
+
+    ``view_pose`` (``{"vp", "vd", "vu"}`` in world coordinates, e.g. a rendered map's
+    ``provenance["view_pose"]``) places the view in the scene; without it the view is given in
+    the camera's own frame (``-vp 0 0 0 -vd 0 1 0 -vu 0 0 1``)."""
     rgbe = float_to_rgbe(np.nan_to_num(np.asarray(rgb, np.float64), nan=0.0))
     rows, cols = rgbe.shape[:2]
     lines = ["#?RADIANCE", f"SOFTWARE=lsadphoto {__version__}"]
     if projection is not None and hasattr(projection, "radiance_view"):
         try:
-            lines.append(f"VIEW= {projection.radiance_view()}")
+            lines.append(f"VIEW= {_placed(projection.radiance_view(), view_pose)}")
         except BadInputError:
             pass  # no Radiance view type for this projection (e.g. equisolid): no VIEW= line
     lines.extend(header_lines)
