@@ -801,11 +801,11 @@ def _build_parser():
     sc.add_argument("--q-weight-exponent", type=int, choices=(0, 1, 2), default=1,
                     help="Q weight w = P^-m (default m = 1)")
     sc.add_argument("--sweep", action="store_true", help="also compute Q(N) for N = 1…100 in one pass")
-    sc.add_argument("--noise-samples", type=int, default=256,
+    sc.add_argument("--noise-samples", type=int, default=64,
                     help="draws of the field sums for the per-pixel noise of maps that carry a "
-                         "per-pixel uncertainty (0: off; default 256)")
-    sc.add_argument("--q-noise-samples", type=int, default=4,
-                    help="resampled maps for Q's noise and bias (0: off; default 4)")
+                         "per-pixel uncertainty (0: off; default 64)")
+    sc.add_argument("--q-noise-samples", type=int, default=8,
+                    help="resampled maps for Q's noise and bias (0: off; default 8)")
     eg = sc.add_argument_group("evalglare 3.06 analyses (angles in degrees, evalglare's radians × 180/π)")
     eg.add_argument("--band-deg", type=float, metavar="A",
                     help="evalglare -B: statistics of the horizontal band of half-width A about the "
