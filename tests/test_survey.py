@@ -598,3 +598,15 @@ def test_interrupted_rerun_keeps_the_earlier_failures(surveyed, tmp_path, monkey
     assert (copy / "failures.log").read_text() == before
     assert [r["view"] for r in read_csv(copy / "metrics.csv")] == GOOD
     assert not (copy / LOCK_NAME).exists()  # released on the way out
+
+
+def test_unreachable_dask_scheduler_is_one_error_and_leaves_no_folder(tmp_path):
+    """Connected before the output folder is made; distributed's own timeout (2 s here)."""
+    dask = pytest.importorskip("dask")
+    pytest.importorskip("distributed")
+    path = make_survey(tmp_path, CORRUPT_ONLY)
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+        with pytest.raises(BadInputError, match="cannot connect to the Dask scheduler at "
+                                                "tcp://127.0.0.1:1: "):
+            run_survey(path, tmp_path / "out", dask_address="tcp://127.0.0.1:1", progress=False)
+    assert not (tmp_path / "out").exists()
