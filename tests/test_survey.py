@@ -397,6 +397,8 @@ BAD_MANIFESTS = [
     ("model without scene", ('scene = "model.toml"\n', ""), "[view[1].model] missing required key 'scene'"),
     ("missing model scene", ('scene = "model.toml"', 'scene = "gone.toml"'),
      "view 'single': model.scene: scene model "),
+    ("bad model scene", ('scene = "model.toml"', 'scene = "camera.toml"'),
+     "view 'single': model.scene: "),
     ("wrong schema", ('schema = "lsadphoto.survey/1"', 'schema = "lsadphoto.survey/9"'),
      "schema must be one of 'lsadphoto.survey/1', got 'lsadphoto.survey/9'"),
     ("bad demosaic", ('name = "test survey"\n', 'demosaic = "magic"\n'),
