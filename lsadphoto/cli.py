@@ -5,6 +5,7 @@ Every error lsadphoto raises on purpose becomes one line on stderr and a non-zer
 """
 
 import argparse
+import gc
 import json
 import os
 import sys
@@ -41,7 +42,14 @@ def _print_json(record):
 
 class _Choices:
     """Valid values of an option, defined in the library (``module.name``) and imported only
-    when argparse checks a value or prints help, so that ``lsadphoto`` starts fast."""
+    when argparse checks a value or prints help, so that ``lsadphoto`` starts fast.
+
+    ``add_argument`` formats every option's choices once to check its metavar: while
+    :func:`build_parser` runs (``building``) they are empty, otherwise building the parser
+    would import every command's modules (the study's SciPy, the solver) in every process.
+    """
+
+    building = False
 
     def __init__(self, module, name):
         self.module, self.name = module, name
@@ -55,7 +63,7 @@ class _Choices:
         return value in self._values()
 
     def __iter__(self):
-        return iter(self._values())
+        return iter(()) if _Choices.building else iter(self._values())
 
 
 def _given(**options):
@@ -343,6 +351,34 @@ def _bias_matters(bias, record, key):
     return abs(bias) > 2 * error and abs(bias) > 0.1 * u
 
 
+def cmd_design(args):
+    from ._progress import progress_callback
+    from .design.run import run_design
+    from .report.design import design_report_html
+
+    callback, close = progress_callback("design", enabled=False if args.quiet else None)
+    try:
+        record = run_design(args.problem, args.output, report=design_report_html,
+                            progress=None if callback is None else (lambda _stage, f: callback(f, None)),
+                            log=(lambda line: None) if args.quiet or args.json else
+                            (lambda line: print(line, file=sys.stderr)))
+    finally:
+        close()
+    if args.json:
+        _print_json(record)
+    else:
+        best = record["best"]
+        if best is None:
+            print(f"no design meets the constraints; wrote {args.output}/design.json with the "
+                  f"{len(record['closest'])} closest designs")
+        else:
+            parts = [f"{v['ugr_grouped'] if v['ugr_grouped'] is not None else '—'}" for v in best["views"].values()]
+            print(f"best design: {best['luminaires']} luminaires, {best['power_w']:g} W, grouped UGR "
+                  f"{', '.join(parts)} ({', '.join(best['views'])}); {len(record['pareto'])} Pareto "
+                  f"designs; wrote {args.output}/design.json, best.toml, report.html")
+    return 0
+
+
 def cmd_compare(args):
     from .compare import compare_maps
     from .io import read_map
@@ -409,6 +445,10 @@ def cmd_view(args):
 def cmd_study(args):
     from .study import run_study
 
+    if args.report:  # before any work: a typo must not become a report of an empty survey
+        from .report import check_survey_folder
+
+        check_survey_folder(args.report, option="--report")
     report = Path(args.report) / "report.html" if args.report else None
     plan = _plan({"report": report, "json": args.output_json}, folders={"figures": args.figures})
     result = run_study(args.ratings, args.metrics, metric=args.metric,
@@ -432,7 +472,7 @@ def cmd_study(args):
     c = record["correlations"][args.metric]
     ci = c["pearson_ci"] or [None, None]
     print(f"{args.metric} vs mean rating over {c['n']} scenes: Pearson r = {_format(c['pearson_r'])} "
-          f"[{_format(ci[0])}, {_format(ci[1])}] ({c['chaddock']}), Spearman ρ = "
+          f"[{_format(ci[0])}, {_format(ci[1])}] ({c['chaddock'] or 'undefined'}), Spearman ρ = "
           f"{_format(c['spearman_rho'])}, Kendall τ = {_format(c['kendall_tau'])}")
     sweep = record.get("sweep")
     if sweep and sweep.get("best"):
@@ -444,8 +484,10 @@ def cmd_study(args):
               f"(in-sample {_format(loo['r_in_sample'])})")
     jit = record.get("jitter")
     if jit:
+        change = jit["max_relative_change"]
         print(f"ratings jittered ±{jit['half_width']:g} × {jit['n_trials']}: r = {_format(jit['mean'])} ± "
-              f"{_format(jit['sd'])}, largest relative change {100 * jit['max_relative_change']:.1f} %")
+              f"{_format(jit['sd'])}, largest relative change "
+              f"{'—' if change is None else f'{100 * change:.1f} %'}")
     for note in record.get("notes", []):
         print(f"  note: {note}")
     if "report" in record:
@@ -654,6 +696,14 @@ def _add_cache_options(sub):
 
 
 def build_parser():
+    _Choices.building = True
+    try:
+        return _build_parser()
+    finally:
+        _Choices.building = False
+
+
+def _build_parser():
     from .constants import LS100_ACCEPTANCE_ANGLE
 
     demosaic = _Choices("lsadphoto.raw.methods", "DEMOSAIC_METHODS")
@@ -793,6 +843,13 @@ def build_parser():
     cmp_.add_argument("--json", action="store_true", help="print the JSON record")
     cmp_.set_defaults(func=cmd_compare)
 
+    dsg = sub.add_parser("design", help="choose luminaires and their layout for a quality (Q, UGR, DGP, illuminance)")
+    dsg.add_argument("problem", help="design problem (TOML, schema lsadphoto.design/1)")
+    dsg.add_argument("-o", "--output", required=True, metavar="OUT", help="output folder")
+    dsg.add_argument("--json", action="store_true", help="print the design.json record")
+    dsg.add_argument("--quiet", action="store_true", help="no progress bar or stage lines")
+    dsg.set_defaults(func=cmd_design)
+
     vw = sub.add_parser("view", help="interactive luminance viewer: one self-contained HTML file")
     vw.add_argument("map", help="luminance map (.exr or .hdr)")
     vw.add_argument("map2", nargs="?", help="a second map of the same view and camera geometry "
@@ -878,10 +935,30 @@ def build_parser():
     return parser
 
 
+#: Allocations between young-generation collections in a process that is one command
+#: (default 700): importing numba and loading its kernels allocates millions of objects, and
+#: collecting them every 700 cost about a quarter of a ``score`` process (docs/performance.md).
+_COMMAND_GC_THRESHOLD = (50_000, 20, 100)
+
+
 def main(argv=None):
+    """Run one command; ``argv`` None (the ``lsadphoto`` console script) means that the process
+    ends with it, so the garbage collector runs rarely and not at all over the objects left at
+    the end (``gc.freeze``: the interpreter's exit would otherwise traverse them all)."""
+    whole_process = argv is None
+    if whole_process:
+        gc.set_threshold(*_COMMAND_GC_THRESHOLD)
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.showwarning = _warning_line
+    try:
+        return _run(args)
+    finally:
+        if whole_process:
+            gc.freeze()
+
+
+def _run(args):
     try:
         return args.func(args)
     except LsadError as exc:
