@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._version import __version__
-from .calibrate.profile import CameraProfile
+from .calibrate.draft import draft_profile
 from .calibrate.spot import calibrate_spots
 from .calibrate.vignetting import vignetting_gain
 from .constants import DEFAULT_CALIBRATION_CONSTANT_UNCERTAINTY
@@ -61,6 +61,10 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         profile's calibration constant gives an ``uncalibrated`` estimate.
     profile : CameraProfile, optional
         Camera profile (geometry, vignetting, colour matrix, calibration constant, noise).
+        Without one, a profile is drafted from the first file's EXIF and the lensfun
+        database (:func:`lsadphoto.calibrate.draft.draft_profile`); the summary's
+        ``camera_values`` says where each value came from and ``nominal`` which ones are
+        not measured for this camera.
     demosaic : {"superpixel", "linear", "ahd", "dcb"}
     colour_method : str
         See :data:`lsadphoto.raw.COLOUR_METHODS`.
@@ -75,7 +79,7 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
     paths = list(paths)
     if not paths:
         raise BadInputError("no RAW files given")
-    profile = profile or CameraProfile(id="none")
+    profile = profile or draft_profile(paths[0])
     images = [decode_raw(p, demosaic=demosaic, dark_frame=dark_frame) for p in paths]
     first = images[0]
     for image in images[1:]:
@@ -159,6 +163,8 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         "luminance_weights": [float(w) for w in weights],
         "vignetting": profile.vignetting.to_dict(),
         "profile": profile.id,
+        "camera_values": dict(profile.sources),
+        "nominal": profile.nominal_values(),
         "frames": frames,
         "spots": spot_records,
         "shape": list(relative.shape),

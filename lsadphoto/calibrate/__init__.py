@@ -1,5 +1,6 @@
 """Photometric calibration (spot meter, vignetting) and camera profiles."""
 
+from .draft import draft_profile
 from .geometric import GeometricCalibration, calibrate_geometry, parse_pattern
 from .profile import CameraProfile, load_profile, save_profile
 from .spot import SpotCalibration, SpotReading, calibrate_spots, spot_cone
@@ -7,6 +8,7 @@ from .vignetting import VignettingModel, fit_vignetting_polynomial, vignetting_g
 
 __all__ = [
     "CameraProfile",
+    "draft_profile",
     "GeometricCalibration",
     "calibrate_geometry",
     "parse_pattern",

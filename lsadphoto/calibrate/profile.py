@@ -19,8 +19,11 @@ Schema (all sections optional except ``id``; lengths in mm, sizes in px)::
     [colour]      camera_to_xyz = [[…], […], […]]
     [photometric] calibration_constant          # C [cd·s·m⁻²]: L = C·Y·N²/(t·S)
                   calibration_constant_uncertainty   # relative standard uncertainty
-    [noise]       full_well_electrons, read_noise_electrons   # at ISO 100
-    [provenance]  free-form strings
+    [noise]       full_well_electrons, read_noise_electrons   # at ISO 100; absent: nominal
+    [provenance]  free-form strings; "source.NAME" says where value NAME came from,
+                  "nominal" lists the values that are not measured for this camera
+    f_number                                    # the f-number the profile belongs to
+    [vignetting]  focal_length_mm, f_number     # what the vignetting model belongs to
 
 A calibrated ``[lens_model]`` is tied to the sensor size in pixels: images of another size
 are refused (or use ``binning`` for superpixel maps).
@@ -62,8 +65,22 @@ class CameraProfile:
     calibration_constant: float | None = None
     calibration_constant_uncertainty: float | None = None
     noise: NoiseModel = field(default_factory=NoiseModel)
+    noise_measured: bool = False
+    f_number: float | None = None
     provenance: dict = field(default_factory=dict)
     path: str | None = None
+    #: Where each value came from ("exif …", "lensfun …", "profile FILE", "nominal …").
+    sources: dict = field(default_factory=dict)
+    #: Values that are not a measurement of this camera (need calibration).
+    nominal: list = field(default_factory=list)
+    #: Disagreements between sources found while drafting.
+    notes: list = field(default_factory=list)
+    #: The RAW file a drafted profile was made from.
+    drafted_from: str | None = None
+
+    def nominal_values(self):
+        """Names of the values that are nominal (noise unless measured, plus ``nominal``)."""
+        return list(dict.fromkeys([*self.nominal, *([] if self.noise_measured else ["noise"])]))
 
     def projection(self, sensor_shape, *, binning=1, focal_length=None, focal_plane_resolution=None):
         """Nominal pinhole model for an image of ``sensor_shape`` seen through ``binning``.
@@ -120,9 +137,18 @@ class CameraProfile:
             out["photometric"] = {"calibration_constant": self.calibration_constant}
             if self.calibration_constant_uncertainty is not None:
                 out["photometric"]["calibration_constant_uncertainty"] = self.calibration_constant_uncertainty
-        out["noise"] = {"full_well_electrons": self.noise.full_well, "read_noise_electrons": self.noise.read_noise}
-        if self.provenance:
-            out["provenance"] = {k: str(v) for k, v in self.provenance.items()}
+        if self.f_number:
+            out["f_number"] = self.f_number
+        if self.noise_measured:
+            out["noise"] = {"full_well_electrons": self.noise.full_well,
+                            "read_noise_electrons": self.noise.read_noise}
+        provenance = {k: str(v) for k, v in self.provenance.items()}
+        provenance.update({f"source.{k}": str(v) for k, v in self.sources.items()})
+        nominal = self.nominal_values()
+        if nominal:
+            provenance["nominal"] = ", ".join(nominal)
+        if provenance:
+            out["provenance"] = provenance
         return out
 
 
@@ -155,7 +181,9 @@ def load_profile(path):
     kind = vig.get("model", "none")
     vignetting = VignettingModel(kind=kind, coefficients=list(vig.get("coefficients", [])),
                                  centre=tuple(vig["centre"]) if "centre" in vig else None,
-                                 rms_residual=vig.get("rms_residual"))
+                                 rms_residual=vig.get("rms_residual"),
+                                 focal_length=_number(vig, "focal_length_mm", "vignetting.focal_length_mm"),
+                                 f_number=_number(vig, "f_number", "vignetting.f_number"))
     if kind == "flat-field":
         if "map" not in vig:
             raise BadInputError(f"{path}: flat-field vignetting needs 'map'")
@@ -185,6 +213,16 @@ def load_profile(path):
             raise BadInputError(f"{path}: colour.camera_to_xyz must be a finite 3×3 matrix")
     photometric = data.get("photometric", {})
     noise = data.get("noise", {})
+    provenance = {k: v for k, v in data.get("provenance", {}).items()
+                  if not k.startswith("source.") and k != "nominal"}
+    sources = {k[len("source."):]: v for k, v in data.get("provenance", {}).items() if k.startswith("source.")}
+    for key in ("sensor", "lens_model", "vignetting", "colour", "photometric"):
+        if key in data:
+            sources[key] = f"profile {path.name}" + (f" ({sources[key]})" if key in sources else "")
+    if "noise" in data:
+        sources["noise"] = f"profile {path.name}"
+    nominal = [n.strip() for n in str(data.get("provenance", {}).get("nominal", "")).split(",") if n.strip()]
+    nominal = [n for n in nominal if n != "noise" or "noise" not in data]
     return CameraProfile(
         id=str(data["id"]),
         camera=data.get("camera"),
@@ -203,7 +241,11 @@ def load_profile(path):
             full_well=_number(noise, "full_well_electrons", "noise.full_well_electrons") or NoiseModel.full_well,
             read_noise=_number(noise, "read_noise_electrons", "noise.read_noise_electrons") or NoiseModel.read_noise,
         ),
-        provenance=dict(data.get("provenance", {})),
+        noise_measured="noise" in data,
+        f_number=_number(data, "f_number", "f_number"),
+        provenance=provenance,
+        sources=sources,
+        nominal=nominal,
         path=str(path),
     )
 

@@ -35,6 +35,9 @@ class VignettingModel:
         Optical centre (row, col) in sensor pixels; default the sensor centre.
     rms_residual : float, optional
         RMS relative residual of the fit [–].
+    focal_length, f_number : float, optional
+        Focal length [mm] and f-number [–] the model belongs to (vignetting changes with
+        both); checked against each frame (:mod:`lsadphoto.calibrate.consistency`).
     """
 
     kind: str = "none"
@@ -42,6 +45,8 @@ class VignettingModel:
     gain_map: np.ndarray | None = None
     centre: tuple | None = None
     rms_residual: float | None = None
+    focal_length: float | None = None
+    f_number: float | None = None
 
     def to_dict(self):
         out = {"model": self.kind}
@@ -51,6 +56,10 @@ class VignettingModel:
             out["centre"] = [float(c) for c in self.centre]
         if self.rms_residual is not None:
             out["rms_residual"] = float(self.rms_residual)
+        if self.focal_length is not None:
+            out["focal_length_mm"] = float(self.focal_length)
+        if self.f_number is not None:
+            out["f_number"] = float(self.f_number)
         return out
 
 
