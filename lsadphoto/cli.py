@@ -86,6 +86,34 @@ def cmd_luminance(args):
             f"± {100 * summary['calibration_uncertainty']:.1f} %{flag}, "
             f"saturated {100 * summary['saturated_fraction']:.2f} %"
         )
+        if summary["nominal"]:
+            print(f"  camera profile {summary['profile']!r}: nominal (not measured) "
+                  f"{', '.join(summary['nominal'])}; see --json camera_values")
+    return 0
+
+
+def cmd_calibrate_profile(args):
+    from .calibrate.consistency import check_profile_frames
+    from .calibrate.draft import draft_profile
+    from .calibrate.profile import save_profile
+
+    profile = draft_profile(args.raw[0])
+    if args.id:
+        profile.id = args.id
+    check_profile_frames(profile, args.raw[1:])
+    save_profile(profile, args.output)
+    record = {"output": args.output, "id": profile.id, "sources": profile.sources,
+              "nominal": profile.nominal_values(), "notes": profile.notes, "frames": [str(p) for p in args.raw]}
+    if args.json:
+        _print_json(record)
+    else:
+        print(f"wrote {args.output}: {profile.camera or 'unknown camera'}, {profile.lens or 'unknown lens'}")
+        for key, source in profile.sources.items():
+            print(f"  {key}: {source}")
+        for note in profile.notes:
+            print(f"  note: {note}")
+        if record["nominal"]:
+            print(f"  nominal, to calibrate: {', '.join(record['nominal'])}")
     return 0
 
 
@@ -527,6 +555,13 @@ def build_parser():
     vig.add_argument("--demosaic", choices=DEMOSAIC_METHODS, default="superpixel")
     vig.add_argument("--json", action="store_true")
     vig.set_defaults(func=cmd_calibrate_vignetting)
+    prof = calsub.add_parser("profile", help="draft a camera profile from RAW files (EXIF and the lensfun "
+                             "database), to edit and calibrate further")
+    prof.add_argument("raw", nargs="+", help="RAW file(s) of one camera, lens, focal length and aperture")
+    prof.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
+    prof.add_argument("--id", help="profile id (default: 'drafted from FILE')")
+    prof.add_argument("--json", action="store_true")
+    prof.set_defaults(func=cmd_calibrate_profile)
     geo = calsub.add_parser("geometry", help="calibrate the camera geometry from chessboard or ChArUco images (OpenCV)")
     geo.add_argument("images", nargs="+", help="images of a chessboard or ChArUco board (8-bit, any format OpenCV reads)")
     geo.add_argument("--pattern", required=True, metavar="PATTERN",

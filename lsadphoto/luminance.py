@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._version import __version__
+from .calibrate.consistency import check_profile_frame, image_facts
 from .calibrate.draft import draft_profile
 from .calibrate.spot import calibrate_spots
 from .calibrate.vignetting import vignetting_gain
@@ -64,7 +65,9 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         Without one, a profile is drafted from the first file's EXIF and the lensfun
         database (:func:`lsadphoto.calibrate.draft.draft_profile`); the summary's
         ``camera_values`` says where each value came from and ``nominal`` which ones are
-        not measured for this camera.
+        not measured for this camera. The profile is checked against every frame
+        (:mod:`lsadphoto.calibrate.consistency`): camera, lens, image size, focal length and
+        aperture must agree, else :class:`BadInputError` names both values.
     demosaic : {"superpixel", "linear", "ahd", "dcb"}
     colour_method : str
         See :data:`lsadphoto.raw.COLOUR_METHODS`.
@@ -79,8 +82,12 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
     paths = list(paths)
     if not paths:
         raise BadInputError("no RAW files given")
-    profile = profile or draft_profile(paths[0])
     images = [decode_raw(p, demosaic=demosaic, dark_frame=dark_frame) for p in paths]
+    if profile is None:
+        profile = draft_profile(paths[0], metadata=images[0].metadata)
+        checks = [check_profile_frame(profile, image_facts(im)) for im in images[1:]]
+    else:
+        checks = [check_profile_frame(profile, image_facts(im)) for im in images]
     first = images[0]
     for image in images[1:]:
         if image.sensor_shape != first.sensor_shape:
@@ -165,6 +172,7 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         "profile": profile.id,
         "camera_values": dict(profile.sources),
         "nominal": profile.nominal_values(),
+        "profile_checks": checks,
         "frames": frames,
         "spots": spot_records,
         "shape": list(relative.shape),

@@ -269,13 +269,15 @@ def _sensor(tags, meta, width, height, camera_entry):
     return w, h, crop, source, notes
 
 
-def draft_profile(path):
+def draft_profile(path, *, metadata=None):
     """A camera profile for ``path`` drafted from its EXIF and the lensfun database.
 
     Parameters
     ----------
     path : path-like
         A RAW file.
+    metadata : ExposureMetadata, optional
+        Its exposure metadata where already read (saves reading it twice).
 
     Returns
     -------
@@ -295,7 +297,7 @@ def draft_profile(path):
     path = check_file(path, "RAW file")
     with _reading(path) as raw:
         width, height = int(raw.sizes.width), int(raw.sizes.height)
-        meta = read_exposure_metadata(path, raw)
+        meta = metadata or read_exposure_metadata(path, raw)
     tags = _exif(path)
     make = str(tags.get("Image Make", "")).strip() or None
     model = str(tags.get("Image Model", "")).strip() or None

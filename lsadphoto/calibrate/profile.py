@@ -107,8 +107,8 @@ class CameraProfile:
         missing = [n for n, v in (("focal length", f), ("sensor size", width_mm)) if not v]
         if missing:
             raise BadInputError(
-                f"camera geometry needs the {' and '.join(missing)}: give a camera profile with "
-                "[sensor] and [lens_model] sections"
+                f"camera geometry needs the {' and '.join(missing)}, which the file does not record: "
+                "give a camera profile with [sensor] and [lens_model] sections"
             )
         model = PinholeProjection.from_sensor(
             focal_length=f, sensor_width=width_mm, sensor_height=height_mm, width=cols, height=rows

@@ -107,8 +107,14 @@ def _rational(value, max_denominator=10000):
     return [fraction.numerator, fraction.denominator]
 
 
-def write_dng(path, raw, camera, *, exposure_time, f_number, iso, extra_tags=()):
-    """Write raw ADU values as a real DNG (atomic). ``None`` exposure values are left out."""
+def write_dng(path, raw, camera, *, exposure_time, f_number, iso, extra_tags=(), focal_plane=True,
+              focal_length_35mm=None, lens=None):
+    """Write raw ADU values as a real DNG (atomic). ``None`` exposure values are left out.
+
+    ``focal_plane=False`` leaves out the FocalPlane resolution tags (as many cameras do);
+    ``focal_length_35mm`` [mm] writes FocalLengthIn35mmFilm (rounded to 1 mm, as EXIF
+    stores it); ``lens`` writes the EXIF lens model.
+    """
     from pidng.core import RAW2DNG, DNGTags, Tag
     from pidng.defs import CalibrationIlluminant, DNGVersion, Orientation, PhotometricInterpretation
 
@@ -143,9 +149,14 @@ def write_dng(path, raw, camera, *, exposure_time, f_number, iso, extra_tags=())
     if iso is not None:
         tags.set(Tag.PhotographicSensitivity, [int(iso)])
     tags.set(Tag.FocalLength, [_rational(camera.focal_length, 100)])
-    tags.set(Tag.FocalPlaneXResolution, [_rational(camera.width / (camera.sensor_width / 10.0), 1000)])
-    tags.set(Tag.FocalPlaneYResolution, [_rational(camera.height / (camera.sensor_height / 10.0), 1000)])
-    tags.set(Tag.FocalPlaneResolutionUnit, 3)  # centimetres
+    if focal_plane:
+        tags.set(Tag.FocalPlaneXResolution, [_rational(camera.width / (camera.sensor_width / 10.0), 1000)])
+        tags.set(Tag.FocalPlaneYResolution, [_rational(camera.height / (camera.sensor_height / 10.0), 1000)])
+        tags.set(Tag.FocalPlaneResolutionUnit, 3)  # centimetres
+    if focal_length_35mm is not None:
+        tags.set(Tag.FocalLengthIn35mmFilm, [int(round(focal_length_35mm))])
+    if lens is not None:
+        tags.set(Tag.EXIFPhotoLensModel, lens)
     tags.set(Tag.Make, camera.make)
     tags.set(Tag.Model, camera.model)
     tags.set(Tag.UniqueCameraModel, f"{camera.make} {camera.model}")
