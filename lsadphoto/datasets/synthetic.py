@@ -49,13 +49,17 @@ class SyntheticCamera:
     full_well: float = 30000.0
     read_noise: float = 3.0
     vignetting: tuple = ()  # a1, a2, … of V = 1 + Σ a_k r^(2k)
+    vignetting_map: np.ndarray | None = None  # V per sensor pixel (e.g. lensfun's), replaces the polynomial
     calibration_constant: float = 12.0  # C [cd·s·m⁻²]
     make: str = "lsadphoto"
     model: str = "synthetic camera"
     extra: dict = field(default_factory=dict)
 
     def vignetting_gain(self):
-        """V per sensor pixel (radius over the half-diagonal, centre at the sensor centre)."""
+        """V per sensor pixel (radius over the half-diagonal, centre at the sensor centre), or
+        ``vignetting_map`` where given."""
+        if self.vignetting_map is not None:
+            return np.asarray(self.vignetting_map, dtype=np.float64)
         r = np.arange(self.height) - (self.height - 1) / 2.0
         c = np.arange(self.width) - (self.width - 1) / 2.0
         r2 = (r[:, None] ** 2 + c[None, :] ** 2) / (0.25 * (self.height**2 + self.width**2))
