@@ -117,11 +117,39 @@ def cmd_calibrate_profile(args):
     return 0
 
 
+def _rotation_vignetting(args):
+    """The rotation method: (model, record) from --rotation frames and --target."""
+    from .calibrate.vignetting import fit_vignetting_rotation
+    from .raw.decode import decode_raw
+
+    if not args.target:
+        raise BadInputError("--rotation needs --target ROW,COL (the target in the first frame, sensor px)")
+    try:
+        target = tuple(float(v) for v in args.target.split(","))
+    except ValueError:
+        target = ()
+    if len(target) != 2:
+        raise BadInputError(f"--target must be ROW,COL, got {args.target!r}")
+    frames = [decode_raw(p, demosaic=args.demosaic) for p in args.rotation]
+    f_numbers = {f.metadata.f_number for f in frames}
+    if len(f_numbers) > 1:
+        raise BadInputError(f"rotation frames mix apertures {sorted(f_numbers)}: fit one aperture at a time")
+    model, samples = fit_vignetting_rotation(
+        [f.rgb.sum(axis=-1) for f in frames], target, frames[0].sensor_shape, binning=frames[0].binning,
+        degree=args.degree, saturated=[f.saturated.any(axis=-1) for f in frames], f_number=f_numbers.pop())
+    model.focal_length = frames[0].metadata.focal_length
+    return model, {"method": "rotation", "samples": samples, "frames": [str(p) for p in args.rotation]}
+
+
 def cmd_calibrate_vignetting(args):
-    from .calibrate.profile import CameraProfile, save_profile
     from .calibrate.vignetting import fit_vignetting_polynomial
     from .raw.decode import decode_raw
 
+    if bool(args.flat) == bool(args.rotation):
+        raise BadInputError("give flat-field frames or --rotation frames (one of them)")
+    if args.rotation:
+        model, record = _rotation_vignetting(args)
+        return _save_vignetting(args, model, record)
     frames = [decode_raw(p, demosaic=args.demosaic) for p in args.flat]
     shape = frames[0].sensor_shape
     for f in frames[1:]:
@@ -131,19 +159,29 @@ def cmd_calibrate_vignetting(args):
     saturated = np.any([f.saturated.any(axis=-1) for f in frames], axis=0)
     model = fit_vignetting_polynomial(rgb.sum(axis=-1), shape, binning=frames[0].binning,
                                       degree=args.degree, saturated=saturated)
+    model.f_number, model.focal_length = frames[0].metadata.f_number, frames[0].metadata.focal_length
+    return _save_vignetting(args, model, {"method": "flat-field", "frames": [str(p) for p in args.flat]})
+
+
+def _save_vignetting(args, model, record):
+    from .calibrate.profile import CameraProfile, save_profile
+
     profile = _load_profile(args.profile) or CameraProfile(id=args.id or "vignetting-fit")
     profile.vignetting = model
-    profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__} from "
-                              + ", ".join(Path(p).name for p in args.flat))
+    profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__}, {record['method']}, "
+                              "from " + ", ".join(Path(p).name for p in record["frames"]))
+    profile.sources = dict(profile.sources, vignetting=f"{record['method']} fit, {len(record['frames'])} frames")
+    profile.nominal = [n for n in profile.nominal if n != "vignetting"]
     save_profile(profile, args.output)
-    record = {"output": args.output, "coefficients": model.coefficients, "rms_residual": model.rms_residual,
-              "frames": [str(p) for p in args.flat]}
+    record = dict(record, output=args.output, coefficients=model.coefficients, rms_residual=model.rms_residual,
+                  uncertainty=model.uncertainty, f_number=model.f_number)
     if args.json:
         _print_json(record)
     else:
         coeffs = ", ".join(f"{c:.5g}" for c in model.coefficients)
-        print(f"wrote {args.output}: V = 1 + Σ a_k r^2k with a = [{coeffs}], RMS residual "
-              f"{100 * model.rms_residual:.2f} %")
+        extra = "" if model.uncertainty is None else f", uncertainty ≤ {100 * model.uncertainty:.2f} %"
+        print(f"wrote {args.output}: V = 1 + Σ a_k r^2k with a = [{coeffs}] ({record['method']}), RMS residual "
+              f"{100 * model.rms_residual:.2f} %{extra}")
     return 0
 
 
@@ -546,8 +584,13 @@ def build_parser():
 
     cal = sub.add_parser("calibrate", help="camera calibration")
     calsub = cal.add_subparsers(dest="what", required=True)
-    vig = calsub.add_parser("vignetting", help="fit a vignetting polynomial from flat-field RAW frames")
-    vig.add_argument("flat", nargs="+", help="flat-field RAW frames (uniform diffuse field, same settings)")
+    vig = calsub.add_parser("vignetting", help="fit a vignetting polynomial from flat-field RAW frames or a "
+                            "rotation sequence")
+    vig.add_argument("flat", nargs="*", help="flat-field RAW frames (uniform diffuse field, same settings)")
+    vig.add_argument("--rotation", nargs="+", metavar="RAW",
+                     help="rotation method: RAW frames of a fixed, uniformly lit target while the camera turns "
+                          "about its entrance pupil (one aperture)")
+    vig.add_argument("--target", metavar="ROW,COL", help="the target's position in the first --rotation frame [sensor px]")
     vig.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
     vig.add_argument("--profile", help="profile to start from (its other sections are kept)")
     vig.add_argument("--id", help="profile id when no --profile is given")

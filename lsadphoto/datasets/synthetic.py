@@ -182,3 +182,37 @@ def write_dng(path, raw, camera, *, exposure_time, f_number, iso, extra_tags=(),
         if os.path.exists(name + ".dng"):
             os.unlink(name + ".dng")
     return path
+
+
+def rotation_sequence(projection, angles_deg, *, target_radius_deg, target_luminance, background=0.0):
+    """Luminance images [cd·m⁻²] of a rotation-method vignetting measurement.
+
+    A uniform disk target of angular radius ``target_radius_deg`` and luminance
+    ``target_luminance`` stays fixed while the camera turns about its entrance pupil (the
+    vertical image axis) by each of ``angles_deg``: in the camera frame the target lies at
+    (sin α, 0, cos α). Pixels outside the projection's valid region are black (0), the rest
+    ``background``.
+
+    Parameters
+    ----------
+    projection : Projection
+        The camera's geometry at sensor resolution.
+    angles_deg : sequence of float
+        Rotation angles α [deg].
+    target_radius_deg, target_luminance, background : float
+
+    Returns
+    -------
+    list of ndarray, (rows, cols)
+    """
+    rows, cols = projection.pixel_grid()
+    directions = projection.directions(rows.astype(float), cols.astype(float))
+    valid = np.all(np.isfinite(directions), axis=-1)
+    cos_radius = np.cos(np.radians(target_radius_deg))
+    images = []
+    for alpha in np.radians(np.asarray(angles_deg, dtype=float)):
+        axis = np.array([np.sin(alpha), 0.0, np.cos(alpha)])
+        inside = np.nan_to_num(directions @ axis, nan=-1.0) >= cos_radius
+        image = np.where(valid, background, 0.0)
+        images.append(np.where(inside & valid, target_luminance, image))
+    return images
