@@ -68,9 +68,15 @@ def cmd_luminance(args):
     if args.png:
         outputs["png"] = Path(args.png)
     dark = read_dark_frame(args.dark_frame) if args.dark_frame else None
+    illuminance = None
+    if args.illuminance is not None:
+        from .calibrate.illuminance import IlluminanceReading
+
+        illuminance = IlluminanceReading(args.illuminance, **(
+            {} if args.illuminance_uncertainty is None else {"relative_uncertainty": args.illuminance_uncertainty}))
     result = luminance_from_raw(
         args.raw, spots=spots, profile=_load_profile(args.profile), demosaic=args.demosaic,
-        colour_method=args.colour_method, dark_frame=dark,
+        colour_method=args.colour_method, dark_frame=dark, illuminance=illuminance,
     )
     writers = {"exr": write_exr, "hdr": write_hdr, "png": write_false_colour_png}
     with atomic_outputs(*outputs.values()) as temps:
@@ -572,7 +578,12 @@ def build_parser():
                      help="spot-meter reading at a full-resolution pixel (repeatable)")
     lum.add_argument("--acceptance-angle-deg", type=float, default=1.0,
                      help="spot meter acceptance angle, full cone [deg] (LS-100: 1)")
-    lum.add_argument("--profile", help="camera profile (TOML)")
+    lum.add_argument("--profile", help="camera profile (TOML); default: drafted from the file (EXIF, lensfun)")
+    lum.add_argument("--illuminance", type=float, metavar="LUX",
+                     help="illuminance at the lens, meter facing along the optical axis (hemispherical maps): "
+                          "calibrates the map, or cross-checks the spots")
+    lum.add_argument("--illuminance-uncertainty", type=float, metavar="REL",
+                     help="relative standard uncertainty of the illuminance meter (default 0.043: DIN 5032-7 class B)")
     lum.add_argument("--demosaic", choices=DEMOSAIC_METHODS, default="superpixel")
     lum.add_argument("--colour-method", choices=COLOUR_METHODS, default="auto")
     lum.add_argument("--dark-frame", action="append", metavar="RAW", help="dark frame(s) for a black-level map")

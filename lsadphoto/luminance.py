@@ -13,6 +13,7 @@ import numpy as np
 from ._version import __version__
 from .calibrate.consistency import check_profile_frame, image_facts
 from .calibrate.draft import draft_profile
+from .calibrate.illuminance import calibrate_illuminance, cross_check_illuminance
 from .calibrate.spot import calibrate_spots
 from .calibrate.vignetting import vignetting_gain
 from .constants import DEFAULT_CALIBRATION_CONSTANT_UNCERTAINTY
@@ -50,7 +51,7 @@ def _exposures(images, need_absolute):
 
 
 def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", colour_method="auto",
-                       dark_frame=None, check_alignment=True):
+                       dark_frame=None, check_alignment=True, illuminance=None):
     """Absolute luminance map from one RAW file or an exposure bracket of one view.
 
     Parameters
@@ -74,6 +75,11 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
     dark_frame : ndarray, optional
         Black-level map [ADU] (see :func:`lsadphoto.raw.decode.read_dark_frame`).
     check_alignment : bool
+    illuminance : IlluminanceReading, optional
+        An illuminance-meter reading at the lens facing along the optical axis (a
+        hemispherical map only): without spots it calibrates the map; with spots it
+        cross-checks them (:mod:`lsadphoto.calibrate.illuminance`), warning with both numbers
+        beyond twice the combined uncertainty.
 
     Returns
     -------
@@ -124,19 +130,29 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
                                         focal_length=meta.focal_length,
                                         focal_plane_resolution=meta.focal_plane_resolution)
     except BadInputError:
-        if spots:
+        if spots or illuminance is not None:
             raise
-    if spots:
+    illuminance_check = None
+    if illuminance is not None and not spots:
+        illuminance_check = calibrate_illuminance(relative, projection, illuminance, relative_variance=relative_var,
+                                                  saturated=saturated)
+        factor, u_factor, calibrated = illuminance_check.factor, illuminance_check.relative_uncertainty, True
+        spot_records, method = [], "illuminance"
+    elif spots:
         calibration = calibrate_spots(relative, saturated, projection, spots, binning=first.binning,
                                       relative_variance=relative_var)
         factor, u_factor, calibrated = calibration.factor, calibration.relative_uncertainty, True
         spot_records = calibration.spots
         method = "spot"
+        if illuminance is not None:
+            illuminance_check = cross_check_illuminance(relative, projection, illuminance, factor=factor,
+                                                        factor_uncertainty=u_factor, relative_variance=relative_var,
+                                                        saturated=saturated)
     else:
         if profile.calibration_constant is None:
             raise BadInputError(
-                "absolute scale needs spot readings (--spot ROW,COL,CD_M2) or a camera profile "
-                "with photometric.calibration_constant"
+                "absolute scale needs spot readings (--spot ROW,COL,CD_M2), an illuminance reading "
+                "(--illuminance LUX, hemispherical maps) or a camera profile with photometric.calibration_constant"
             )
         factor = profile.calibration_constant
         u_factor = profile.calibration_constant_uncertainty or DEFAULT_CALIBRATION_CONSTANT_UNCERTAINTY
@@ -175,6 +191,7 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         "profile_checks": checks,
         "frames": frames,
         "spots": spot_records,
+        "illuminance": None if illuminance_check is None else illuminance_check.to_dict(),
         "shape": list(relative.shape),
         "black_map_used": first.black_map_used,
         "lsadphoto_version": __version__,
