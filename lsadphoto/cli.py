@@ -76,7 +76,7 @@ def cmd_luminance(args):
             {} if args.illuminance_uncertainty is None else {"relative_uncertainty": args.illuminance_uncertainty}))
     result = luminance_from_raw(
         args.raw, spots=spots, profile=_load_profile(args.profile), demosaic=args.demosaic,
-        colour_method=args.colour_method, dark_frame=dark, illuminance=illuminance,
+        colour_method=args.colour_method, dark_frame=dark, illuminance=illuminance, nd_filter=args.nd_filter,
     )
     writers = {"exr": write_exr, "hdr": write_hdr, "png": write_false_colour_png}
     with atomic_outputs(*outputs.values()) as temps:
@@ -582,6 +582,8 @@ def build_parser():
     lum.add_argument("--illuminance", type=float, metavar="LUX",
                      help="illuminance at the lens, meter facing along the optical axis (hemispherical maps): "
                           "calibrates the map, or cross-checks the spots")
+    lum.add_argument("--nd-filter", type=float, nargs="+", metavar="STOPS",
+                     help="neutral-density filter of each frame in stops, in the order of the RAW files (0 for none)")
     lum.add_argument("--illuminance-uncertainty", type=float, metavar="REL",
                      help="relative standard uncertainty of the illuminance meter (default 0.043: DIN 5032-7 class B)")
     lum.add_argument("--demosaic", choices=DEMOSAIC_METHODS, default="superpixel")
