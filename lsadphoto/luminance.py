@@ -95,11 +95,6 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
     if not paths:
         raise BadInputError("no RAW files given")
     images = [decode_raw(p, demosaic=demosaic, dark_frame=dark_frame) for p in paths]
-    if profile is None:
-        profile = draft_profile(paths[0], metadata=images[0].metadata)
-        checks = [check_profile_frame(profile, image_facts(im)) for im in images[1:]]
-    else:
-        checks = [check_profile_frame(profile, image_facts(im)) for im in images]
     first = images[0]
     for image in images[1:]:
         if image.sensor_shape != first.sensor_shape:
@@ -107,6 +102,11 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
                 f"bracket frames differ in size: {first.path} is {first.sensor_shape}, "
                 f"{image.path} is {image.sensor_shape}"
             )
+    if profile is None:
+        profile = draft_profile(paths[0], metadata=first.metadata)
+        checks = [check_profile_frame(profile, image_facts(im)) for im in images[1:]]
+    else:
+        checks = [check_profile_frame(profile, image_facts(im)) for im in images]
     # Absolute exposures are needed to merge frames or to calibrate without spots.
     need_absolute = len(images) > 1 or not spots
     exposures, isos = _exposures(images, need_absolute)
