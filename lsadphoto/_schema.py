@@ -52,9 +52,10 @@ class Key:
         Range of a number, or of every element of a list of numbers.
     exclusive : bool
         The range's ends are excluded (``minimum=0, exclusive=True``: positive).
-    items : type, optional
-        For ``kind=list``: the type of every element (``float`` or ``int`` or ``str``).
-    length : int or tuple of int, optional
+    items : type or Key, optional
+        For ``kind=list``: the type of every element (``float`` or ``int`` or ``str``), or a
+        :class:`Key` that checks every element (e.g. the rows of a matrix).
+    length : int, tuple of int or range, optional
         For ``kind=list``: the allowed number(s) of elements.
     doc : str
         What the value means, with its unit (used in messages and docs).
@@ -80,10 +81,15 @@ class Key:
     def _check_list(self, value, where):
         lengths = (self.length,) if isinstance(self.length, int) else self.length
         if lengths is not None and len(value) not in lengths:
-            allowed = " or ".join(str(n) for n in lengths)
+            if isinstance(lengths, range):
+                allowed = f"{lengths.start} to {lengths.stop - 1}"
+            else:
+                allowed = " or ".join(str(n) for n in lengths)
             raise BadInputError(f"{where} must have {allowed} elements, got {len(value)}")
         if self.items is None:
             return list(value)
+        if isinstance(self.items, Key):
+            return [self.items.check(v, f"{where}[{i}]") for i, v in enumerate(value)]
         out = [_scalar(v, self.items, f"{where}[{i}]") for i, v in enumerate(value)]
         if self.items in (int, float):
             for i, v in enumerate(out):
@@ -157,7 +163,7 @@ class Variants:
         if not isinstance(value, dict):
             raise BadInputError(f"{where} must be a table, got {_describe(value)}")
         name = value.get(self.key, self.default)
-        if name not in self.variants:
+        if not isinstance(name, str) or name not in self.variants:  # a table or list is unhashable
             valid = ", ".join(repr(v) for v in self.variants)
             raise BadInputError(f"{where}.{self.key} must be one of {valid}, got {name!r}")
         table = self.variants[name]

@@ -5,6 +5,7 @@ Every error lsadphoto raises on purpose becomes one line on stderr and a non-zer
 """
 
 import argparse
+import gc
 import json
 import os
 import sys
@@ -39,11 +40,42 @@ def _print_json(record):
     print(_json_text(record))
 
 
-def _write_json(path, record):
-    """Write ``record`` as JSON to ``path``, atomically (``--output-json``)."""
-    from .io._atomic import atomic_text
+class _Choices:
+    """Valid values of an option, defined in the library (``module.name``) and imported only
+    when argparse checks a value or prints help, so that ``lsadphoto`` starts fast.
 
-    atomic_text(path, _json_text(record))
+    ``add_argument`` formats every option's choices once to check its metavar: while
+    :func:`build_parser` runs (``building``) they are empty, otherwise building the parser
+    would import every command's modules (the study's SciPy, the solver) in every process.
+    """
+
+    building = False
+
+    def __init__(self, module, name):
+        self.module, self.name = module, name
+
+    def _values(self):
+        import importlib
+
+        return getattr(importlib.import_module(self.module), self.name)
+
+    def __contains__(self, value):
+        return value in self._values()
+
+    def __iter__(self):
+        return iter(()) if _Choices.building else iter(self._values())
+
+
+def _given(**options):
+    """The options given on the command line; the others take the library's defaults."""
+    return {k: v for k, v in options.items() if v is not None}
+
+
+def _plan(files, folders=None):
+    """The command's outputs, checked before any work (lsadphoto._atomic)."""
+    from ._atomic import plan_outputs
+
+    return plan_outputs(files, folders=folders)
 
 
 def _load_profile(path):
@@ -54,19 +86,16 @@ def _load_profile(path):
 
 def cmd_luminance(args):
     from .calibrate.spot import SpotReading
-    from .io import atomic_outputs, write_exr, write_false_colour_png, write_hdr
+    from .io import write_exr, write_false_colour_png, write_hdr
     from .luminance import luminance_from_raw
     from .raw.decode import read_dark_frame
 
-    angle = np.deg2rad(args.acceptance_angle_deg)
-    spots = [SpotReading.parse(s, acceptance_angle=angle) for s in args.spot or []]
-    outputs = {"exr": Path(args.output)}
-    if outputs["exr"].suffix.lower() != ".exr":
+    if Path(args.output).suffix.lower() != ".exr":
         raise BadInputError(f"output {args.output} must end in .exr")
-    if args.hdr:
-        outputs["hdr"] = Path(args.hdr)
-    if args.png:
-        outputs["png"] = Path(args.png)
+    plan = _plan({"exr": args.output, "hdr": args.hdr, "png": args.png})
+    outputs = plan.files
+    angle = {} if args.acceptance_angle_deg is None else {"acceptance_angle": np.deg2rad(args.acceptance_angle_deg)}
+    spots = [SpotReading.parse(s, **angle) for s in args.spot or []]
     dark = read_dark_frame(args.dark_frame) if args.dark_frame else None
     illuminance = None
     if args.illuminance is not None:
@@ -75,12 +104,13 @@ def cmd_luminance(args):
         illuminance = IlluminanceReading(args.illuminance, **(
             {} if args.illuminance_uncertainty is None else {"relative_uncertainty": args.illuminance_uncertainty}))
     result = luminance_from_raw(
-        args.raw, spots=spots, profile=_load_profile(args.profile), demosaic=args.demosaic,
-        colour_method=args.colour_method, dark_frame=dark, illuminance=illuminance, nd_filter=args.nd_filter,
+        args.raw, spots=spots, profile=_load_profile(args.profile), dark_frame=dark,
+        illuminance=illuminance, nd_filter=args.nd_filter,
+        **_given(demosaic=args.demosaic, colour_method=args.colour_method),
     )
     writers = {"exr": write_exr, "hdr": write_hdr, "png": write_false_colour_png}
-    with atomic_outputs(*outputs.values()) as temps:
-        for (kind, _), temp in zip(outputs.items(), temps):
+    with plan.write() as temps:
+        for kind, temp in temps.items():
             writers[kind](result.map, temp)
     summary = dict(result.summary, outputs={k: str(v) for k, v in outputs.items()})
     if args.json:
@@ -103,11 +133,13 @@ def cmd_calibrate_profile(args):
     from .calibrate.draft import draft_profile
     from .calibrate.profile import save_profile
 
+    plan = _plan({"profile": args.output})
     profile = draft_profile(args.raw[0])
     if args.id:
         profile.id = args.id
     check_profile_frames(profile, args.raw[1:])
-    save_profile(profile, args.output)
+    with plan.write() as temps:
+        save_profile(profile, temps["profile"])
     record = {"output": args.output, "id": profile.id, "sources": profile.sources,
               "nominal": profile.nominal_values(), "notes": profile.notes, "frames": [str(p) for p in args.raw]}
     if args.json:
@@ -136,13 +168,13 @@ def _rotation_vignetting(args):
         target = ()
     if len(target) != 2:
         raise BadInputError(f"--target must be ROW,COL, got {args.target!r}")
-    frames = [decode_raw(p, demosaic=args.demosaic) for p in args.rotation]
+    frames = [decode_raw(p, **_given(demosaic=args.demosaic)) for p in args.rotation]
     f_numbers = {f.metadata.f_number for f in frames}
     if len(f_numbers) > 1:
         raise BadInputError(f"rotation frames mix apertures {sorted(f_numbers)}: fit one aperture at a time")
     model, samples = fit_vignetting_rotation(
         [f.rgb.sum(axis=-1) for f in frames], target, frames[0].sensor_shape, binning=frames[0].binning,
-        degree=args.degree, saturated=[f.saturated.any(axis=-1) for f in frames], f_number=f_numbers.pop())
+        **_given(degree=args.degree), saturated=[f.saturated.any(axis=-1) for f in frames], f_number=f_numbers.pop())
     model.focal_length = frames[0].metadata.focal_length
     return model, {"method": "rotation", "samples": samples, "frames": [str(p) for p in args.rotation]}
 
@@ -153,10 +185,11 @@ def cmd_calibrate_vignetting(args):
 
     if bool(args.flat) == bool(args.rotation):
         raise BadInputError("give flat-field frames or --rotation frames (one of them)")
+    plan = _plan({"profile": args.output})
     if args.rotation:
         model, record = _rotation_vignetting(args)
-        return _save_vignetting(args, model, record)
-    frames = [decode_raw(p, demosaic=args.demosaic) for p in args.flat]
+        return _save_vignetting(args, plan, model, record)
+    frames = [decode_raw(p, **_given(demosaic=args.demosaic)) for p in args.flat]
     shape = frames[0].sensor_shape
     for f in frames[1:]:
         if f.sensor_shape != shape:
@@ -164,21 +197,23 @@ def cmd_calibrate_vignetting(args):
     rgb = np.mean([f.rgb for f in frames], axis=0)
     saturated = np.any([f.saturated.any(axis=-1) for f in frames], axis=0)
     model = fit_vignetting_polynomial(rgb.sum(axis=-1), shape, binning=frames[0].binning,
-                                      degree=args.degree, saturated=saturated)
+                                      saturated=saturated, **_given(degree=args.degree))
     model.f_number, model.focal_length = frames[0].metadata.f_number, frames[0].metadata.focal_length
-    return _save_vignetting(args, model, {"method": "flat-field", "frames": [str(p) for p in args.flat]})
+    return _save_vignetting(args, plan, model, {"method": "flat-field", "frames": [str(p) for p in args.flat]})
 
 
-def _save_vignetting(args, model, record):
+def _save_vignetting(args, plan, model, record):
+    from ._provenance import timestamp
     from .calibrate.profile import CameraProfile, save_profile
 
     profile = _load_profile(args.profile) or CameraProfile(id=args.id or "vignetting-fit")
     profile.vignetting = model
-    profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__}, {record['method']}, "
-                              "from " + ", ".join(Path(p).name for p in record["frames"]))
+    profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__}, {timestamp()}, "
+                              f"{record['method']}: from " + ", ".join(Path(p).name for p in record["frames"]))
     profile.sources = dict(profile.sources, vignetting=f"{record['method']} fit, {len(record['frames'])} frames")
     profile.nominal = [n for n in profile.nominal if n != "vignetting"]
-    save_profile(profile, args.output)
+    with plan.write() as temps:
+        save_profile(profile, temps["profile"])
     record = dict(record, output=args.output, coefficients=model.coefficients, rms_residual=model.rms_residual,
                   uncertainty=model.uncertainty, f_number=model.f_number)
     if args.json:
@@ -193,21 +228,24 @@ def _save_vignetting(args, model, record):
 
 def cmd_calibrate_geometry(args):
     from .calibrate.geometric import calibrate_geometry, parse_pattern
+    from ._provenance import timestamp
     from .calibrate.profile import CameraProfile, save_profile
 
-    result = calibrate_geometry(args.images, pattern=parse_pattern(args.pattern), model=args.model)
+    plan = _plan({"profile": args.output})
+    result = calibrate_geometry(args.images, pattern=parse_pattern(args.pattern), **_given(model=args.model))
     profile = _load_profile(args.profile) or CameraProfile(id=args.id or "geometry-fit")
     profile.lens_projection = result.projection
     profile.width, profile.height = result.width, result.height
     profile.provenance = dict(profile.provenance, geometry_fit=(
-        f"lsadphoto {__version__}: {args.model} model, pattern {result.pattern}, RMS {result.rms_px:.3f} px, "
+        f"lsadphoto {__version__}, {timestamp()}: {result.model} model, pattern {result.pattern}, RMS {result.rms_px:.3f} px, "
         f"{len(result.summary()['used_images'])} views"))
-    save_profile(profile, args.output)
+    with plan.write() as temps:
+        save_profile(profile, temps["profile"])
     summary = dict(result.summary(), output=args.output)
     if args.json:
         _print_json(summary)
     else:
-        print(f"wrote {args.output}: {args.model} model, RMS {result.rms_px:.3f} px, "
+        print(f"wrote {args.output}: {result.model} model, RMS {result.rms_px:.3f} px, "
               f"{len(summary['used_images'])} views used, {len(summary['rejected_images'])} rejected")
         for item in summary["rejected_images"]:
             print(f"  rejected {item['name']}: {item['reason']}")
@@ -240,6 +278,71 @@ def _line_of_sight(text, lmap):
     return _vector(text, "--line-of-sight")
 
 
+def _numbers(text, name, counts):
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) not in counts:
+        raise BadInputError(f"{name} needs {' or '.join(map(str, counts))} comma-separated "
+                            f"numbers, got {text!r}")
+    return values
+
+
+def _centre_and_angles(text, name):
+    """``px:ROW,COL,DEG1[,DEG2]`` or ``X,Y,Z,DEG1[,DEG2]``: (centre, angles [deg])."""
+    if text.startswith("px:"):
+        values = _numbers(text[3:], name, (3, 4))
+        return values[:2], values[2:]
+    values = _numbers(text, name, (4, 5))
+    return values[:3], values[3:]
+
+
+def _task(text):
+    """``--task``: ``px:ROW,COL`` (image point) or ``X,Y,Z`` (direction)."""
+    if text is None:
+        return None
+    if text.startswith("px:"):
+        return _numbers(text[3:], "--task px:ROW,COL", (2,))
+    return _vector(text, "--task")
+
+
+def _evalglare_options(args):
+    """score_map keywords of the evalglare 3.06 options of ``score`` (see its --help)."""
+    from .io import read_map
+
+    options = {}
+    if args.band_deg is not None:
+        options["band_deg"] = args.band_deg
+    if args.zones:
+        options["zone_centre"], options["zone_opening_deg"] = _centre_and_angles(args.zones,
+                                                                                 "--zones")
+    if args.mask:
+        options["mask"] = read_map(args.mask)
+    if args.checkfile:
+        options["checkfile"] = args.checkfile
+    if args.smooth:
+        options["smooth"] = True
+    if args.patch_deg is not None:
+        options["patch_deg"] = args.patch_deg
+    if args.age is not None:
+        options["age"] = args.age
+    if args.illuminance is not None:
+        options["illuminance"] = args.illuminance
+    if args.illuminance_fill:
+        lux, row_max, row_min = _numbers(args.illuminance_fill, "--illuminance-fill", (3,))
+        options["illuminance_fill"] = (lux, row_max, row_min)
+    if args.correction_mode is not None:
+        from .metrics.corrections import low_light_correction_on
+
+        options["low_light_correction"] = low_light_correction_on(args.correction_mode)
+    if args.dgp_coefficients:
+        named = args.dgp_coefficients in ("evalglare", "Wienold2006")
+        options["dgp_coefficients"] = args.dgp_coefficients if named else _numbers(
+            args.dgp_coefficients, "--dgp-coefficients", (8,))
+    return options
+
+
 def _format(value, digits=3):
     return "—" if value is None else f"{value:.{digits}f}"
 
@@ -247,8 +350,8 @@ def _format(value, digits=3):
 def cmd_score(args):
     from .io import read_map
     from .metrics.score import score_map
-    from .report import write_contrast_png, write_glare_source_png
 
+    plan = _plan({"sources": args.sources_png, "contrast": args.contrast_png, "json": args.output_json})
     lmap = read_map(args.map)
     if lmap.projection is None:
         raise BadInputError(f"{args.map} has no camera geometry (no VIEW= line or lsadphoto metadata)")
@@ -257,59 +360,119 @@ def cmd_score(args):
         lmap, line_of_sight=_line_of_sight(args.line_of_sight, lmap),
         up=_vector(args.up, "--up") if args.up else None, source_method=method,
         source_threshold=args.threshold,
-        task_direction=_vector(args.task, "--task") if args.task else None,
+        task_direction=_task(args.task),
         task_opening_deg=args.task_opening_deg, search_angle=args.search_angle,
         peak_luminance=None if args.no_peak_extraction else args.peak_luminance,
         background_method=args.background, position_index_method=args.position_index,
-        guth_field=args.guth_field, n_thresholds=args.N, size_arcmin=args.alpha_arcmin,
+        source_position=args.source_position, guth_field=args.guth_field,
+        noise_samples=args.noise_samples, q_noise_samples=args.q_noise_samples, n_thresholds=args.N, size_arcmin=args.alpha_arcmin,
         q_weight_exponent=args.q_weight_exponent,
-        sweep=range(1, 101) if args.sweep else None,
+        sweep=range(1, 101) if args.sweep else None, **_evalglare_options(args),
     )
     record = score.to_dict()
     record["provenance"]["input"] = str(args.map)
-    if args.sources_png:
-        write_glare_source_png(lmap.luminance, score.source_labels, args.sources_png)
-    if args.contrast_png:
-        write_contrast_png(score.contrast, args.contrast_png)
-    if args.output_json:
-        _write_json(args.output_json, record)
+    with plan.write() as temps:
+        if "sources" in temps:
+            from .report import write_glare_source_png
+
+            write_glare_source_png(lmap.luminance, score.source_labels, temps["sources"])
+        if "contrast" in temps:
+            from .report import write_contrast_png
+
+            write_contrast_png(score.contrast, temps["contrast"])
+        if "json" in temps:
+            temps["json"].write_text(_json_text(record), encoding="utf-8")
     if args.json:
         _print_json(record)
     else:
+        from .metrics.registry import METRICS
+
         u = record["uncertainty"]
 
-        def pm(key, digits):
-            return "" if u.get(key) is None else f" ± {u[key]:.{digits}f}"
+        def shown(key):
+            text = _with_uncertainty(record[key], u.get(key), METRICS[key].digits)
+            return f"{text} {METRICS[key].unit}" if METRICS[key].unit not in ("", "–") else text
 
         print(f"{args.map}: {record['n_sources']:.0f} glare sources; "
-              f"UGR pixel {_format(record['ugr_pixel'], 2)}{pm('ugr_pixel', 2)}, "
-              f"grouped {_format(record['ugr_grouped'], 2)}{pm('ugr_grouped', 2)}; "
-              f"Q {_format(record['q'], 3)}{pm('q', 3)}; DGP {_format(record['dgp'], 3)}{pm('dgp', 3)}; "
-              f"E_v {_format(record['vertical_illuminance'], 1)} lx; "
-              f"L_b {_format(record['background_luminance'], 2)} cd/m²")
+              f"UGR pixel {shown('ugr_pixel')}, grouped {shown('ugr_grouped')}; "
+              f"Q {shown('q')}; DGP {shown('dgp')}; E_v {shown('vertical_illuminance')}; "
+              f"L_b {shown('background_luminance')}")
+        biased = [f"{METRICS[key].label} {b:+.2g} (±{record['noise_bias_standard_error'][key]:.1g})"
+                  for key, b in record["noise_bias"].items()
+                  if b is not None and _bias_matters(b, record, key)]
+        if biased:
+            print("  bias from pixel noise: " + ", ".join(biased))
         for note in record["notes"]:
             print(f"  note: {note}")
+    return 0
+
+
+def _with_uncertainty(value, u, digits):
+    """``value ± u`` with u to two significant digits and the value to the same decimal;
+    ``digits`` decimals when there is no uncertainty."""
+    if value is None:
+        return "—"
+    if not u:
+        return f"{value:.{digits}f}"
+    decimals = max(0, 1 - int(np.floor(np.log10(abs(u)))))
+    return f"{value:.{decimals}f} ± {u:.{decimals}f}"
+
+
+def _bias_matters(bias, record, key):
+    """A noise bias worth printing: beyond twice its Monte Carlo error and a tenth of the
+    metric's standard uncertainty."""
+    error = record["noise_bias_standard_error"].get(key) or 0.0
+    u = record["uncertainty"].get(key) or 0.0
+    return abs(bias) > 2 * error and abs(bias) > 0.1 * u
+
+
+def cmd_design(args):
+    from ._progress import progress_callback
+    from .design.run import run_design
+
+    callback, close = progress_callback("design", enabled=False if args.quiet else None)
+    try:
+        record = run_design(args.problem, args.output,
+                            progress=None if callback is None else (lambda _stage, f: callback(f, None)),
+                            log=(lambda line: None) if args.quiet or args.json else
+                            (lambda line: print(line, file=sys.stderr)))
+    finally:
+        close()
+    if args.json:
+        _print_json(record)
+    else:
+        best = record["best"]
+        if best is None:
+            print(f"no design meets the constraints; wrote {args.output}/design.json with the "
+                  f"{len(record['closest'])} closest designs")
+        else:
+            parts = [f"{v['ugr_grouped'] if v['ugr_grouped'] is not None else '—'}" for v in best["views"].values()]
+            print(f"best design: {best['luminaires']} luminaires, {best['power_w']:g} W, grouped UGR "
+                  f"{', '.join(parts)} ({', '.join(best['views'])}); {len(record['pareto'])} Pareto "
+                  f"designs; wrote {args.output}/design.json, best.toml, report.html")
     return 0
 
 
 def cmd_compare(args):
     from .compare import compare_maps
     from .io import read_map
-    from .report import write_ratio_png
+    from .report import write_comparison_report, write_ratio_png
 
+    plan = _plan({"ratio": args.ratio_png, "report": args.report, "json": args.output_json})
     photo, model = read_map(args.photo), read_map(args.model)
     result = compare_maps(photo, model,
                           line_of_sight=_line_of_sight(args.line_of_sight, photo) if photo.projection else None)
     record = result.to_dict()
     record["inputs"] = {"photo": str(args.photo), "model": str(args.model)}
-    if args.ratio_png:
-        write_ratio_png(result.ratio, args.ratio_png)
     if args.report:
-        from .report import write_comparison_report
-
-        record["report"] = str(write_comparison_report(result, args.report, photo=photo, model=model))
-    if args.output_json:
-        _write_json(args.output_json, record)
+        record["report"] = str(args.report)
+    with plan.write() as temps:
+        if "ratio" in temps:
+            write_ratio_png(result.ratio, temps["ratio"])
+        if "report" in temps:
+            write_comparison_report(result, temps["report"], photo=photo, model=model)
+        if "json" in temps:
+            temps["json"].write_text(_json_text(record), encoding="utf-8")
     if args.json:
         _print_json(record)
     else:
@@ -323,30 +486,67 @@ def cmd_compare(args):
     return 0
 
 
+def cmd_view(args):
+    from .io import read_map
+    from .metrics.score import score_map
+    from .viewer import check_same_geometry, write_viewer
+
+    output = Path(args.output)
+    if output.suffix.lower() not in (".html", ".htm"):
+        raise BadInputError(f"output {args.output} must end in .html")
+    first = read_map(args.map)
+    second = read_map(args.map2) if args.map2 else None
+    if second is not None:
+        check_same_geometry(first, second, names=(str(args.map), str(args.map2)))
+    scores = [None, None]
+    if not args.no_score:
+        scores = [score_map(m) if m is not None and m.projection is not None else None
+                  for m in (first, second)]
+    names = (args.name or Path(args.map).stem,
+             args.name2 or (Path(args.map2).stem if args.map2 else "second"))
+    write_viewer(first, output, second=second, score=scores[0], second_score=scores[1],
+                 names=names, title=args.title)
+    record = {"output": str(output), "bytes": output.stat().st_size,
+              "maps": [str(args.map)] + ([str(args.map2)] if args.map2 else []),
+              "scored": [s is not None for s in scores[:1 + (second is not None)]]}
+    if args.json:
+        _print_json(record)
+    else:
+        print(f"wrote {output} ({record['bytes'] / 1e6:.1f} MB)")
+    return 0
+
+
 def cmd_study(args):
     from .study import run_study
 
+    if args.report:  # before any work: a typo must not become a report of an empty survey
+        from .report import check_survey_folder
+
+        check_survey_folder(args.report, option="--report")
+    report = Path(args.report) / "report.html" if args.report else None
+    plan = _plan({"report": report, "json": args.output_json}, folders={"figures": args.figures})
     result = run_study(args.ratings, args.metrics, metric=args.metric,
                        sweep_prefix=args.sweep_prefix or None, jitter=args.jitter,
                        n_jitter=args.n_jitter, n_bootstrap=args.n_bootstrap,
-                       confidence=args.confidence, seed=args.seed, direction=args.direction)
+                       confidence=args.confidence, seed=args.seed, **_given(direction=args.direction))
     record = result.to_dict()
-    if args.figures:
-        Path(args.figures).mkdir(parents=True, exist_ok=True)
-        record["figures"] = [str(p) for p in result.figures(args.figures)]
-    if args.report:
-        from .report import write_survey_report
+    with plan.write() as temps:
+        if "figures" in temps:
+            record["figures"] = [str(Path(args.figures) / p.name) for p in result.figures(temps["figures"])]
+        if "report" in temps:
+            from .report import write_survey_report
 
-        record["report"] = str(write_survey_report(args.report, study=result))
-    if args.output_json:
-        _write_json(args.output_json, record)
+            write_survey_report(args.report, temps["report"], study=result)
+            record["report"] = str(report)
+        if "json" in temps:
+            temps["json"].write_text(_json_text(record), encoding="utf-8")
     if args.json:
         _print_json(record)
         return 0
     c = record["correlations"][args.metric]
     ci = c["pearson_ci"] or [None, None]
     print(f"{args.metric} vs mean rating over {c['n']} scenes: Pearson r = {_format(c['pearson_r'])} "
-          f"[{_format(ci[0])}, {_format(ci[1])}] ({c['chaddock']}), Spearman ρ = "
+          f"[{_format(ci[0])}, {_format(ci[1])}] ({c['chaddock'] or 'undefined'}), Spearman ρ = "
           f"{_format(c['spearman_rho'])}, Kendall τ = {_format(c['kendall_tau'])}")
     sweep = record.get("sweep")
     if sweep and sweep.get("best"):
@@ -358,8 +558,10 @@ def cmd_study(args):
               f"(in-sample {_format(loo['r_in_sample'])})")
     jit = record.get("jitter")
     if jit:
+        change = jit["max_relative_change"]
         print(f"ratings jittered ±{jit['half_width']:g} × {jit['n_trials']}: r = {_format(jit['mean'])} ± "
-              f"{_format(jit['sd'])}, largest relative change {100 * jit['max_relative_change']:.1f} %")
+              f"{_format(jit['sd'])}, largest relative change "
+              f"{'—' if change is None else f'{100 * change:.1f} %'}")
     for note in record.get("notes", []):
         print(f"  note: {note}")
     if "report" in record:
@@ -368,13 +570,15 @@ def cmd_study(args):
 
 
 def cmd_survey(args):
-    from .survey import run_survey
+    from .survey import check_score_options, run_survey
 
     score_options = {}
     if args.N is not None:
         score_options["n_thresholds"] = args.N
     if args.alpha_arcmin is not None:
         score_options["size_arcmin"] = args.alpha_arcmin
+    # Checked here to name the options as the user gave them; run_survey checks them again.
+    score_options = check_score_options(score_options, source="--N/--alpha-arcmin")
     result = run_survey(args.manifest, args.output, workers=args.workers, dask_address=args.dask,
                         progress=not args.quiet, score_options=score_options or None)
     report = None
@@ -408,18 +612,20 @@ def cmd_simulate(args):
     from ._progress import progress_callback
     from .solver import simulate
 
+    plan = _plan({"store": args.output})
     if args.samples is None and args.target_error is None:
         args.samples = 65536
     scene = _load_any_scene(args.scene)
     callback, close = progress_callback("simulating", enabled=False if args.quiet else None)
     try:
         store = simulate(scene, samples=args.samples, target_error=args.target_error, seed=args.seed,
-                         near_field=args.near_field, progress=callback)
+                         progress=callback, **_given(near_field=args.near_field))
     finally:
         close()
     if args.surface_cache:
         store.surface_cache = _build_cache(store, args)
-    store.save(args.output)
+    with plan.write() as temps:
+        store.save(temps["store"])
     record = {"output": str(args.output), "scene": str(args.scene), "chains": store.chains,
               "nodes": store.nodes, "provenance": store.provenance}
     if args.json:
@@ -459,9 +665,10 @@ def _render_pose(args, scene):
         return projection, position, rotation
     if args.profile:
         profile = _load_profile(args.profile)
-        projection = profile.lens_projection
-        if projection is None:
-            raise BadInputError(f"profile {args.profile} has no lens model")
+        if not (profile.width and profile.height):
+            raise BadInputError(f"profile {args.profile} gives no image size (sensor.width_px, sensor.height_px)")
+        # The calibrated lens model, or the nominal pinhole of [lens_model] focal_length_mm.
+        projection = profile.projection((profile.height, profile.width))
         if args.size:
             width, height = _size(args.size)
             factor = projection.width // width
@@ -499,9 +706,13 @@ def _size(text):
 
 def cmd_render(args):
     from ._progress import progress_callback
-    from .io import atomic_outputs, write_exr, write_hdr
+    from .io import write_exr, write_hdr
     from .solver import LsadStore, load_store, render
 
+    if Path(args.output).suffix.lower() != ".exr":
+        raise BadInputError(f"output {args.output} must end in .exr")
+    plan = _plan({"exr": args.output, "hdr": args.hdr})
+    outputs = plan.files
     source = Path(args.source)
     if source.suffix.lower() == ".npz":
         store_or_scene = load_store(source)
@@ -509,11 +720,6 @@ def cmd_render(args):
     else:
         store_or_scene = scene = _load_any_scene(source)
     projection, position, rotation = _render_pose(args, scene)
-    outputs = {"exr": Path(args.output)}
-    if outputs["exr"].suffix.lower() != ".exr":
-        raise BadInputError(f"output {args.output} must end in .exr")
-    if args.hdr:
-        outputs["hdr"] = Path(args.hdr)
     nodes = args.nodes_per_pixel
     if nodes not in ("auto", "all"):
         try:
@@ -541,8 +747,8 @@ def cmd_render(args):
     finally:
         close()
     writers = {"exr": write_exr, "hdr": write_hdr}
-    with atomic_outputs(*outputs.values()) as temps:
-        for (kind, _), temp in zip(outputs.items(), temps):
+    with plan.write() as temps:
+        for kind, temp in temps.items():
             writers[kind](lmap, temp)
     record = {"outputs": {k: str(v) for k, v in outputs.items()}, "provenance": lmap.provenance}
     if args.json:
@@ -564,9 +770,17 @@ def _add_cache_options(sub):
 
 
 def build_parser():
-    from .raw.colour import COLOUR_METHODS
-    from .raw.decode import DEMOSAIC_METHODS
+    _Choices.building = True
+    try:
+        return _build_parser()
+    finally:
+        _Choices.building = False
 
+
+def _build_parser():
+    from .constants import LS100_ACCEPTANCE_ANGLE
+
+    demosaic = _Choices("lsadphoto.raw.methods", "DEMOSAIC_METHODS")
     parser = argparse.ArgumentParser(prog=PROG, description="Calibrated luminance maps from RAW photographs.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
@@ -576,18 +790,20 @@ def build_parser():
     lum.add_argument("raw", nargs="+", help="RAW file, or several forming an exposure bracket")
     lum.add_argument("--spot", action="append", metavar="ROW,COL,CD_M2",
                      help="spot-meter reading at a full-resolution pixel (repeatable)")
-    lum.add_argument("--acceptance-angle-deg", type=float, default=1.0,
-                     help="spot meter acceptance angle, full cone [deg] (LS-100: 1)")
+    lum.add_argument("--acceptance-angle-deg", type=float,
+                     help=f"spot meter acceptance angle, full cone [deg] (default: LS-100, "
+                          f"{np.rad2deg(LS100_ACCEPTANCE_ANGLE):g})")
     lum.add_argument("--profile", help="camera profile (TOML); default: drafted from the file (EXIF, lensfun)")
     lum.add_argument("--illuminance", type=float, metavar="LUX",
                      help="illuminance at the lens, meter facing along the optical axis (hemispherical maps): "
                           "calibrates the map, or cross-checks the spots")
-    lum.add_argument("--nd-filter", type=float, nargs="+", metavar="STOPS",
-                     help="neutral-density filter of each frame in stops, in the order of the RAW files (0 for none)")
     lum.add_argument("--illuminance-uncertainty", type=float, metavar="REL",
                      help="relative standard uncertainty of the illuminance meter (default 0.043: DIN 5032-7 class B)")
-    lum.add_argument("--demosaic", choices=DEMOSAIC_METHODS, default="superpixel")
-    lum.add_argument("--colour-method", choices=COLOUR_METHODS, default="auto")
+    lum.add_argument("--nd-filter", type=float, nargs="+", metavar="STOPS",
+                     help="neutral-density filter of each frame in stops, in the order of the RAW files (0 for none)")
+    lum.add_argument("--demosaic", choices=demosaic, help="demosaicing (default: the first)")
+    lum.add_argument("--colour-method", choices=_Choices("lsadphoto.raw.colour", "COLOUR_METHODS"),
+                     help="camera RGB → XYZ source (default: the first)")
     lum.add_argument("--dark-frame", action="append", metavar="RAW", help="dark frame(s) for a black-level map")
     lum.add_argument("-o", "--output", required=True, help="output OpenEXR map (.exr)")
     lum.add_argument("--hdr", help="also write a Radiance HDR map")
@@ -607,8 +823,8 @@ def build_parser():
     vig.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
     vig.add_argument("--profile", help="profile to start from (its other sections are kept)")
     vig.add_argument("--id", help="profile id when no --profile is given")
-    vig.add_argument("--degree", type=int, default=3, help="number of even polynomial terms")
-    vig.add_argument("--demosaic", choices=DEMOSAIC_METHODS, default="superpixel")
+    vig.add_argument("--degree", type=int, help="number of even polynomial terms (default 3, at most 6)")
+    vig.add_argument("--demosaic", choices=demosaic, help="demosaicing (default: the first)")
     vig.add_argument("--json", action="store_true")
     vig.set_defaults(func=cmd_calibrate_vignetting)
     prof = calsub.add_parser("profile", help="draft a camera profile from RAW files (EXIF and the lensfun "
@@ -625,7 +841,8 @@ def build_parser():
                           "charuco:COLSxROWS:SQUARE_MM:MARKER_MM[:DICT] (squares, square and marker "
                           "sides [mm], ArUco dictionary, default DICT_5X5_100); e.g. chessboard:9x6:25, "
                           "charuco:9x6:35:26")
-    geo.add_argument("--model", choices=("pinhole", "fisheye"), default="pinhole")
+    geo.add_argument("--model", choices=_Choices("lsadphoto.calibrate.geometric", "MODELS"),
+                     help="camera model (default: the first)")
     geo.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
     geo.add_argument("--profile", help="profile to start from (its other sections are kept)")
     geo.add_argument("--id", help="profile id when no --profile is given")
@@ -638,23 +855,71 @@ def build_parser():
                     help="line of sight in the camera frame (x right, y down, z forward) or through "
                          "an image point; default the map's, else the optical axis")
     sc.add_argument("--up", metavar="X,Y,Z", help="view-up vector in the camera frame (default camera up)")
-    sc.add_argument("--source-method", choices=("fixed", "task", "mean", "contrast"), default="fixed",
+    sc.add_argument("--source-method", choices=_Choices("lsadphoto.metrics.sources", "SOURCE_METHODS"), default="fixed",
                     help="glare-source rule (default: fixed threshold)")
     sc.add_argument("--threshold", type=float,
                     help="glare-source threshold [cd/m²] (fixed, default 2000) or factor (task, mean; default 5)")
-    sc.add_argument("--task", metavar="X,Y,Z", help="task direction for --source-method task (default: line of sight)")
-    sc.add_argument("--task-opening-deg", type=float, default=20.0, help="task cone full opening angle [deg]")
+    sc.add_argument("--task", metavar="px:ROW,COL|X,Y,Z",
+                    help="task area centre (evalglare -t): an image point or a direction; its mean "
+                         "luminance is reported (task) and used by --source-method task and PGSV "
+                         "(default for the task rule: the line of sight)")
+    sc.add_argument("--task-opening-deg", type=float, default=20.0,
+                    help="task cone full opening angle [deg] (evalglare -t angle × 180/π)")
     sc.add_argument("--search-angle", type=float, default=0.2, help="evalglare -r grouping opening angle [rad]")
     sc.add_argument("--peak-luminance", type=float, default=50000.0, help="peak-extraction limit [cd/m²]")
     sc.add_argument("--no-peak-extraction", action="store_true")
-    sc.add_argument("--background", choices=("CIE", "mean", "Ev"), default="CIE", help="background luminance definition")
-    sc.add_argument("--position-index", choices=("evalglare", "Guth", "Kim2011"), default="evalglare")
+    sc.add_argument("--background", choices=_Choices("lsadphoto.metrics.field", "BACKGROUND_METHODS"),
+                    default="CIE", help="background luminance definition")
+    sc.add_argument("--position-index", choices=_Choices("lsadphoto.geometry.position_index", "METHODS"),
+                    default="evalglare")
+    sc.add_argument("--source-position", choices=_Choices("lsadphoto.metrics.grouping", "SOURCE_POSITIONS"), default="evalglare",
+                    help="where a source's position index is taken: evalglare's pixel of its "
+                         "L·ω-weighted mean pixel position (default, as evalglare 3.06), or its "
+                         "L·ω-weighted mean direction")
     sc.add_argument("--guth-field", type=int, choices=(1, 2), help="evaluate only Guth's total (1) or central (2) field")
     sc.add_argument("--N", type=float, default=50.0, help="threshold count N of the Q criterion (default 50)")
     sc.add_argument("--alpha-arcmin", type=float, default=10.0, help="critical detail α [arcmin] (default 10)")
     sc.add_argument("--q-weight-exponent", type=int, choices=(0, 1, 2), default=1,
                     help="Q weight w = P^-m (default m = 1)")
     sc.add_argument("--sweep", action="store_true", help="also compute Q(N) for N = 1…100 in one pass")
+    sc.add_argument("--noise-samples", type=int, default=256,
+                    help="draws of the field sums for the per-pixel noise of maps that carry a "
+                         "per-pixel uncertainty (0: off; default 256)")
+    sc.add_argument("--q-noise-samples", type=int, default=4,
+                    help="resampled maps for Q's noise and bias (0: off; default 4)")
+    eg = sc.add_argument_group("evalglare 3.06 analyses (angles in degrees, evalglare's radians × 180/π)")
+    eg.add_argument("--band-deg", type=float, metavar="A",
+                    help="evalglare -B: statistics of the horizontal band of half-width A about the "
+                         "middle row (0 < A ≤ 180); JSON 'band'")
+    eg.add_argument("--zones", metavar="px:ROW,COL,DEG1[,DEG2]|X,Y,Z,DEG1[,DEG2]",
+                    help="evalglare -l (one angle) / -L (two): zone 1 a cone of full opening DEG1 "
+                         "about the centre, zone 2 the ring out to DEG2; sources are split at the "
+                         "zone borders; JSON 'zones', each source's 'zone'")
+    eg.add_argument("--mask", metavar="FILE",
+                    help="evalglare -A: statistics of the pixels of a same-size picture above "
+                         "0.1 cd/m² (the window), with PGSV, PGSV_sat, PGSV_con; JSON 'mask'")
+    eg.add_argument("--smooth", action="store_true",
+                    help="evalglare -s: pixels around sources join them (smoothing)")
+    eg.add_argument("--patch-deg", type=float, metavar="A",
+                    help="evalglare -z A 1: sources are fixed patches of A degrees instead of "
+                         "grouped pixels (angular fisheye only)")
+    eg.add_argument("--checkfile", metavar="OUT.hdr",
+                    help="evalglare -c: write a Radiance picture with the sources, band, mask and "
+                         "zones in colour")
+    eg.add_argument("--age", type=float, metavar="YEARS",
+                    help="observer age: CIE 146 age factor 1 + (A/70)^4 of the veiling luminance "
+                         "Lveil_cie (evalglare 3.06 has none)")
+    eg.add_argument("--illuminance", type=float, metavar="LUX",
+                    help="evalglare -i: external vertical illuminance for DGP [lx]")
+    eg.add_argument("--illuminance-fill", metavar="LUX,ROW_MAX,ROW_MIN",
+                    help="evalglare -I: as --illuminance, after filling cut rows with the last "
+                         "known values; evalglare's y_max, y_min given as rows from the top "
+                         "(row = rows - 1 - y)")
+    eg.add_argument("--correction-mode", choices=("l+", "l-", "0"),
+                    help="evalglare -C: l+ DGP low-light correction on, l- or 0 off (default off)")
+    eg.add_argument("--dgp-coefficients", metavar="NAME|a1,a2,a3,a4,a5,c1,c2,c3",
+                    help="evalglare -w: DGP coefficients, 'evalglare' (default), 'Wienold2006' or "
+                         "eight numbers")
     sc.add_argument("--sources-png", metavar="OUT.png", help="write the glare-source map")
     sc.add_argument("--contrast-png", metavar="OUT.png", help="write the Q contrast map")
     sc.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
@@ -671,13 +936,33 @@ def build_parser():
     cmp_.add_argument("--json", action="store_true", help="print the JSON record")
     cmp_.set_defaults(func=cmd_compare)
 
+    dsg = sub.add_parser("design", help="choose luminaires and their layout for a quality (Q, UGR, DGP, illuminance)")
+    dsg.add_argument("problem", help="design problem (TOML, schema lsadphoto.design/1)")
+    dsg.add_argument("-o", "--output", required=True, metavar="OUT", help="output folder")
+    dsg.add_argument("--json", action="store_true", help="print the design.json record")
+    dsg.add_argument("--quiet", action="store_true", help="no progress bar or stage lines")
+    dsg.set_defaults(func=cmd_design)
+
+    vw = sub.add_parser("view", help="interactive luminance viewer: one self-contained HTML file")
+    vw.add_argument("map", help="luminance map (.exr or .hdr)")
+    vw.add_argument("map2", nargs="?", help="a second map of the same view and camera geometry "
+                    "(e.g. the model of the photo), shown side by side and as a ratio")
+    vw.add_argument("-o", "--output", required=True, help="HTML file to write")
+    vw.add_argument("--title", help="heading of the page (default: the first map's name)")
+    vw.add_argument("--name", help="name of the first map (default: its file name)")
+    vw.add_argument("--name2", help="name of the second map (default: its file name)")
+    vw.add_argument("--no-score", action="store_true",
+                    help="leave out the metrics overlays (glare sources, Q contrast map)")
+    vw.add_argument("--json", action="store_true", help="print a JSON summary")
+    vw.set_defaults(func=cmd_view)
+
     st = sub.add_parser("study", help="correlate observers' ratings with metrics (the paper's analyses)")
     st.add_argument("ratings", help="RATINGS.csv: scene, observer, rating")
     st.add_argument("metrics", help="METRICS.csv: scene and metric columns (the survey's metrics.csv)")
     st.add_argument("--metric", default="q", help="metric analysed in detail (default q)")
     st.add_argument("--sweep-prefix", default="q_n", help="prefix of the Q(N) sweep columns ('' for none)")
-    st.add_argument("--direction", choices=("positive", "negative", "either"), default="positive",
-                    help="which correlation counts as best in the N sweep")
+    st.add_argument("--direction", choices=_Choices("lsadphoto.study.selection", "DIRECTIONS"),
+                    help="which correlation counts as best in the N sweep (default: the first)")
     st.add_argument("--jitter", type=float, default=0.25, help="half-width of the rating jitter")
     st.add_argument("--n-jitter", type=int, default=10000, help="jitter repetitions")
     st.add_argument("--n-bootstrap", type=int, default=10000, help="bootstrap resamples")
@@ -709,8 +994,8 @@ def build_parser():
     sim.add_argument("--target-error", type=float,
                      help="stop at this relative standard error of the scene's mean luminance (e.g. 0.01)")
     sim.add_argument("--seed", type=int, default=0)
-    sim.add_argument("--near-field", choices=("unbiased", "clamp"), default="unbiased",
-                     help="near-field treatment (clamp is biased and reported as such)")
+    sim.add_argument("--near-field", choices=_Choices("lsadphoto.solver.rendering", "NEAR_FIELD_TREATMENTS"),
+                     help="near-field treatment (default: the first; clamp is biased and reported as such)")
     _add_cache_options(sim)
     sim.add_argument("--surface-cache", action="store_true",
                      help="also store the indirect illuminance on the surfaces (render --estimator cache)")
@@ -743,10 +1028,30 @@ def build_parser():
     return parser
 
 
+#: Allocations between young-generation collections in a process that is one command
+#: (default 700): importing numba and loading its kernels allocates millions of objects, and
+#: collecting them every 700 cost about a quarter of a ``score`` process (docs/performance.md).
+_COMMAND_GC_THRESHOLD = (50_000, 20, 100)
+
+
 def main(argv=None):
+    """Run one command; ``argv`` None (the ``lsadphoto`` console script) means that the process
+    ends with it, so the garbage collector runs rarely and not at all over the objects left at
+    the end (``gc.freeze``: the interpreter's exit would otherwise traverse them all)."""
+    whole_process = argv is None
+    if whole_process:
+        gc.set_threshold(*_COMMAND_GC_THRESHOLD)
     parser = build_parser()
     args = parser.parse_args(argv)
     warnings.showwarning = _warning_line
+    try:
+        return _run(args)
+    finally:
+        if whole_process:
+            gc.freeze()
+
+
+def _run(args):
     try:
         return args.func(args)
     except LsadError as exc:

@@ -9,6 +9,7 @@ __all__ = [
     "LsadError",
     "BadInputError",
     "MissingMetadataError",
+    "OutputError",
     "UnsupportedFileError",
     "LsadWarning",
     "SaturationWarning",
@@ -37,6 +38,11 @@ class UnsupportedFileError(BadInputError):
 
 class MissingMetadataError(BadInputError):
     """Absolute work needs a value (e.g. exposure time) that the file does not carry."""
+
+
+class OutputError(LsadError, OSError):
+    """An output could not be written (disk full, a folder appeared at the target); no
+    output of the command was changed. Also an ``OSError``, for callers that catch those."""
 
 
 class LsadWarning(UserWarning):

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._version import __version__
+from ._provenance import build_provenance
 from .calibrate.consistency import check_profile_frame, image_facts
 from .calibrate.draft import draft_profile
 from .calibrate.illuminance import calibrate_illuminance, cross_check_illuminance
@@ -195,6 +195,8 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         for im, e, shift in zip(images, exposures, merged.shifts)
     ]
     summary = {
+        **build_provenance(inputs=[im.path for im in images], profile=profile.id,
+                           calibration_factor=factor, calibration_uncertainty=u_factor),
         "calibration_factor": factor,
         "calibration_uncertainty": u_factor,
         "calibrated": calibrated,
@@ -214,7 +216,6 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         "illuminance": None if illuminance_check is None else illuminance_check.to_dict(),
         "shape": list(relative.shape),
         "black_map_used": first.black_map_used,
-        "lsadphoto_version": __version__,
     }
     lmap = LuminanceMap(
         luminance=luminance,

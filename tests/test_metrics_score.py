@@ -71,9 +71,23 @@ def test_sun_in_view_is_finite():
 
 
 @pytest.mark.parametrize("size", [1, 2])
-def test_tiny_maps_are_defined(size):
-    score = score_map(LuminanceMap(np.full((size, size), 3000.0), projection=_camera(size)))
-    json.dumps(score.to_dict(), allow_nan=False)
+def test_tiny_maps(size):
+    """One or four pixels of 3000 cd/m²: each is a glare source (above 2000 cd/m²), there is no
+    background, so L_b = (E_v − E_dir)/π = 0, the UGR-type indices (∝ log 1/L_b) and Q (no
+    3×3 stencil) are undefined with a note, and E_v is the sum L·ω·cos σ over the pixels'
+    solid angles and directions as the camera model gives them (the definition, FORMULAS.md)."""
+    cam = _camera(size)
+    record = score_map(LuminanceMap(np.full((size, size), 3000.0), projection=cam)).to_dict()
+    json.dumps(record, allow_nan=False)
+    grid = cam.pixel_grid()
+    expected = float(np.sum(3000.0 * cam.solid_angles(*grid) * np.clip(cam.directions(*grid)[..., 2], 0, None)))
+    assert record["vertical_illuminance"] == pytest.approx(expected, rel=1e-12)
+    assert record["direct_illuminance"] == pytest.approx(expected, rel=1e-12)
+    assert record["mean_luminance"] == pytest.approx(3000.0, rel=1e-12)
+    assert record["n_sources"] == size * size and record["background_luminance"] == 0.0
+    assert record["ugr_pixel"] is None and record["ugr_grouped"] is None and record["q"] is None
+    assert any("background luminance is zero" in n for n in record["notes"])
+    assert any("Q undefined" in n for n in record["notes"])
 
 
 def test_all_nan_and_half_nan_maps():
@@ -96,8 +110,19 @@ def test_all_nan_and_half_nan_maps():
 
 
 def test_source_on_the_line_of_sight_and_at_the_edge():
-    record = score_map(_map(300, 100.0, [(_direction(0, 0), 0.05, 10000.0)])).to_dict()
-    assert record["sources"][0]["position_index"] == pytest.approx(1.0, abs=1e-3)
+    lmap = _map(300, 100.0, [(_direction(0, 0), 0.05, 10000.0)])
+    centre = score_map(lmap, source_position="direction").to_dict()["sources"][0]
+    assert centre["position_index"] == pytest.approx(1.0, abs=1e-3)
+    # evalglare's position: the pixel of the mean pixel position (149.5, 149.5), truncated in
+    # its bottom-up coordinates: row 150, column 149, half a pixel off the axis diagonally.
+    record = score_map(lmap).to_dict()
+    source = record["sources"][0]
+    assert source["row"] == pytest.approx(149.5) and source["position_pixel"] == [150, 149]
+    d = lmap.projection.directions(150.0, 149.0)
+    from lsadphoto.geometry import ObserverFrame, position_index
+
+    assert source["position_index"] == pytest.approx(
+        float(position_index(*ObserverFrame().angles(d))), rel=1e-12)
     edge = score_map(_map(300, 100.0, [(_direction(89, 0), 0.05, 10000.0)])).to_dict()
     # Straight above at σ ≈ 90° Guth's index exceeds 16: evalglare's cap (FORMULAS.md §2.1).
     assert edge["sources"][0]["position_index"] == pytest.approx(16.0)

@@ -45,9 +45,10 @@ def test_lens_models_round_trip(tmp_path, projection):
 def test_bad_lens_model(tmp_path):
     path = tmp_path / "bad.toml"
     path.write_text('id = "x"\n[sensor]\nwidth_px = 10\nheight_px = 10\n[lens_model]\nmodel = "zoom"\n')
-    with pytest.raises(BadInputError, match="unknown projection model 'zoom'"):
+    with pytest.raises(BadInputError, match="lens_model.model must be one of .*got 'zoom'"):
         load_profile(path)
-    path.write_text('id = "x"\n[lens_model]\nmodel = "fisheye-ideal"\n')
+    path.write_text('id = "x"\n[lens_model]\nmodel = "fisheye-ideal"\nkind = "equisolid"\ncx = 4.5\n'
+                    'cy = 4.5\nradius = 5.0\nfov_deg = 180.0\n')
     with pytest.raises(BadInputError, match="needs sensor.width_px"):
         load_profile(path)
 

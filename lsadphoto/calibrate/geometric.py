@@ -46,8 +46,13 @@ __all__ = [
     "parse_pattern",
 ]
 
-_MODELS = ("pinhole", "fisheye")
+#: Camera models :func:`calibrate_geometry` fits (OpenCV pinhole with distortion, OpenCV fisheye).
+MODELS = ("pinhole", "fisheye")
 _MIN_VIEWS = 3
+#: Views whose board corners all lie within this distance [px] of another view's are the same
+#: view (the same image given twice, or the board not moved): they add no constraint and
+#: would make the fit look better determined than it is.
+DUPLICATE_VIEW_PX = 1.0
 #: Fewest ChArUco corners a view must give. A plane's homography needs 4 points in general
 #: position and ``cv2.fisheye.calibrate`` fails outright (an assertion in OpenCV 5.0) on views
 #: of 3–4 points; 6 leaves two points of redundancy per view.
@@ -611,8 +616,8 @@ def calibrate_geometry(images, *, pattern, model="pinhole", outlier_factor=3.0):
     *Detection of ChArUco Boards*.
     """
     pattern = parse_pattern(pattern)
-    if model not in _MODELS:
-        raise BadInputError(f"model must be 'pinhole' or 'fisheye', got {model!r}")
+    if model not in MODELS:
+        raise BadInputError(f"model must be one of {', '.join(MODELS)}, got {model!r}")
     try:
         outlier_factor = float(outlier_factor)
     except (TypeError, ValueError):
@@ -639,11 +644,16 @@ def calibrate_geometry(images, *, pattern, model="pinhole", outlier_factor=3.0):
                         "corners": None})
         loaded.append(img)
         if img is None:
-            records[-1]["reason"] = "unreadable"
+            missing = not isinstance(item, np.ndarray) and not Path(item).exists()
+            records[-1]["reason"] = "does not exist" if missing else "unreadable"
 
     sizes = Counter(img.shape for img in loaded if img is not None)
     if not sizes:
-        raise BadInputError("none of the images could be read")
+        reasons = "; ".join(f"{r['name']}: {r['reason']}" for r in records[:3])
+        more = f"; … ({len(records)} in all)" if len(records) > 3 else ""
+        hint = (" — a shell pattern that matched no file is passed on as written"
+                if any(set("*?[") & set(str(r["name"])) for r in records) else "")
+        raise BadInputError(f"none of the images could be read ({reasons}{more}){hint}")
     most = max(sizes.values())
     shape = next(im.shape for im in loaded if im is not None and sizes[im.shape] == most)
     height, width = shape
@@ -674,6 +684,12 @@ def calibrate_geometry(images, *, pattern, model="pinhole", outlier_factor=3.0):
                 records[i]["reason"] = "board not found"
                 continue
             obj = pattern.object_points()
+        same = next((j for j, o, c in views if o.shape == obj.shape and np.array_equal(o, obj)
+                     and np.max(np.abs(np.asarray(c) - np.asarray(corners))) < DUPLICATE_VIEW_PX), None)
+        if same is not None:
+            records[i]["reason"] = (f"same view as {records[same]['name']} (every corner within "
+                                    f"{DUPLICATE_VIEW_PX:g} px): adds no constraint")
+            continue
         records[i]["corners"] = len(corners)
         views.append((i, obj, corners))
 

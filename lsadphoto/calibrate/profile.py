@@ -29,22 +29,111 @@ A calibrated ``[lens_model]`` is tied to the sensor size in pixels: images of an
 are refused (or use ``binning`` for superpixel maps).
 """
 
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import tomli_w
 
+from .._atomic import atomic_text
+from .._schema import Key, Table, Variants, read_toml
 from .._validation import check_file
 from ..errors import BadInputError
 from ..geometry.base import Projection, projection_from_dict
+from ..geometry.fisheye import KINDS as FISHEYE_KINDS
+from ..geometry.lensfun import DISTORTION_MODELS, LENS_KINDS
 from ..geometry.pinhole import PinholeProjection
 from ..raw.bracket import NoiseModel
-from ..io._atomic import atomic_text
-from .vignetting import VignettingModel
+from .vignetting import MAX_VIGNETTING_TERMS, VignettingModel
 
 SCHEMA = "lsadphoto.camera-profile/1"
+
+_POSITIVE = {"minimum": 0, "exclusive": True}
+
+
+def _centre():
+    return {"cx": Key(float, required=True, doc="principal point, column [px]"),
+            "cy": Key(float, required=True, doc="principal point, row [px]")}
+
+
+def _focal_px():
+    return {"fx": Key(float, required=True, **_POSITIVE, doc="focal length [px], x"),
+            "fy": Key(float, required=True, **_POSITIVE, doc="focal length [px], y")}
+
+
+def _vignetting_setting():
+    return {"uncertainty": Key(float, minimum=0, doc="largest relative standard uncertainty of V"),
+            "focal_length_mm": Key(float, **_POSITIVE, doc="focal length the model belongs to [mm]"),
+            "f_number": Key(float, **_POSITIVE, doc="aperture the model belongs to")}
+
+
+#: The declared schema of a camera profile (lsadphoto._schema): unknown sections and keys are
+#: refused, every value is type- and range-checked, each problem is one line.
+PROFILE_SCHEMA = Table({
+    "schema": Key(str, default=SCHEMA, choices=(SCHEMA,), doc="format identifier"),
+    "id": Key(str, required=True, doc="profile id, recorded in every result"),
+    "f_number": Key(float, **_POSITIVE, doc="the aperture the profile belongs to (checked against each frame)"),
+    "camera": Key(str, doc="camera body"),
+    "lens": Key(str, doc="lens"),
+    "sensor": Table({
+        "width_mm": Key(float, **_POSITIVE, doc="sensor width [mm]"),
+        "height_mm": Key(float, **_POSITIVE, doc="sensor height [mm]"),
+        "width_px": Key(int, minimum=1, doc="image width [px]"),
+        "height_px": Key(int, minimum=1, doc="image height [px]"),
+    }),
+    "lens_model": Variants("model", {
+        "pinhole": Table({"focal_length_mm": Key(float, **_POSITIVE, doc="nominal focal length [mm]"),
+                          # a calibrated pinhole (fx, fy, cx, cy), as PinholeProjection.to_dict writes it
+                          **{k: Key(float, **(_POSITIVE if k[0] == "f" else {}), doc=v.doc)
+                             for k, v in {**_focal_px(), **_centre()}.items()}}),
+        "opencv-pinhole": Table({**_focal_px(), **_centre(),
+                                 "distortion": Key(list, required=True, items=float, length=(4, 5, 8),
+                                                   doc="k1, k2, p1, p2[, k3[, k4, k5, k6]]")}),
+        "opencv-fisheye": Table({**_focal_px(), **_centre(),
+                                 "distortion": Key(list, required=True, items=float, length=4,
+                                                   doc="k1, k2, k3, k4")}),
+        "fisheye-ideal": Table({"kind": Key(str, required=True, choices=FISHEYE_KINDS),
+                                **_centre(),
+                                "radius": Key(float, required=True, **_POSITIVE, doc="image radius [px] at fov_deg"),
+                                "fov_deg": Key(float, required=True, **_POSITIVE, doc="full field of view [deg]")}),
+        "lensfun": Table({"kind": Key(str, required=True, choices=LENS_KINDS, doc="ideal projection"),
+                          "distortion": Key(str, required=True, choices=tuple(DISTORTION_MODELS)),
+                          "terms": Key(list, required=True, items=float, length=(0, 1, 2, 3),
+                                       doc="k1 (poly3); k1, k2 (poly5); a, b, c (ptlens)"),
+                          "focal": Key(float, required=True, **_POSITIVE, doc="focal length [normalised units]"),
+                          "scale": Key(float, required=True, **_POSITIVE, doc="pixels per normalised unit"),
+                          **_centre()}),
+    }, default="pinhole"),
+    "vignetting": Variants("model", {
+        "none": Table({}),
+        "polynomial": Table({
+            "coefficients": Key(list, items=float, length=range(MAX_VIGNETTING_TERMS + 1), default=[],
+                                doc="a1, a2, … of V = 1 + Σ a_k r^2k, r over the half-diagonal"),
+            "centre": Key(list, items=float, length=2, doc="optical centre (row, col) [sensor px]"),
+            "rms_residual": Key(float, minimum=0, doc="RMS relative residual of the fit"),
+            **_vignetting_setting(),
+        }),
+        "flat-field": Table({
+            "map": Key(str, required=True, doc="flat-field gain map (.npy), relative to the profile"),
+            "centre": Key(list, items=float, length=2, doc="optical centre (row, col) [sensor px]"),
+            "rms_residual": Key(float, minimum=0, doc="RMS relative residual"),
+            **_vignetting_setting(),
+        }),
+    }, default="none"),
+    "colour": Table({
+        "camera_to_xyz": Key(list, length=3, items=Key(list, items=float, length=3),
+                             doc="3×3 matrix, camera RGB → CIE XYZ"),
+    }),
+    "photometric": Table({
+        "calibration_constant": Key(float, **_POSITIVE, doc="C [cd·s·m⁻²]: L = C·Y·N²/(t·S)"),
+        "calibration_constant_uncertainty": Key(float, minimum=0, doc="relative standard uncertainty"),
+    }),
+    "noise": Table({
+        "full_well_electrons": Key(float, **_POSITIVE, doc="full-well capacity at ISO 100 [e⁻]"),
+        "read_noise_electrons": Key(float, **_POSITIVE, doc="read noise at ISO 100 [e⁻]"),
+    }),
+    "provenance": Table(open=True, doc="free-form strings"),
+})
 
 
 @dataclass
@@ -152,65 +241,42 @@ class CameraProfile:
         return out
 
 
-def _number(section, key, name, *, required=False):
-    value = section.get(key)
-    if value is None:
-        if required:
-            raise BadInputError(f"camera profile lacks {name}")
-        return None
-    if not isinstance(value, (int, float)) or not np.isfinite(value) or value <= 0:
-        raise BadInputError(f"camera profile {name} must be a positive number, got {value!r}")
-    return float(value)
-
-
 def load_profile(path):
-    """Read a camera profile TOML file; errors name the offending entry."""
-    path = check_file(path, "camera profile")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise BadInputError(f"{path}: not a valid TOML camera profile ({exc})") from None
-    schema = data.get("schema", SCHEMA)
-    if schema != SCHEMA:
-        raise BadInputError(f"{path}: unsupported profile schema {schema!r} (expected {SCHEMA!r})")
-    if "id" not in data:
-        raise BadInputError(f"{path}: camera profile lacks 'id'")
+    """Read a camera profile TOML file, checked against :data:`PROFILE_SCHEMA`.
+
+    Raises
+    ------
+    BadInputError
+        One line naming the file and the offending section and key.
+    """
+    data = read_toml(path, PROFILE_SCHEMA, what="camera profile")
+    path = Path(path)
     sensor = data.get("sensor", {})
-    lens_model = data.get("lens_model", {})
-    vig = data.get("vignetting", {})
-    kind = vig.get("model", "none")
+    lens_model = data.get("lens_model", {"model": "pinhole"})
+    vig = data.get("vignetting", {"model": "none"})
+    kind = vig["model"]
     vignetting = VignettingModel(kind=kind, coefficients=list(vig.get("coefficients", [])),
                                  centre=tuple(vig["centre"]) if "centre" in vig else None,
                                  rms_residual=vig.get("rms_residual"),
-                                 focal_length=_number(vig, "focal_length_mm", "vignetting.focal_length_mm"),
-                                 f_number=_number(vig, "f_number", "vignetting.f_number"))
+                                 uncertainty=vig.get("uncertainty"),
+                                 focal_length=vig.get("focal_length_mm"), f_number=vig.get("f_number"))
     if kind == "flat-field":
-        if "map" not in vig:
-            raise BadInputError(f"{path}: flat-field vignetting needs 'map'")
         map_path = check_file(path.parent / vig["map"], "flat-field map")
         try:
             vignetting.gain_map = np.load(map_path, allow_pickle=False)
         except (ValueError, OSError) as exc:
             raise BadInputError(f"{map_path}: not a numpy .npy gain map ({exc})") from None
-    elif kind not in ("none", "polynomial"):
-        raise BadInputError(f"{path}: unknown vignetting model {kind!r}; valid: none, polynomial, flat-field")
     lens_projection = None
-    model = lens_model.get("model", "pinhole")
-    if model != "pinhole":
-        if not (sensor.get("width_px") and sensor.get("height_px")):
+    model = lens_model["model"]
+    if model != "pinhole" or "fx" in lens_model:
+        if not ("width_px" in sensor and "height_px" in sensor):
             raise BadInputError(f"{path}: lens_model {model!r} needs sensor.width_px and sensor.height_px")
-        params = {k: v for k, v in lens_model.items() if k != "model"}
         try:
             lens_projection = projection_from_dict(
-                {"model": model, **params, "width": sensor["width_px"], "height": sensor["height_px"]}
-            )
-        except (TypeError, ValueError) as exc:
+                {**lens_model, "width": sensor["width_px"], "height": sensor["height_px"]})
+        except BadInputError as exc:
             raise BadInputError(f"{path}: bad lens_model {model!r} ({exc})") from None
     matrix = data.get("colour", {}).get("camera_to_xyz")
-    if matrix is not None:
-        matrix = np.asarray(matrix, dtype=float)
-        if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
-            raise BadInputError(f"{path}: colour.camera_to_xyz must be a finite 3×3 matrix")
     photometric = data.get("photometric", {})
     noise = data.get("noise", {})
     provenance = {k: v for k, v in data.get("provenance", {}).items()
@@ -224,26 +290,24 @@ def load_profile(path):
     nominal = [n.strip() for n in str(data.get("provenance", {}).get("nominal", "")).split(",") if n.strip()]
     nominal = [n for n in nominal if n != "noise" or "noise" not in data]
     return CameraProfile(
-        id=str(data["id"]),
+        id=data["id"],
         camera=data.get("camera"),
         lens=data.get("lens"),
-        sensor_width=_number(sensor, "width_mm", "sensor.width_mm"),
-        sensor_height=_number(sensor, "height_mm", "sensor.height_mm"),
+        sensor_width=sensor.get("width_mm"),
+        sensor_height=sensor.get("height_mm"),
         width=sensor.get("width_px"),
         height=sensor.get("height_px"),
-        focal_length=_number(lens_model, "focal_length_mm", "lens_model.focal_length_mm"),
+        focal_length=lens_model.get("focal_length_mm"),
         lens_projection=lens_projection,
         vignetting=vignetting,
-        camera_to_xyz=matrix,
-        calibration_constant=_number(photometric, "calibration_constant", "photometric.calibration_constant"),
+        camera_to_xyz=None if matrix is None else np.asarray(matrix, dtype=float),
+        calibration_constant=photometric.get("calibration_constant"),
         calibration_constant_uncertainty=photometric.get("calibration_constant_uncertainty"),
-        noise=NoiseModel(
-            full_well=_number(noise, "full_well_electrons", "noise.full_well_electrons") or NoiseModel.full_well,
-            read_noise=_number(noise, "read_noise_electrons", "noise.read_noise_electrons") or NoiseModel.read_noise,
-        ),
+        noise=NoiseModel(full_well=noise.get("full_well_electrons", NoiseModel.full_well),
+                         read_noise=noise.get("read_noise_electrons", NoiseModel.read_noise)),
         noise_measured="noise" in data,
-        f_number=_number(data, "f_number", "f_number"),
-        provenance=provenance,
+        f_number=data.get("f_number"),
+        provenance={k: str(v) for k, v in provenance.items()},
         sources=sources,
         nominal=nominal,
         path=str(path),

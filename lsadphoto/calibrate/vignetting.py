@@ -29,6 +29,19 @@ from .._validation import check_array
 from ..errors import BadInputError
 
 
+#: Most even terms of a vignetting polynomial V = 1 + Σ_{k=1..n} aₖ r^{2k}. Three terms
+#: describe camera lenses to better than 1 % (lensfun's ``pa`` model, Kang & Weiss 2000 use
+#: r², r⁴, r⁶); beyond six the least-squares fit oscillates between the sampled radii and
+#: the powers r^{2k} ≤ 1 become numerically dependent.
+MAX_VIGNETTING_TERMS = 6
+
+#: Largest RMS relative residual [1] of a flat-field fit that is accepted as a flat field. A
+#: uniform diffuse field leaves photon noise and the lens's small non-radial terms (0.42 % on
+#: data_samples/flat, both frames); frames of an ordinary scene leave tens of per cent (46 % on
+#: data_samples/office/office_1.dng), which no vignetting model should absorb.
+MAX_FLAT_FIELD_RESIDUAL = 0.05
+
+
 @dataclass
 class VignettingModel:
     """Vignetting of one lens/aperture.
@@ -131,6 +144,7 @@ def fit_vignetting_polynomial(flat, sensor_shape, *, binning=1, degree=3, satura
     sensor_shape : (int, int)
     binning : int
     degree : int
+        Number of even terms, 1 to :data:`MAX_VIGNETTING_TERMS`.
     saturated : ndarray of bool, optional
         Pixels to leave out.
     centre : (float, float), optional
@@ -140,11 +154,21 @@ def fit_vignetting_polynomial(flat, sensor_shape, *, binning=1, degree=3, satura
     VignettingModel
         With the fitted coefficients and the RMS relative residual.
 
+    Raises
+    ------
+    BadInputError
+        A degree out of range, too few usable pixels, or a residual above
+        :data:`MAX_FLAT_FIELD_RESIDUAL` (the frames are not a flat field).
+
     Notes
     -----
     The centre value is fitted as a free scale c₀: flat ≈ c₀ + Σ bₖ r^{2k}, aₖ = bₖ/c₀, by
     linear least squares on all valid pixels.
     """
+    if (isinstance(degree, bool) or not isinstance(degree, (int, np.integer))
+            or not 1 <= degree <= MAX_VIGNETTING_TERMS):
+        raise BadInputError(f"vignetting degree (number of even terms) must be an integer from 1 to "
+                            f"{MAX_VIGNETTING_TERMS}, got {degree!r}")
     flat = check_array(flat, "flat-field image", ndim=2, dtype=np.float64)
     r2 = _sensor_radius(sensor_shape, flat.shape, binning, centre) ** 2
     ok = np.isfinite(flat) & (flat > 0)
@@ -159,6 +183,11 @@ def fit_vignetting_polynomial(flat, sensor_shape, *, binning=1, degree=3, satura
     model = VignettingModel(kind="polynomial", coefficients=list(coef[1:] / coef[0]), centre=centre)
     fitted = design @ coef
     model.rms_residual = float(np.sqrt(np.mean((flat[ok] / fitted - 1.0) ** 2)))
+    if not model.rms_residual <= MAX_FLAT_FIELD_RESIDUAL:
+        raise BadInputError(
+            f"the flat-field fit leaves an RMS residual of {100 * model.rms_residual:.1f} % (at most "
+            f"{100 * MAX_FLAT_FIELD_RESIDUAL:g} % for a flat field): the frames do not show a uniform "
+            "diffuse field")
     return model
 
 

@@ -12,7 +12,7 @@ import OpenEXR
 from .._validation import check_file
 from ..errors import UnsupportedFileError
 from ..luminance_map import LuminanceMap
-from ._atomic import atomic_path
+from .._atomic import atomic_path
 from ._metadata import metadata_fields, metadata_json
 
 METADATA_ATTRIBUTE = "lsadphoto.metadata"

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from ._atomic import atomic_path
+from .._atomic import atomic_path
 
 
 def false_colour_range(luminance):

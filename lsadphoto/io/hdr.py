@@ -27,7 +27,7 @@ from ..errors import BadInputError, UnsupportedFileError
 from ..geometry.fisheye import RADIANCE_VIEW_NAMES, IdealFisheyeProjection
 from ..geometry.pinhole import PinholeProjection
 from ..luminance_map import LuminanceMap
-from ._atomic import atomic_path
+from .._atomic import atomic_path
 from ._metadata import metadata_fields, metadata_json
 
 _RESOLUTION = re.compile(rb"^-Y\s+(\d+)\s+\+X\s+(\d+)$")  # Radiance 6 pads the numbers
@@ -88,62 +88,6 @@ def _encode_scanlines(rgbe):
         block[:, np.asarray(count_positions)] = counts
         block[:, is_data] = rgbe[:, layout[is_data], c]
     return line.tobytes()
-
-
-def _decode_scanline(data, pos, cols, out_row):
-    """Decode one scanline starting at ``data[pos]`` into ``out_row`` (cols, 4); new position."""
-    n = len(data)
-    if (
-        _MIN_RLE <= cols <= _MAX_RLE
-        and pos + 4 <= n
-        and data[pos] == 2
-        and data[pos + 1] == 2
-        and not data[pos + 2] & 0x80
-    ):
-        if (data[pos + 2] << 8 | data[pos + 3]) != cols:
-            raise UnsupportedFileError("scanline length mismatch")
-        pos += 4
-        for c in range(4):
-            col = 0
-            while col < cols:
-                if pos >= n:
-                    raise UnsupportedFileError("file truncated inside a scanline")
-                code = data[pos]
-                pos += 1
-                if code > 128:
-                    run = code - 128
-                    if col + run > cols or pos >= n:
-                        raise UnsupportedFileError("corrupt run length")
-                    out_row[col : col + run, c] = data[pos]
-                    pos += 1
-                else:
-                    if code == 0 or col + code > cols or pos + code > n:
-                        raise UnsupportedFileError("corrupt run length")
-                    out_row[col : col + code, c] = np.frombuffer(data, np.uint8, code, pos)
-                    pos += code
-                col += run if code > 128 else code
-        return pos
-    # Flat pixels, possibly with old-style runs (1,1,1,n repeats the previous pixel).
-    col, shift = 0, 0
-    while col < cols:
-        if pos + 4 > n:
-            raise UnsupportedFileError("file truncated inside a scanline")
-        pixel = data[pos : pos + 4]
-        pos += 4
-        if pixel[0] == 1 and pixel[1] == 1 and pixel[2] == 1:
-            if col == 0:
-                raise UnsupportedFileError("old-style run at the start of a scanline")
-            run = pixel[3] << shift
-            if col + run > cols:
-                raise UnsupportedFileError("corrupt old-style run")
-            out_row[col : col + run] = out_row[col - 1]
-            col += run
-            shift += 8
-        else:
-            out_row[col] = np.frombuffer(pixel, np.uint8)
-            col += 1
-            shift = 0
-    return pos
 
 
 # --- header ----------------------------------------------------------------------------------
@@ -248,18 +192,25 @@ def _read_header(data, path):
     return header, rows, cols, eol + 1
 
 
-def read_hdr_rgb(path):
-    """Read a Radiance picture: float64 RGB ``(rows, cols, 3)`` with EXPOSURE and COLORCORR
-    divided out, and the parsed header."""
+def _read_rgbe(path):
+    """RGBE bytes ``(rows, cols, 4)`` uint8 of a Radiance picture and its parsed header."""
+    from ._rgbe import SCANLINE_ERRORS, decode_scanlines  # numba loads only for reading
+
     path = check_file(path, "HDR file")
     data = path.read_bytes()
     header, rows, cols, pos = _read_header(data, path)
     rgbe = np.zeros((rows, cols, 4), dtype=np.uint8)
-    try:
-        for row in range(rows):
-            pos = _decode_scanline(data, pos, cols, rgbe[row])
-    except UnsupportedFileError as exc:
-        raise UnsupportedFileError(f"{path}: {exc}") from None
+    _, error, row = decode_scanlines(np.frombuffer(data, np.uint8), pos,
+                                     _MIN_RLE <= cols <= _MAX_RLE, rgbe)
+    if error:
+        raise UnsupportedFileError(f"{path}: {SCANLINE_ERRORS[error]} (scanline {row})")
+    return rgbe, header
+
+
+def read_hdr_rgb(path):
+    """Read a Radiance picture: float64 RGB ``(rows, cols, 3)`` with EXPOSURE and COLORCORR
+    divided out, and the parsed header."""
+    rgbe, header = _read_rgbe(path)
     rgb = rgbe_to_float(rgbe) / header["exposure"] / header["colorcorr"]
     return rgb, header
 
@@ -274,10 +225,14 @@ def read_hdr(path):
     provenance (``radiance_view``) without a projection, so that their luminance can still
     be read.
     """
-    rgb, header = read_hdr_rgb(path)
-    weights = np.asarray(RADIANCE_RGB_LUMINANCE_WEIGHTS)
-    luminance = (RADIANCE_WHITE_EFFICACY * (rgb @ weights)).astype(np.float32)
-    rows, cols = luminance.shape
+    from ._rgbe import rgbe_luminance
+
+    rgbe, header = _read_rgbe(path)
+    rows, cols = rgbe.shape[:2]
+    luminance = np.empty((rows, cols), dtype=np.float32)
+    rgbe_luminance(rgbe, float(header["exposure"]), np.asarray(header["colorcorr"], np.float64),
+                   np.asarray(RADIANCE_RGB_LUMINANCE_WEIGHTS, np.float64),
+                   float(RADIANCE_WHITE_EFFICACY), luminance)
     if header["lsadphoto"] is not None:
         fields = metadata_fields(header["lsadphoto"], path)
     else:
@@ -306,18 +261,28 @@ def write_hdr(lmap, path):
     negative = int(np.count_nonzero(luminance < 0))
     luminance = np.maximum(luminance, 0.0)
     value = luminance / RADIANCE_WHITE_EFFICACY
-    rgbe = float_to_rgbe(np.repeat(value[..., None], 3, axis=-1))
-    rows, cols = luminance.shape
-    lines = ["#?RADIANCE", f"SOFTWARE=lsadphoto {__version__}"]
-    if lmap.projection is not None and hasattr(lmap.projection, "radiance_view"):
-        try:
-            lines.append(f"VIEW= {lmap.projection.radiance_view()}")
-        except BadInputError:
-            pass  # no Radiance view type for this projection (e.g. equisolid): no VIEW= line
+    lines = []
     if negative:
         lines.append(f"CLAMPED= {negative} pixels of negative luminance (noise) written as 0; "
                      "means over dark regions are biased upwards; the OpenEXR map keeps them signed")
     lines.append(f"LSADPHOTO={metadata_json(lmap)}")
+    write_hdr_rgb(np.repeat(value[..., None], 3, axis=-1), path, projection=lmap.projection,
+                  header_lines=lines)
+
+
+def write_hdr_rgb(rgb, path, *, projection=None, header_lines=()):
+    """Write Radiance RGB values ``(rows, cols, 3)`` (W·sr⁻¹·m⁻², luminance = 179·(0.265074 R
+    + 0.670115 G + 0.064811 B)) as a Radiance picture (atomic), with a ``VIEW=`` line from
+    ``projection`` where it has a Radiance equivalent and the given extra header lines."""
+    rgbe = float_to_rgbe(np.nan_to_num(np.asarray(rgb, np.float64), nan=0.0))
+    rows, cols = rgbe.shape[:2]
+    lines = ["#?RADIANCE", f"SOFTWARE=lsadphoto {__version__}"]
+    if projection is not None and hasattr(projection, "radiance_view"):
+        try:
+            lines.append(f"VIEW= {projection.radiance_view()}")
+        except BadInputError:
+            pass  # no Radiance view type for this projection (e.g. equisolid): no VIEW= line
+    lines.extend(header_lines)
     lines.append("FORMAT=32-bit_rle_rgbe")
     head = ("\n".join(lines) + f"\n\n-Y {rows} +X {cols}\n").encode("latin-1", "replace")
     with atomic_path(path) as temp, open(temp, "wb") as fh:
@@ -334,4 +299,5 @@ __all__ = [
     "read_hdr_rgb",
     "rgbe_to_float",
     "write_hdr",
+    "write_hdr_rgb",
 ]

@@ -24,9 +24,7 @@ from ..errors import BadInputError, UnsupportedFileError
 from ._dngtags import dng_black_map, read_dng_tags
 from .integrity import check_declared_extent, check_repeated_rows, libraw_reports
 from .metadata import ExposureMetadata, read_exposure_metadata
-
-#: Demosaic methods: ours ("superpixel") and LibRaw's interpolations.
-DEMOSAIC_METHODS = ("superpixel", "linear", "ahd", "dcb")
+from .methods import DEMOSAIC_METHODS
 
 _LIBRAW_ALGORITHM = {
     "linear": rawpy.DemosaicAlgorithm.LINEAR,

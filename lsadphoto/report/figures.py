@@ -5,7 +5,7 @@ Both are written atomically as PNG with matplotlib's Agg backend (no screen need
 
 import numpy as np
 
-from ..io._atomic import atomic_path
+from .._atomic import atomic_path
 from ..io.falsecolour import false_colour_range
 
 __all__ = ["write_glare_source_png", "write_contrast_png", "write_ratio_png"]

@@ -23,7 +23,7 @@ quality assessment, GraphiCon 2020, CEUR Vol-2744 short35, Figures 1–4.
 
 import io
 
-from ..io._atomic import atomic_path
+from .._atomic import atomic_path
 from ..study.figures import (  # the study's own Figures 1 and 2, and their drawing helpers
     _annotate,
     _errors,

@@ -52,6 +52,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from .._provenance import build_provenance
 from .._validation import check_choice
 from ..errors import BadInputError, SolverWarning
 from ..geometry.base import Projection
@@ -632,6 +633,7 @@ def _finish(projection, valid, lum_b, *, store_or_scene, estimator, extra, elaps
     field_mean = float(field_b.mean())
     field_se = float(math.sqrt(field_b.var(ddof=1) / B + (omega ** 2 * shared).sum() / omega.sum() ** 2))
     provenance = {
+        **build_provenance(),
         "solver": "lsadphoto.solver",
         "estimator": estimator,
         "batches": int(B),

@@ -12,6 +12,7 @@ import warnings
 
 import numpy as np
 
+from .._provenance import build_provenance
 from .._validation import check_choice
 from .._version import __version__
 from ..errors import BadInputError
@@ -149,6 +150,10 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
         planned = done_blocks + blocks
     store.near_field = near_field
     store.provenance = {
+        **build_provenance(arguments={"samples": samples, "target_error": target_error, "seed": seed,
+                                      "max_depth": max_depth, "near_field": near_field,
+                                      "absorption": absorption, "batches": batches,
+                                      "max_samples": max_samples}),
         "solver": "lsadphoto.solver", "version": __version__,
         "chains": int(store.chains), "batches": batches, "seed": int(seed),
         "max_depth": max_depth, "absorption": absorption, "nodes": int(store.nodes),

@@ -27,7 +27,7 @@ import numpy as np
 from .._version import __version__
 from ..errors import BadInputError, UnsupportedFileError
 from ..geometry.base import projection_from_dict
-from ..io._atomic import atomic_path
+from .._atomic import atomic_path
 from .intensity import IntensityTable
 from .scene import AreaLuminaire, PointLuminaire, Scene, View
 

@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from ..io._atomic import atomic_path
+from .._atomic import atomic_path
 from .correlation import pearson_r
 
 __all__ = ["figure_ratings_vs_metric", "figure_r_vs_n", "write_scatter_png", "write_sweep_png"]

@@ -1,15 +1,13 @@
 """The whole observer-study analysis in one call: :func:`run_study` → :class:`StudyResult`."""
 
-import hashlib
 import json
 import math
-import platform
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from .._version import __version__
+from .._provenance import build_provenance, file_record
 from ..errors import BadInputError
 from .correlation import chaddock_label, correlate, fisher_interval_Fisher1921, pearson_r
 from .resampling import (
@@ -63,10 +61,6 @@ def _json_ready(value):
 def _n_label(n):
     """N as an int where it is integral (50, not 50.0)."""
     return int(n) if float(n).is_integer() else float(n)
-
-
-def _sha256(path):
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 @dataclass
@@ -146,20 +140,23 @@ class StudyResult:
         plot = self._plot
         written = []
         stats = self.correlations[self.metric]
+        r = stats["pearson_r"]
+        # Undefined correlations (a constant metric or constant ratings) are drawn, and said.
+        strength = "r undefined" if math.isnan(r) else f"r = {r:.3f} ({stats['chaddock']})"
         path = outdir / f"scatter_{self.metric}.png"
         write_scatter_png(plot["metric"], plot["mean"], path, sem=plot["sem"],
                           labels=plot["scenes"], metric_name=self.metric,
-                          title=f"{self.metric}: r = {stats['pearson_r']:.3f} "
-                                f"({stats['chaddock']}), n = {stats['n']}", dpi=dpi)
+                          title=f"{self.metric}: {strength}, n = {stats['n']}", dpi=dpi)
         written.append(path)
         if self.sweep is not None:
             path = outdir / "r_vs_n.png"
             best = self.sweep["best"]
             loo = None if self.leave_one_out is None else self.leave_one_out["chosen_n"]
+            title = ("r(N): no best N (every r undefined)" if best is None else
+                     f"r(N): best N = {best['n']}, r = {best['r']:.3f}")
             write_sweep_png(self.sweep["n"], plot["sweep_r"], path, ci_low=plot["sweep_low"],
-                            ci_high=plot["sweep_high"], best_n=best["n"], loo_chosen_n=loo,
-                            title=f"r(N): best N = {best['n']}, r = {best['r']:.3f}",
-                            dpi=dpi)
+                            ci_high=plot["sweep_high"], best_n=None if best is None else best["n"],
+                            loo_chosen_n=loo, title=title, dpi=dpi)
             written.append(path)
         return written
 
@@ -255,6 +252,10 @@ def run_study(ratings_csv, metrics_csv, *, metric="q", sweep_prefix="q_n", jitte
     metrics, unrated = rated_scenes_only(read_metrics(metrics_csv), ratings)
     summary = scene_ratings(ratings, metrics)
     n_scenes = len(metrics.scenes)
+    if n_scenes < MIN_SCENES and unrated:  # the ratings cover too few of the scenes
+        raise BadInputError(f"{ratings.path}: rates {n_scenes} of the "
+                            f"{n_scenes + len(unrated)} scene(s) of {metrics.path}; a "
+                            f"correlation needs at least {MIN_SCENES} rated scenes")
     if n_scenes < MIN_SCENES:
         raise BadInputError(f"{metrics.path}: {n_scenes} scene(s); a correlation needs at "
                             f"least {MIN_SCENES}")
@@ -270,6 +271,10 @@ def run_study(ratings_csv, metrics_csv, *, metric="q", sweep_prefix="q_n", jitte
                      f"out: {', '.join(unrated)}")
     if n_scenes < 4:
         notes.append("fewer than 4 scenes: no Fisher interval and no leave-one-out check")
+    constant_ratings = bool(np.ptp(summary.mean) == 0)
+    if constant_ratings:
+        notes.append(f"the mean rating is the same for every scene ({summary.mean[0]:g}): "
+                     "every correlation with the ratings is undefined (null)")
 
     # 1–2. Scenes and correlations of every (non-sweep) metric column.
     scenes = [{"scene": s, "mean": summary.mean[i], "sd": summary.sd[i], "n": summary.n[i],
@@ -305,7 +310,9 @@ def run_study(ratings_csv, metrics_csv, *, metric="q", sweep_prefix="q_n", jitte
                      for r in r_sweep]
         best = int(best_index(r_sweep, direction=direction))
         if best < 0:
-            notes.append("every sweep column is constant: no best N")
+            notes.append("no best N: r(N) is undefined for every N ("
+                         + ("the ratings are constant)" if constant_ratings
+                            else "every sweep column is constant)"))
         sweep_result = {
             "prefix": sweep_prefix,
             "direction": direction,
@@ -375,25 +382,21 @@ def run_study(ratings_csv, metrics_csv, *, metric="q", sweep_prefix="q_n", jitte
             "rmse": loo["rmse"],
         }
 
-    provenance = {
-        "lsadphoto": __version__,
-        "numpy": np.__version__,
-        "scipy": __import__("scipy").__version__,
-        "python": platform.python_version(),
-        "ratings_csv": {"path": str(ratings_csv), "sha256": _sha256(ratings_csv),
+    provenance = build_provenance()
+    provenance.update({
+        "ratings_csv": {**file_record(ratings_csv),
                         "n_ratings": int(ratings.rating.size),
                         "n_missing": ratings.n_missing,
                         "n_observers": len(set(ratings.observer)),
                         "rating_min": float(ratings.rating.min()),
                         "rating_max": float(ratings.rating.max())},
-        "metrics_csv": {"path": str(metrics_csv), "sha256": _sha256(metrics_csv),
-                        "n_scenes": n_scenes},
+        "metrics_csv": {**file_record(metrics_csv), "n_scenes": n_scenes},
         "arguments": {"metric": metric, "sweep_prefix": sweep_prefix, "jitter": jitter,
                       "n_jitter": n_jitter, "n_bootstrap": n_bootstrap,
                       "confidence": confidence, "seed": seed, "direction": direction,
                       "jitter_level": jitter_level,
                       "rating_scale": None if rating_scale is None else list(rating_scale)},
-    }
+    })
     plot = {"metric": x, "mean": summary.mean, "sem": summary.sem,
             "scenes": list(metrics.scenes), **plot_sweep}
     return StudyResult(provenance, metric, scenes, correlations, between, sweep_result,
