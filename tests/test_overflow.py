@@ -95,3 +95,13 @@ def test_illuminance_alone_cannot_calibrate_an_overflowing_map(sun_view):
         luminance_from_raw(paths[:1], profile=profile, illuminance=IlluminanceReading(E_BACKGROUND + E_SUN))
     with pytest.raises(BadInputError, match="one ND filter density per frame"):
         luminance_from_raw(paths, profile=profile, nd_filter=[3])
+
+
+def test_score_says_when_metrics_rest_on_a_repair(sun_view):
+    from lsadphoto.metrics.score import score_map
+
+    paths, profile, spot, _ = sun_view
+    repaired = luminance_from_raw(paths[:1], profile=profile, spots=[spot],
+                                  illuminance=IlluminanceReading(E_BACKGROUND + E_SUN)).map
+    notes = score_map(repaired, noise_samples=0, q_noise_samples=0).notes
+    assert any("rest on a luminous-overflow repair" in n for n in notes)
