@@ -226,6 +226,52 @@ def _save_vignetting(args, plan, model, record):
     return 0
 
 
+def cmd_calibrate_noise(args):
+    from .calibrate.noise import fit_photon_transfer
+    from .calibrate.profile import CameraProfile, save_profile
+    from .raw.bracket import NoiseModel
+    from .raw.decode import decode_raw
+
+    if len(args.flat) % 2 or len(args.flat) < 6:
+        raise BadInputError(f"give flat frames in pairs (two per exposure level, at least three levels), "
+                            f"got {len(args.flat)}")
+    if args.dark and len(args.dark) != 2:
+        raise BadInputError(f"--dark takes two dark frames, got {len(args.dark)}")
+    plan = _plan({"profile": args.output})
+    frames = [decode_raw(p) for p in args.flat]
+    isos = {f.metadata.iso for f in frames}
+    if len(isos) != 1 or None in isos:
+        raise BadInputError(f"flat frames must share one recorded ISO, got {sorted(map(str, isos))}")
+    pairs = []
+    for a, b in zip(frames[0::2], frames[1::2]):
+        if a.metadata.exposure_time != b.metadata.exposure_time:
+            raise BadInputError(f"{a.path} and {b.path} form a pair but differ in exposure time "
+                                f"({a.metadata.exposure_time} s, {b.metadata.exposure_time} s)")
+        pairs.append((a.rgb[..., [0, 2]], b.rgb[..., [0, 2]]))
+    dark = None
+    if args.dark:
+        d = [decode_raw(p) for p in args.dark]
+        dark = (d[0].rgb[..., [0, 2]], d[1].rgb[..., [0, 2]])
+    fit = fit_photon_transfer(pairs, iso=isos.pop(), dark_pair=dark)
+    profile = _load_profile(args.profile) or CameraProfile(id=args.id or "noise-fit")
+    profile.noise = NoiseModel(full_well=fit.full_well, read_noise=fit.read_noise)
+    profile.noise_measured = True
+    profile.sources = dict(profile.sources, noise=(
+        f"photon transfer, {len(pairs)} pairs at ISO {fit.iso:g}, read noise from the {fit.read_noise_source}"))
+    profile.nominal = [n for n in profile.nominal if n != "noise"]
+    with plan.write() as temps:
+        save_profile(profile, temps["profile"])
+    record = {"output": args.output, "full_well_electrons": fit.full_well, "read_noise_electrons": fit.read_noise,
+              "gain_electrons": fit.gain, "iso": fit.iso, "rms_residual": fit.rms_residual,
+              "read_noise_source": fit.read_noise_source, "points": fit.points}
+    if args.json:
+        _print_json(record)
+    else:
+        print(f"wrote {args.output}: full well {fit.full_well:.4g} e⁻ at ISO 100, read noise {fit.read_noise:.3g} e⁻ "
+              f"({fit.read_noise_source}); RMS residual {100 * fit.rms_residual:.1f} %")
+    return 0
+
+
 def cmd_calibrate_geometry(args):
     from .calibrate.geometric import calibrate_geometry, parse_pattern
     from ._provenance import timestamp
@@ -827,6 +873,15 @@ def _build_parser():
     vig.add_argument("--demosaic", choices=demosaic, help="demosaicing (default: the first)")
     vig.add_argument("--json", action="store_true")
     vig.set_defaults(func=cmd_calibrate_vignetting)
+    noi = calsub.add_parser("noise", help="measure the noise model ([noise]) by photon transfer from pairs of "
+                            "flat frames at several exposures")
+    noi.add_argument("flat", nargs="+", help="flat frames in pairs: two per exposure level, three levels or more")
+    noi.add_argument("--dark", nargs=2, metavar="RAW", help="two dark frames (lens cap on, same settings)")
+    noi.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
+    noi.add_argument("--profile", help="profile to start from (its other sections are kept)")
+    noi.add_argument("--id", help="profile id when no --profile is given")
+    noi.add_argument("--json", action="store_true")
+    noi.set_defaults(func=cmd_calibrate_noise)
     prof = calsub.add_parser("profile", help="draft a camera profile from RAW files (EXIF and the lensfun "
                              "database), to edit and calibrate further")
     prof.add_argument("raw", nargs="+", help="RAW file(s) of one camera, lens, focal length and aperture")

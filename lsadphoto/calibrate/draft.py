@@ -233,7 +233,7 @@ def _number(tags, name):
     return None
 
 
-def _sensor(tags, meta, width, height, camera_entry):
+def _sensor(tags, meta, width, height, camera_lookup):
     """(width_mm, height_mm, crop_factor, source, notes) of this image's sensor area."""
     notes = []
     diagonal_px = math.hypot(width, height)
@@ -258,7 +258,7 @@ def _sensor(tags, meta, width, height, camera_entry):
     elif from_35:
         w, h = from_35
         source = "exif FocalLengthIn35mmFilm / FocalLength (crop factor of this image)"
-    elif camera_entry is not None and camera_entry.crop_factor:
+    elif (camera_entry := camera_lookup()) is not None and camera_entry.crop_factor:
         diagonal = FULL_FRAME_DIAGONAL_MM / camera_entry.crop_factor
         w, h = diagonal * width / diagonal_px, diagonal * height / diagonal_px
         source = (f"lensfun camera {camera_entry.maker} {camera_entry.model}: crop factor "
@@ -301,15 +301,16 @@ def draft_profile(path, *, metadata=None):
     tags = _exif(path)
     make = str(tags.get("Image Make", "")).strip() or None
     model = str(tags.get("Image Model", "")).strip() or None
-    camera_entry = find_camera(make, model)
-    lens_entry = find_lens(camera_entry, meta.lens)
+    # The lensfun database (≈ 2 s to load) is opened only where EXIF leaves a gap or names a lens.
+    camera_lookup = lru_cache(maxsize=1)(lambda: find_camera(make, model))
+    lens_entry = find_lens(camera_lookup(), meta.lens) if meta.lens else None
     sources, nominal = {}, []
     profile = CameraProfile(id=f"drafted from {path.name}", camera=meta.camera, lens=meta.lens,
                             width=width, height=height)
     sources["camera"] = "exif Make/Model" if meta.camera else "missing"
     sources["lens"] = meta.sources.get("lens", "missing") if meta.lens else "missing"
     sources["image_size"] = "LibRaw visible area"
-    w_mm, h_mm, crop, sensor_source, notes = _sensor(tags, meta, width, height, camera_entry)
+    w_mm, h_mm, crop, sensor_source, notes = _sensor(tags, meta, width, height, camera_lookup)
     profile.sensor_width, profile.sensor_height = w_mm, h_mm
     sources["sensor"] = sensor_source
     if sensor_source.startswith("lensfun"):

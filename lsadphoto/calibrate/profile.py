@@ -282,11 +282,9 @@ def load_profile(path):
     provenance = {k: v for k, v in data.get("provenance", {}).items()
                   if not k.startswith("source.") and k != "nominal"}
     sources = {k[len("source."):]: v for k, v in data.get("provenance", {}).items() if k.startswith("source.")}
-    for key in ("sensor", "lens_model", "vignetting", "colour", "photometric"):
+    for key in ("sensor", "lens_model", "vignetting", "colour", "photometric", "noise"):
         if key in data:
             sources[key] = f"profile {path.name}" + (f" ({sources[key]})" if key in sources else "")
-    if "noise" in data:
-        sources["noise"] = f"profile {path.name}"
     nominal = [n.strip() for n in str(data.get("provenance", {}).get("nominal", "")).split(",") if n.strip()]
     nominal = [n for n in nominal if n != "noise" or "noise" not in data]
     return CameraProfile(
