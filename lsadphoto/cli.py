@@ -475,10 +475,11 @@ def _bias_matters(bias, record, key):
 def cmd_design(args):
     from ._progress import progress_callback
     from .design.run import run_design
+    from .report.design import design_report_html
 
     callback, close = progress_callback("design", enabled=False if args.quiet else None)
     try:
-        record = run_design(args.problem, args.output,
+        record = run_design(args.problem, args.output, report=design_report_html,
                             progress=None if callback is None else (lambda _stage, f: callback(f, None)),
                             log=(lambda line: None) if args.quiet or args.json else
                             (lambda line: print(line, file=sys.stderr)))

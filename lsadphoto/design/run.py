@@ -128,7 +128,7 @@ def _best_scene(problem, evaluator, record):
     return tomli_w.dumps(_clean(doc)), doc
 
 
-def run_design(problem_path, outdir, *, progress=None, log=print):
+def run_design(problem_path, outdir, *, report=None, progress=None, log=print):
     """Solve, search and write a design problem's results into ``outdir``.
 
     Parameters
@@ -137,6 +137,10 @@ def run_design(problem_path, outdir, *, progress=None, log=print):
         A ``lsadphoto.design/1`` TOML file (:mod:`~lsadphoto.design.problem`).
     outdir : path-like
         Output folder (created).
+    report : callable, optional
+        ``report(record, best_maps) → HTML text`` for ``report.html`` (the report layer's
+        :func:`lsadphoto.report.design.design_report_html`, passed in by the caller: the
+        design layer sits below the reports). Without it no report is written.
     progress : callable, optional
         ``progress(stage, done_fraction)``.
     log : callable
@@ -150,7 +154,7 @@ def run_design(problem_path, outdir, *, progress=None, log=print):
     problem = load_problem(problem_path)
     out = Path(outdir)
     plan = plan_outputs({"json": out / "design.json", "toml": out / "best.toml",
-                         "report": out / "report.html"})
+                         "report": None if report is None else out / "report.html"})
     cache = out / "candidates"
     grids = _grids(problem)
     sim = problem.simulation
@@ -211,12 +215,11 @@ def run_design(problem_path, outdir, *, progress=None, log=print):
         toml_text, _ = _best_scene(problem, evaluator, best)
         best_maps, _ = evaluator.maps_and_grids(best.genome)
     record = _clean(record)
-    from ..report.design import design_report_html
-
-    html = design_report_html(record, best_maps, evaluator)
+    html = None if report is None else report(record, best_maps)
     with plan.write() as temps:
         temps["json"].write_text(json.dumps(record, indent=1), encoding="utf-8")
         temps["toml"].write_text(toml_text if toml_text is not None else
                                  "# no feasible design: see design.json 'closest'\n", encoding="utf-8")
-        temps["report"].write_text(html, encoding="utf-8")
+        if html is not None:
+            temps["report"].write_text(html, encoding="utf-8")
     return record

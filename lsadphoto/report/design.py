@@ -69,7 +69,7 @@ def _map_pngs(name, lmap):
         return fc.read_bytes(), gs.read_bytes()
 
 
-def design_report_html(record, best_maps, evaluator=None):
+def design_report_html(record, best_maps):
     """The report as one self-contained HTML text (images embedded as data URIs)."""
     sections = []
     nav = [("summary", "Summary"), ("pareto", "Pareto set"), ("best", "Best design")]
