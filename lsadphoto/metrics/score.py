@@ -643,6 +643,13 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     settings["q"] = quality.settings
     if lmap.calibrated is False:
         notes.append("map is uncalibrated: absolute metrics carry the exposure-equation scale")
+    overflow = (lmap.provenance or {}).get("overflow")
+    if overflow and overflow.get("repair"):
+        notes.append(f"metrics rest on a luminous-overflow repair ({overflow['repair']}): "
+                     f"{overflow['pixels']} px set to {overflow['repaired_luminance']:.4g} cd/m²")
+    elif overflow:
+        notes.append(f"luminous overflow not repaired: {overflow['pixels']} px saturated in every frame are "
+                     "unknown, so E_v and the glare indices are low")
     provenance = build_provenance(profile=(lmap.provenance or {}).get("profile"),
                                   calibration_factor=lmap.calibration_factor,
                                   calibration_uncertainty=lmap.calibration_uncertainty)
