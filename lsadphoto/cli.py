@@ -541,18 +541,26 @@ def cmd_view(args):
     output = Path(args.output)
     if output.suffix.lower() not in (".html", ".htm"):
         raise BadInputError(f"output {args.output} must end in .html")
+    plan = _plan({"html": output})
     first = read_map(args.map)
     second = read_map(args.map2) if args.map2 else None
     if second is not None:
         check_same_geometry(first, second, names=(str(args.map), str(args.map2)))
+    options = {}
+    if args.band_deg is not None:
+        options["band_deg"] = args.band_deg
+    if args.zones:
+        options["zone_centre"], options["zone_opening_deg"] = _centre_and_angles(args.zones,
+                                                                                 "--zones")
     scores = [None, None]
     if not args.no_score:
-        scores = [score_map(m) if m is not None and m.projection is not None else None
-                  for m in (first, second)]
+        scores = [score_map(m, **options) if m is not None and m.projection is not None
+                  else None for m in (first, second)]
     names = (args.name or Path(args.map).stem,
              args.name2 or (Path(args.map2).stem if args.map2 else "second"))
-    write_viewer(first, output, second=second, score=scores[0], second_score=scores[1],
-                 names=names, title=args.title)
+    with plan.write() as temps:
+        write_viewer(first, temps["html"], second=second, score=scores[0],
+                     second_score=scores[1], names=names, title=args.title)
     record = {"output": str(output), "bytes": output.stat().st_size,
               "maps": [str(args.map)] + ([str(args.map2)] if args.map2 else []),
               "scored": [s is not None for s in scores[:1 + (second is not None)]]}
@@ -1021,6 +1029,10 @@ def _build_parser():
     vw.add_argument("--name2", help="name of the second map (default: its file name)")
     vw.add_argument("--no-score", action="store_true",
                     help="leave out the metrics overlays (glare sources, Q contrast map)")
+    vw.add_argument("--band-deg", type=float, metavar="A",
+                    help="also show evalglare's band (-B) of half-width A, as for score")
+    vw.add_argument("--zones", metavar="px:ROW,COL,DEG1[,DEG2]|X,Y,Z,DEG1[,DEG2]",
+                    help="also show evalglare's zones (-l/-L), as for score")
     vw.add_argument("--json", action="store_true", help="print a JSON summary")
     vw.set_defaults(func=cmd_view)
 

@@ -40,7 +40,9 @@ COMPARED_METRICS = tuple(m.name for m in FIELD + INDICES) + ("q",)
 
 @dataclass
 class Comparison:
-    """Result of :func:`compare_maps` (see the module notes); ``ratio`` is model/photo."""
+    """Result of :func:`compare_maps` (see the module notes); ``ratio`` is model/photo,
+    ``scores`` the two :class:`~lsadphoto.metrics.score.Score` results (photo, model), for
+    the report's viewer overlays."""
 
     ratio: np.ndarray
     field: dict
@@ -48,6 +50,7 @@ class Comparison:
     metrics: dict
     uncertainty: dict
     settings: dict = field(default_factory=dict)
+    scores: tuple = ()
 
     def to_dict(self):
         """JSON-ready record (None for undefined values)."""
@@ -191,4 +194,4 @@ def compare_maps(photo, model, *, line_of_sight=None, up=None, grid=(4, 4),
                 "floor_luminance": float(floor_luminance), "score": score_p.settings}
     return Comparison(ratio=np.where(ok, ratio, np.nan), field=field_stats,
                       regions={"rings": rings, "blocks": blocks}, metrics=metrics,
-                      uncertainty=uncertainty, settings=settings)
+                      uncertainty=uncertainty, settings=settings, scores=(score_p, score_m))
