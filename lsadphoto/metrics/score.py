@@ -384,7 +384,13 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         notes.append(f"Q undefined: {quality.reason}")
     settings["q"] = quality.settings
     if lmap.calibrated is False:
-        notes.append("map is uncalibrated: absolute metrics carry the exposure-equation scale")
+        if "calibration_method" in (lmap.provenance or {}):  # our photo pipeline, no spot reading
+            notes.append("map is not spot-calibrated: absolute metrics rest on the exposure equation "
+                         "and the profile's calibration constant")
+        else:
+            notes.append("map carries no lsadphoto calibration (a foreign file, e.g. a Radiance "
+                         "rendering): its values are taken as cd/m² as written, and absolute metrics "
+                         "are only as right as that scale")
     provenance = build_provenance(profile=(lmap.provenance or {}).get("profile"),
                                   calibration_factor=lmap.calibration_factor,
                                   calibration_uncertainty=lmap.calibration_uncertainty)
