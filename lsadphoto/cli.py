@@ -433,9 +433,10 @@ def _render_pose(args, scene):
         return projection, position, rotation
     if args.profile:
         profile = _load_profile(args.profile)
-        projection = profile.lens_projection
-        if projection is None:
-            raise BadInputError(f"profile {args.profile} has no lens model")
+        if not (profile.width and profile.height):
+            raise BadInputError(f"profile {args.profile} gives no image size (sensor.width_px, sensor.height_px)")
+        # The calibrated lens model, or the nominal pinhole of [lens_model] focal_length_mm.
+        projection = profile.projection((profile.height, profile.width))
         if args.size:
             width, height = _size(args.size)
             factor = projection.width // width

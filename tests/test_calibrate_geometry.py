@@ -21,6 +21,7 @@ from lsadphoto.calibrate.geometric import (
     parse_pattern,
 )
 from lsadphoto.cli import main
+from lsadphoto.datasets.boards import chessboard_image, supersampled_directions
 from lsadphoto.errors import BadInputError
 from lsadphoto.geometry.opencv import OpenCVFisheyeProjection, OpenCVPinholeProjection
 
@@ -33,32 +34,9 @@ PATTERN = f"chessboard:{COLS}x{ROWS}:{SQ:g}"
 # --------------------------------------------------------------------------- rendering
 
 
-def _supersampled_directions(proj, ss):
-    """Directions (h, w, ss, ss, 3) at ss×ss sub-pixel sample points of every pixel."""
-    off = (np.arange(ss) + 0.5) / ss - 0.5
-    rows = np.arange(proj.height)[:, None, None, None] + off[None, None, :, None]
-    cols = np.arange(proj.width)[None, :, None, None] + off[None, None, None, :]
-    return proj.directions(rows, cols)
-
-
 def _render(dirs, rvec, centre):
-    """8-bit view of the board, rotated by ``rvec`` with its centre at ``centre`` [mm].
-
-    Each sample ray is intersected with the board plane; the board (COLS+1)×(ROWS+1) squares
-    is dark/bright by checker parity on an infinite bright plane (the white margin).
-    """
-    R = cv2.Rodrigues(np.asarray(rvec, float))[0]
-    t = np.asarray(centre, float) - R @ np.array([(COLS - 1) * SQ / 2, (ROWS - 1) * SQ / 2, 0])
-    n = R[:, 2]
-    with np.errstate(all="ignore"):
-        s = (n @ t) / (dirs @ n)
-        p = s[..., None] * dirs - t
-        X, Y = p @ R[:, 0], p @ R[:, 1]
-    X, Y = np.nan_to_num(X), np.nan_to_num(Y)
-    on = (np.isfinite(s) & (s > 0) & (X > -SQ) & (X < COLS * SQ) & (Y > -SQ) & (Y < ROWS * SQ))
-    parity = (np.floor(X / SQ) + np.floor(Y / SQ)) % 2
-    val = np.where(on & (parity == 0), 20.0, 235.0).mean(axis=(2, 3))
-    return np.round(val).astype(np.uint8)
+    """8-bit view of the board (lsadphoto.datasets.boards), rotated by ``rvec``, centre at ``centre`` [mm]."""
+    return chessboard_image(dirs, rvec, centre, pattern=ChessboardPattern(COLS, ROWS, SQ))
 
 
 # Rotation vectors [rad] and board centres [mm]: frontal, tilted ±0.4 rad about each axis,
@@ -83,7 +61,7 @@ TRUE_PINHOLE = OpenCVPinholeProjection(600.0, 600.0, 399.5, 299.5, (-0.2, 0.05, 
 @pytest.fixture(scope="module")
 def pinhole_dirs():
     # 3×3 supersampling (2×2 gave a biased fit here: cx off by 0.6 px, fx by 0.1 %).
-    return _supersampled_directions(TRUE_PINHOLE, 3)
+    return supersampled_directions(TRUE_PINHOLE, 3)
 
 
 @pytest.fixture(scope="module")
@@ -237,7 +215,7 @@ FISHEYE_POSES = [
 
 @pytest.mark.slow
 def test_synthetic_fisheye():
-    dirs = _supersampled_directions(TRUE_FISHEYE, 3)
+    dirs = supersampled_directions(TRUE_FISHEYE, 3)
     views = [_render(dirs, r, c) for r, c in FISHEYE_POSES]
     res = calibrate_geometry(views, pattern=PATTERN, model="fisheye")
     p = res.projection
@@ -260,7 +238,7 @@ def test_outlier_view_is_rejected(pinhole_views):
     can mimic) is found but cannot fit the common model: its reprojection RMS exceeds
     3 × the median and it is left out with the reason."""
     other = OpenCVPinholeProjection(600.0, 600.0, 399.5, 299.5, (0.25, 0.0, 0.0, 0.0, 0.0), 800, 600)
-    odd = _render(_supersampled_directions(other, 3), (0.3, -0.2, 0.2), (-150, 100, 550))
+    odd = _render(supersampled_directions(other, 3), (0.3, -0.2, 0.2), (-150, 100, 550))
     res = calibrate_geometry([*pinhole_views, odd], pattern=PATTERN)
     last = res.per_image[-1]
     assert not last["used"] and last["reason"].startswith("outlier: RMS")
@@ -541,7 +519,7 @@ CHARUCO_FISHEYE_POSES = [
 
 @pytest.mark.slow
 def test_synthetic_charuco_fisheye(charuco_texture):
-    dirs = _supersampled_directions(TRUE_FISHEYE, 3)
+    dirs = supersampled_directions(TRUE_FISHEYE, 3)
     views = [_render_charuco(dirs, r, c, charuco_texture) for r, c in CHARUCO_FISHEYE_POSES]
     res = calibrate_geometry(views, pattern=CHARUCO, model="fisheye")
     p = res.projection

@@ -92,3 +92,26 @@ def test_radiance_scene_renders(tmp_path):
     # The floor (ρ = 0.5) under a 1 m² light of 179·10 cd/m² at 1 m: lit, below the light.
     L = read_exr(tmp_path / "r.exr").luminance
     assert 0 < np.nanmedian(L) < 1790
+
+
+def test_render_through_the_nominal_demo_profile(store_path, tmp_path):
+    """``--profile calibration/synthetic-demo.toml`` (a nominal 18 mm pinhole, no calibrated
+    lens model): the map is the Python render through the pinhole built from the profile's
+    numbers written out here (23.1 × 15.4 mm sensor, 640 × 424 px, f = 18 mm), binned by 4."""
+    from pathlib import Path
+
+    from lsadphoto.geometry.pinhole import PinholeProjection
+
+    profile = Path(__file__).resolve().parents[1] / "calibration" / "synthetic-demo.toml"
+    out = tmp_path / "nominal.exr"
+    code, _, err = cli("render", store_path, "--profile", profile, "--size", "160x106",
+                       "--position", "1,2,1.2", "--line-of-sight", "1,0,0", "--nodes-per-pixel", "4",
+                       "-o", out)
+    assert code == 0, err
+    lmap = read_exr(out)
+    expected = PinholeProjection.from_sensor(focal_length=18.0, sensor_width=23.1, sensor_height=15.4,
+                                             width=640, height=424).binned(4)
+    assert lmap.projection == expected
+    direct = render(load_store(store_path), expected, position=[1, 2, 1.2],
+                    rotation=camera_to_world([1, 0, 0], [0, 0, 1]), nodes_per_pixel=4)
+    np.testing.assert_array_equal(lmap.luminance, direct.luminance)

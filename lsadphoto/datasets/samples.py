@@ -8,6 +8,9 @@ Run ``python -m lsadphoto.datasets.samples data_samples`` (or ``make samples``).
   wall, computed from the true scene over the LS-100's 1° cone and rounded as its display does;
 - ``flat/flat_{1,2}.dng``: flat-field frames of a uniform 40 cd/m² field for
   ``lsadphoto calibrate vignetting``;
+- ``boards/board_{01…10}.png``: chessboard photographs (9 × 6 inner corners, 25 mm squares)
+  through the demo camera's lens, for ``lsadphoto calibrate geometry``
+  (:mod:`~lsadphoto.datasets.boards`);
 - ``../calibration/synthetic-demo.toml``: the demo camera's profile;
 - ``stations/``: the demo survey — six station halls (:mod:`~lsadphoto.datasets.stations`)
   rendered by the Monte Carlo solver through the demo camera and written as 2–3-frame DNG
@@ -20,12 +23,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..calibrate.geometric import ChessboardPattern
 from ..calibrate.profile import CameraProfile, save_profile
 from ..calibrate.spot import spot_cone
 from ..calibrate.vignetting import VignettingModel
 from ..constants import LS100_ACCEPTANCE_ANGLE
 from ..geometry.pinhole import PinholeProjection
 from ..raw.bracket import NoiseModel
+from .boards import chessboard_image, supersampled_directions
 from .scenes import interior_scene, uniform_field
 from .synthetic import SyntheticCamera, write_dng
 
@@ -60,6 +65,45 @@ def meter_reading(luminance, projection, row, col):
     return float(f"{value:.3g}")
 
 
+#: The bundled chessboard: 9 × 6 inner corners, 25 mm squares (README's Quickstart).
+BOARD = ChessboardPattern(9, 6, 25.0)
+#: Board poses: Rodrigues vectors [rad] and centres [mm] in the camera frame — frontal, tilted
+#: ±0.5 rad about each axis, pushed towards the four corners and turned towards the centre,
+#: and turned in its plane (this spread recovers fx, fy to 0.1 %: tests/test_samples.py).
+BOARD_POSES = [
+    ((0.0, 0.0, 0.0), (0, 0, 380)),
+    ((0.5, 0.0, 0.0), (0, 0, 380)),
+    ((-0.5, 0.0, 0.0), (0, 0, 380)),
+    ((0.0, 0.5, 0.0), (0, 0, 380)),
+    ((0.0, -0.5, 0.0), (0, 0, 380)),
+    ((-0.3, 0.3, 0.1), (-150, -90, 480)),
+    ((0.3, 0.3, -0.1), (-150, 90, 480)),
+    ((-0.3, -0.3, -0.1), (150, -90, 480)),
+    ((0.3, -0.3, 0.1), (150, 90, 480)),
+    ((0.1, 0.1, 0.5), (0, 0, 360)),
+]
+
+
+def demo_projection():
+    """The demo camera's lens: the nominal pinhole of its sensor and focal length."""
+    cam = DEMO_CAMERA
+    return PinholeProjection.from_sensor(focal_length=cam.focal_length, sensor_width=cam.sensor_width,
+                                         sensor_height=cam.sensor_height, width=cam.width, height=cam.height)
+
+
+def make_board_samples(folder):
+    """``boards/board_NN.png``: the chessboard at :data:`BOARD_POSES` through the demo lens."""
+    import cv2
+
+    out = Path(folder) / "boards"
+    out.mkdir(parents=True, exist_ok=True)
+    directions = supersampled_directions(demo_projection(), 3)
+    for k, (rvec, centre) in enumerate(BOARD_POSES, start=1):
+        image = chessboard_image(directions, rvec, centre, pattern=BOARD)
+        if not cv2.imwrite(str(out / f"board_{k:02d}.png"), image, [cv2.IMWRITE_PNG_COMPRESSION, 9]):
+            raise OSError(f"could not write {out / f'board_{k:02d}.png'}")
+
+
 def make_samples(folder):
     folder = Path(folder)
     cam = DEMO_CAMERA
@@ -68,8 +112,7 @@ def make_samples(folder):
     for i, (t, n, iso) in enumerate(BRACKET, start=1):
         raw = cam.expose(scene, exposure_time=t, f_number=n, iso=iso, rng=rng)
         write_dng(folder / "office" / f"office_{i}.dng", raw, cam, exposure_time=t, f_number=n, iso=iso)
-    projection = PinholeProjection.from_sensor(focal_length=cam.focal_length, sensor_width=cam.sensor_width,
-                                               sensor_height=cam.sensor_height, width=cam.width, height=cam.height)
+    projection = demo_projection()
     lines = ["row,col,cd_m2"]
     for fr, fc in SPOT_POSITIONS:
         row, col = round(fr * cam.height), round(fc * cam.width)
@@ -79,6 +122,7 @@ def make_samples(folder):
     for i in (1, 2):
         raw = cam.expose(flat, exposure_time=1 / 60, f_number=4.0, iso=100, rng=rng)
         write_dng(folder / "flat" / f"flat_{i}.dng", raw, cam, exposure_time=1 / 60, f_number=4.0, iso=100)
+    make_board_samples(folder)
     save_profile(demo_profile(), folder.parent / "calibration" / "synthetic-demo.toml")
 
 

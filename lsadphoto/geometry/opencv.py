@@ -42,6 +42,7 @@ from .base import (
     check_centre,
     check_image_size,
 )
+from .pinhole import PinholeProjection
 
 __all__ = ["OpenCVFisheyeProjection", "OpenCVPinholeProjection"]
 
@@ -152,6 +153,32 @@ class _OpenCVBase(Projection):
             self.height // factor,
         )
 
+    def radiance_view(self):
+        """Radiance view options with the same pixel→direction mapping, where one exists.
+
+        Radiance's views have no distortion terms, so only a model whose distortion
+        coefficients are all zero has one: the Brown–Conrady model is then Radiance's
+        perspective view ``-vtv`` (:meth:`PinholeProjection.radiance_view`) and the
+        Kannala–Brandt model (θd = θ) its angular fisheye ``-vta``. Any other model raises
+        :class:`~lsadphoto.errors.BadInputError` (the HDR writer then writes no ``VIEW=``
+        line: a view that traced other rays would mislead evalglare).
+
+        References
+        ----------
+        Radiance ``src/common/image.c`` (viewray), ``src/common/view.h`` (VT_PER, VT_ANG).
+
+        Examples
+        --------
+        >>> OpenCVFisheyeProjection(300.0, 300.0, 299.5, 299.5, (0, 0, 0, 0), 600, 600).radiance_view()[:20]
+        '-vta -vp 0 0 0 -vd 0'
+        """
+        if any(self.distortion):
+            raise BadInputError(
+                f"an {self.model} model with distortion {tuple(self.distortion)} has no Radiance view "
+                "(Radiance views have no distortion terms)"
+            )
+        return self._undistorted_radiance_view()
+
     def __repr__(self):
         dist = ", ".join(f"{v:.6g}" for v in self.distortion)
         return (
@@ -221,6 +248,9 @@ class OpenCVPinholeProjection(_OpenCVBase):
         if d.size in (12, 14) and np.all(d[8:] == 0.0):
             d = d[:8]
         return super().from_camera_matrix(K, d, width, height)
+
+    def _undistorted_radiance_view(self):
+        return PinholeProjection(self.fx, self.fy, self.cx, self.cy, self.width, self.height).radiance_view()
 
     def _fold_radius(self):
         """Radius r [normalised] where the radial mapping stops increasing (inf if never)."""
@@ -365,6 +395,15 @@ class OpenCVFisheyeProjection(_OpenCVBase):
         t_fold = _smallest_positive_root([1.0, 3 * k1, 5 * k2, 7 * k3, 9 * k4], math.pi ** 2)
         self.theta_max = min(math.pi, math.sqrt(t_fold))
         self._rho_max = float(self._theta_d(self.theta_max))
+
+    def _undistorted_radiance_view(self):
+        # θ = ρ with ρ = (u − cx)/fx: Radiance's -vta has θ = π·X with X = x·vh/180 and
+        # x = (u + ½)/W − ½ + vs, so vh = W/fx [rad] and the centre shift as for -vtv.
+        vh, vv = math.degrees(self.width / self.fx), math.degrees(self.height / self.fy)
+        vs = 0.5 - (self.cx + 0.5) / self.width
+        vl = (self.cy + 0.5) / self.height - 0.5
+        return (f"-vta -vp 0 0 0 -vd 0 1 0 -vu 0 0 1 -vh {vh:.17g} -vv {vv:.17g} "
+                f"-vs {vs:.17g} -vl {vl:.17g}")
 
     def _theta_d(self, theta):
         k1, k2, k3, k4 = self.distortion
