@@ -188,6 +188,10 @@ def _line_of_sight(text, lmap):
             row, col = (float(v) for v in text[3:].split(","))
         except ValueError:
             raise BadInputError(f"--line-of-sight px:ROW,COL needs two numbers, got {text!r}") from None
+        rows, cols = lmap.shape
+        if not (-0.5 <= row <= rows - 0.5 and -0.5 <= col <= cols - 0.5):
+            raise BadInputError(f"--line-of-sight {text}: the point is off the image ({rows}×{cols} px: "
+                                f"ROW 0…{rows - 1}, COL 0…{cols - 1})")
         direction = lmap.projection.directions(row, col)
         if not np.all(np.isfinite(direction)):
             raise BadInputError(f"--line-of-sight {text}: the point is outside the image's valid area")

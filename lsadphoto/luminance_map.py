@@ -20,10 +20,11 @@ class LuminanceMap:
     ----------
     luminance : array_like, shape (rows, cols)
         Luminance [cd·m⁻²], stored as float32; NaN where unknown (saturated beyond
-        recovery, outside the image circle).
+        recovery, outside the image circle). Signed: noise about zero may make dark pixels
+        negative, and keeping them keeps means unbiased; metrics that cannot use them say so.
     uncertainty : array_like, shape (rows, cols), optional
         Standard uncertainty of each pixel's luminance [cd·m⁻²] (calibration and noise
-        combined); NaN where unknown.
+        combined), ≥ 0; NaN where unknown.
     projection : Projection, optional
         Camera geometry mapping each pixel to a direction; ``None`` when unknown.
     line_of_sight : array_like, shape (3,), optional
@@ -54,14 +55,16 @@ class LuminanceMap:
         self.luminance = check_array(self.luminance, "luminance", ndim=2, dtype=STORAGE_DTYPE)
         if self.luminance.size == 0:
             raise BadInputError("luminance map is empty")
-        if np.any(self.luminance < 0):
-            raise BadInputError("luminance map has negative values")
         if np.any(np.isinf(self.luminance)):
             raise BadInputError("luminance map has infinite values")
         if self.uncertainty is not None:
             self.uncertainty = check_array(
                 self.uncertainty, "uncertainty", shape=self.luminance.shape, dtype=STORAGE_DTYPE
             )
+            negative = int(np.count_nonzero(self.uncertainty < 0))
+            if negative:
+                raise BadInputError(f"uncertainty map has {negative} negative value(s): a standard "
+                                    "uncertainty is ≥ 0 [cd/m²]")
         if self.projection is not None and tuple(self.projection.shape) != self.luminance.shape:
             raise BadInputError(
                 f"projection is for {self.projection.shape} pixels but the map has "

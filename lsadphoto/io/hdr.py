@@ -318,7 +318,10 @@ def read_hdr(path):
                     fields["projection"] = projection_from_view(view, cols, rows)
             except BadInputError as exc:
                 raise UnsupportedFileError(f"{path}: unusable VIEW= line ({exc})") from None
-    return LuminanceMap(luminance, **fields)
+    try:
+        return LuminanceMap(luminance, **fields)
+    except BadInputError as exc:  # e.g. metadata of a projection of another size
+        raise UnsupportedFileError(f"{path}: {exc}") from None
 
 
 def write_hdr(lmap, path):

@@ -383,6 +383,11 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if not math.isfinite(quality.q):
         notes.append(f"Q undefined: {quality.reason}")
     settings["q"] = quality.settings
+    negative = int(np.count_nonzero(lmap.luminance < 0))
+    if negative:
+        notes.append(f"{negative} pixel(s) have negative luminance (noise about zero in a signed map): "
+                     "field sums keep them, which keeps the means unbiased; percentiles count them "
+                     "as the lowest values")
     if lmap.calibrated is False:
         if "calibration_method" in (lmap.provenance or {}):  # our photo pipeline, no spot reading
             notes.append("map is not spot-calibrated: absolute metrics rest on the exposure equation "

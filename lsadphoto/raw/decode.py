@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import rawpy
 
+from .._native import native_output
 from .._validation import check_choice, check_file, check_positive
 from ..constants import SATURATION_FRACTION
 from ..errors import BadInputError, UnsupportedFileError
@@ -199,11 +200,13 @@ def decode_raw(path, *, demosaic="superpixel", saturation_fraction=SATURATION_FR
     path = check_file(path, "RAW file")
     check_choice(demosaic, "demosaic method", DEMOSAIC_METHODS)
     saturation_fraction = check_positive(saturation_fraction, "saturation_fraction")
+    chatter = []  # LibRaw prints its own line (e.g. "Unexpected end of file"): it goes into ours
     try:
-        with _open(path) as raw:
+        with native_output(chatter), _open(path) as raw:
             return _decode(path, raw, demosaic, saturation_fraction, dark_frame)
     except rawpy.LibRawError as exc:
-        raise UnsupportedFileError(f"{path}: RAW data is corrupt or truncated ({type(exc).__name__})") from None
+        detail = type(exc).__name__ + "".join(f": {line.removeprefix(f'{path}: ')}" for line in chatter[:1])
+        raise UnsupportedFileError(f"{path}: RAW data is corrupt or truncated ({detail})") from None
 
 
 def _decode(path, raw, demosaic, saturation_fraction, dark_frame):
