@@ -321,3 +321,32 @@ def test_render_view_is_checked(room, tmp_path, capsys, view, message):
     line = _error(capsys, "render", room, f"--view={view}", "--size", "8x8", "-o", tmp_path / "m.exr")
     assert message in line
     assert not (tmp_path / "m.exr").exists()
+
+
+# --- solver inputs (item 5) ----------------------------------------------------------------
+
+def test_target_error_below_the_floor_is_refused(room, tmp_path, capsys):
+    # was: --target-error 1e-9 ran on towards 16 M chains
+    line = _error(capsys, "simulate", room, "--target-error", "1e-9", "-o", tmp_path / "s.npz")
+    assert "target_error must be a relative error from 0.0001 to below 1, got 1e-09" in line
+    assert not (tmp_path / "s.npz").exists()
+
+
+def test_luminaire_outside_the_room_warns(tmp_path):
+    import warnings
+
+    from lsadphoto.errors import SolverWarning
+    from lsadphoto.solver import load_scene
+    from lsadphoto.solver.examples import canonical_room_toml
+
+    text = canonical_room_toml(size=8)
+    inside, outside = tmp_path / "in.toml", tmp_path / "out.toml"
+    inside.write_text(text)
+    assert text.count("2.99]") == 16  # four luminaires at z = 2.99 m under the 3 m ceiling
+    outside.write_text(text.replace("2.99]", "12.99]"))  # 10 m above the room
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        load_scene(inside)  # was and is: no warning
+    # was: no warning, and a black render
+    with pytest.warns(SolverWarning, match=r"luminaire 'L1' at \(1.5, 1, 12.99\) m \(and 3 more\) is outside the box"):
+        load_scene(outside)

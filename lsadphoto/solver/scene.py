@@ -20,12 +20,13 @@ equation. *Computer Research and Modeling* 4(1), 75–84.
 
 import math
 import tomllib
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import BadInputError
+from ..errors import BadInputError, SolverWarning
 from ..geometry.base import Projection, projection_from_dict
 from ..geometry.observer import orthonormal_pair
 from .intensity import IntensityTable, luminaire_frame
@@ -330,12 +331,39 @@ class Scene:
             raise BadInputError("scene has no luminaires")
         lo = self.triangles.reshape(-1, 3).min(axis=0)
         hi = self.triangles.reshape(-1, 3).max(axis=0)
+        self._warn_luminaires_outside()
         for lum in self.point_luminaires:
             lo, hi = np.minimum(lo, lum.position), np.maximum(hi, lum.position)
         self.bounds = (lo, hi)
         #: Characteristic size of the scene: diagonal of its bounding box [m].
         self.size = float(np.linalg.norm(hi - lo))
         self.triangle_reflectance = self.reflectance[self.material]
+
+    def _warn_luminaires_outside(self):
+        """A luminaire outside the box of a closed room lights only the room's outsides, so
+        that every view inside is black: say so (SolverWarning). Scenes whose surfaces are
+        flat in some axis (a single plane, an open model) have no inside to be outside of."""
+        passive = self.triangles[self.emitter < 0].reshape(-1, 3)
+        if len(passive) == 0:
+            return
+        lo, hi = passive.min(axis=0), passive.max(axis=0)
+        extent = hi - lo
+        if np.any(extent <= 1e-9 * max(float(extent.max()), 1.0)):
+            return
+        tol = 1e-6 * float(np.linalg.norm(extent))
+        places = [(lum.name, np.asarray(lum.position, float)) for lum in self.point_luminaires]
+        places += [(lum.name, self.triangles[self.emitter == k].reshape(-1, 3).mean(axis=0))
+                   for k, lum in enumerate(self.area_luminaires)]
+        outside = [(name, where) for name, where in places
+                   if np.any(where < lo - tol) or np.any(where > hi + tol)]
+        if outside:
+            name, where = outside[0]
+            others = f" (and {len(outside) - 1} more)" if len(outside) > 1 else ""
+            warnings.warn(
+                f"luminaire {name!r} at ({', '.join(f'{v:.4g}' for v in where)}) m{others} is outside the "
+                f"box of the scene's surfaces ({', '.join(f'{v:.4g}' for v in lo)}) … "
+                f"({', '.join(f'{v:.4g}' for v in hi)}) m: it lights the room from outside, and "
+                "views inside may be black", SolverWarning, stacklevel=3)
 
     def __repr__(self):
         return (f"Scene({self.name!r}, {len(self.triangles)} triangles, "
