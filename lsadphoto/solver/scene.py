@@ -340,17 +340,30 @@ class Scene:
         self.triangle_reflectance = self.reflectance[self.material]
 
     def _warn_luminaires_outside(self):
-        """A luminaire outside the box of a closed room lights only the room's outsides, so
-        that every view inside is black: say so (SolverWarning). Scenes whose surfaces are
-        flat in some axis (a single plane, an open model) have no inside to be outside of."""
-        passive = self.triangles[self.emitter < 0].reshape(-1, 3)
+        """A luminaire outside a closed room lights only the room's outsides, so that every
+        view inside is black: say so (SolverWarning).
+
+        The scene is a room when its passive surfaces enclose the centre of their bounding box
+        facing it: their winding number there is 1 (Jacobson, Kavan & Sorkine-Hornung 2013,
+        doi:10.1145/2461912.2461916; triangle solid angles by Van Oosterom & Strackee 1983,
+        doi:10.1109/TBME.1983.325207). Open models (a plane, a solid on a plane) are not rooms
+        and are not checked. A luminaire is outside when it is outside that box.
+        """
+        passive = self.triangles[self.emitter < 0]
         if len(passive) == 0:
             return
-        lo, hi = passive.min(axis=0), passive.max(axis=0)
-        extent = hi - lo
-        if np.any(extent <= 1e-9 * max(float(extent.max()), 1.0)):
+        points = passive.reshape(-1, 3)
+        lo, hi = points.min(axis=0), points.max(axis=0)
+        a, b, c = (passive[:, k] - 0.5 * (lo + hi) for k in range(3))
+        la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
+        numerator = np.einsum("ij,ij->i", a, np.cross(b, c))
+        denominator = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", a, c) * lb
+                       + np.einsum("ij,ij->i", b, c) * la)
+        # Triangles wound counter-clockwise seen from the centre face it (normals towards it).
+        winding = -2.0 * np.arctan2(numerator, denominator).sum() / (4 * math.pi)
+        if not winding > 0.9:
             return
-        tol = 1e-6 * float(np.linalg.norm(extent))
+        tol = 1e-6 * float(np.linalg.norm(hi - lo))
         places = [(lum.name, np.asarray(lum.position, float)) for lum in self.point_luminaires]
         places += [(lum.name, self.triangles[self.emitter == k].reshape(-1, 3).mean(axis=0))
                    for k, lum in enumerate(self.area_luminaires)]
@@ -361,9 +374,8 @@ class Scene:
             others = f" (and {len(outside) - 1} more)" if len(outside) > 1 else ""
             warnings.warn(
                 f"luminaire {name!r} at ({', '.join(f'{v:.4g}' for v in where)}) m{others} is outside the "
-                f"box of the scene's surfaces ({', '.join(f'{v:.4g}' for v in lo)}) … "
-                f"({', '.join(f'{v:.4g}' for v in hi)}) m: it lights the room from outside, and "
-                "views inside may be black", SolverWarning, stacklevel=3)
+                f"room ({', '.join(f'{v:.4g}' for v in lo)}) … ({', '.join(f'{v:.4g}' for v in hi)}) m: it "
+                "lights the room from outside, and views inside may be black", SolverWarning, stacklevel=3)
 
     def __repr__(self):
         return (f"Scene({self.name!r}, {len(self.triangles)} triangles, "
