@@ -348,5 +348,5 @@ def test_luminaire_outside_the_room_warns(tmp_path):
         warnings.simplefilter("error")
         load_scene(inside)  # was and is: no warning
     # was: no warning, and a black render
-    with pytest.warns(SolverWarning, match=r"luminaire 'L1' at \(1.5, 1, 12.99\) m \(and 3 more\) is outside the room"):
+    with pytest.warns(SolverWarning, match=r"luminaire 'L1' near \(1.5, 1, 12.99\) m \(and 3 more\) is outside the closed room"):
         load_scene(outside)

@@ -116,7 +116,7 @@ photometry = "{name}"
     with pytest.raises(BadInputError) as exc:
         load_scene(tmp_path / "scene.toml")
     text = _one_line(exc)
-    assert text.startswith("luminaires[0]: ") and message in text
+    assert text.startswith(f"{tmp_path / 'scene.toml'}: luminaires[0]: ") and message in text
 
 
 # --- warnings, never hangs -----------------------------------------------------------------
