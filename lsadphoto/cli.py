@@ -206,7 +206,6 @@ def _format(value, digits=3):
 def cmd_score(args):
     from .io import read_map
     from .metrics.score import score_map
-    from .report import write_contrast_png, write_glare_source_png
 
     plan = _plan({"sources": args.sources_png, "contrast": args.contrast_png, "json": args.output_json})
     lmap = read_map(args.map)
@@ -229,7 +228,8 @@ def cmd_score(args):
         task_opening_deg=args.task_opening_deg, search_angle=args.search_angle,
         peak_luminance=None if args.no_peak_extraction else args.peak_luminance,
         background_method=args.background, position_index_method=args.position_index,
-        guth_field=args.guth_field, n_thresholds=args.N, size_arcmin=args.alpha_arcmin,
+        source_position=args.source_position, guth_field=args.guth_field,
+        noise_samples=args.noise_samples, q_noise_samples=args.q_noise_samples, n_thresholds=args.N, size_arcmin=args.alpha_arcmin,
         q_weight_exponent=args.q_weight_exponent,
         sweep=range(1, 101) if args.sweep else None,
     )
@@ -237,28 +237,57 @@ def cmd_score(args):
     record["provenance"]["input"] = str(args.map)
     with plan.write() as temps:
         if "sources" in temps:
+            from .report import write_glare_source_png
+
             write_glare_source_png(lmap.luminance, score.source_labels, temps["sources"])
         if "contrast" in temps:
+            from .report import write_contrast_png
+
             write_contrast_png(score.contrast, temps["contrast"])
         if "json" in temps:
             temps["json"].write_text(_json_text(record), encoding="utf-8")
     if args.json:
         _print_json(record)
     else:
+        from .metrics.registry import METRICS
+
         u = record["uncertainty"]
 
-        def pm(key, digits):
-            return "" if u.get(key) is None else f" ± {u[key]:.{digits}f}"
+        def shown(key):
+            text = _with_uncertainty(record[key], u.get(key), METRICS[key].digits)
+            return f"{text} {METRICS[key].unit}" if METRICS[key].unit not in ("", "–") else text
 
         print(f"{args.map}: {record['n_sources']:.0f} glare sources; "
-              f"UGR pixel {_format(record['ugr_pixel'], 2)}{pm('ugr_pixel', 2)}, "
-              f"grouped {_format(record['ugr_grouped'], 2)}{pm('ugr_grouped', 2)}; "
-              f"Q {_format(record['q'], 3)}{pm('q', 3)}; DGP {_format(record['dgp'], 3)}{pm('dgp', 3)}; "
-              f"E_v {_format(record['vertical_illuminance'], 1)} lx; "
-              f"L_b {_format(record['background_luminance'], 2)} cd/m²")
+              f"UGR pixel {shown('ugr_pixel')}, grouped {shown('ugr_grouped')}; "
+              f"Q {shown('q')}; DGP {shown('dgp')}; E_v {shown('vertical_illuminance')}; "
+              f"L_b {shown('background_luminance')}")
+        biased = [f"{METRICS[key].label} {b:+.2g} (±{record['noise_bias_standard_error'][key]:.1g})"
+                  for key, b in record["noise_bias"].items()
+                  if b is not None and _bias_matters(b, record, key)]
+        if biased:
+            print("  bias from pixel noise: " + ", ".join(biased))
         for note in record["notes"]:
             print(f"  note: {note}")
     return 0
+
+
+def _with_uncertainty(value, u, digits):
+    """``value ± u`` with u to two significant digits and the value to the same decimal;
+    ``digits`` decimals when there is no uncertainty."""
+    if value is None:
+        return "—"
+    if not u:
+        return f"{value:.{digits}f}"
+    decimals = max(0, 1 - int(np.floor(np.log10(abs(u)))))
+    return f"{value:.{decimals}f} ± {u:.{decimals}f}"
+
+
+def _bias_matters(bias, record, key):
+    """A noise bias worth printing: beyond twice its Monte Carlo error and a tenth of the
+    metric's standard uncertainty."""
+    error = record["noise_bias_standard_error"].get(key) or 0.0
+    u = record["uncertainty"].get(key) or 0.0
+    return abs(bias) > 2 * error and abs(bias) > 0.1 * u
 
 
 def cmd_compare(args):
@@ -291,6 +320,36 @@ def cmd_compare(args):
         for key, m in record["metrics"].items():
             print(f"  {key}: photo {_format(m['photo'])}, model {_format(m['model'])}, "
                   f"difference {_format(m['difference'])} ± {_format(m['combined_uncertainty'])}")
+    return 0
+
+
+def cmd_view(args):
+    from .io import read_map
+    from .metrics.score import score_map
+    from .viewer import check_same_geometry, write_viewer
+
+    output = Path(args.output)
+    if output.suffix.lower() not in (".html", ".htm"):
+        raise BadInputError(f"output {args.output} must end in .html")
+    first = read_map(args.map)
+    second = read_map(args.map2) if args.map2 else None
+    if second is not None:
+        check_same_geometry(first, second, names=(str(args.map), str(args.map2)))
+    scores = [None, None]
+    if not args.no_score:
+        scores = [score_map(m) if m is not None and m.projection is not None else None
+                  for m in (first, second)]
+    names = (args.name or Path(args.map).stem,
+             args.name2 or (Path(args.map2).stem if args.map2 else "second"))
+    write_viewer(first, output, second=second, score=scores[0], second_score=scores[1],
+                 names=names, title=args.title)
+    record = {"output": str(output), "bytes": output.stat().st_size,
+              "maps": [str(args.map)] + ([str(args.map2)] if args.map2 else []),
+              "scored": [s is not None for s in scores[:1 + (second is not None)]]}
+    if args.json:
+        _print_json(record)
+    else:
+        print(f"wrote {output} ({record['bytes'] / 1e6:.1f} MB)")
     return 0
 
 
@@ -342,13 +401,15 @@ def cmd_study(args):
 
 
 def cmd_survey(args):
-    from .survey import run_survey
+    from .survey import check_score_options, run_survey
 
     score_options = {}
     if args.N is not None:
         score_options["n_thresholds"] = args.N
     if args.alpha_arcmin is not None:
         score_options["size_arcmin"] = args.alpha_arcmin
+    # Checked here to name the options as the user gave them; run_survey checks them again.
+    score_options = check_score_options(score_options, source="--N/--alpha-arcmin")
     result = run_survey(args.manifest, args.output, workers=args.workers, dask_address=args.dask,
                         progress=not args.quiet, score_options=score_options or None)
     report = None
@@ -559,7 +620,7 @@ class _Parser(argparse.ArgumentParser):
 def build_parser():
     from .constants import LS100_ACCEPTANCE_ANGLE
 
-    demosaic = _Choices("lsadphoto.raw.decode", "DEMOSAIC_METHODS")
+    demosaic = _Choices("lsadphoto.raw.methods", "DEMOSAIC_METHODS")
     parser = _Parser(prog=PROG, description="Calibrated luminance maps from RAW photographs.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
@@ -628,12 +689,21 @@ def build_parser():
                     default="CIE", help="background luminance definition")
     sc.add_argument("--position-index", choices=_Choices("lsadphoto.geometry.position_index", "METHODS"),
                     default="evalglare")
+    sc.add_argument("--source-position", choices=_Choices("lsadphoto.metrics.grouping", "SOURCE_POSITIONS"), default="evalglare",
+                    help="where a source's position index is taken: evalglare's pixel of its "
+                         "L·ω-weighted mean pixel position (default, as evalglare 3.06), or its "
+                         "L·ω-weighted mean direction")
     sc.add_argument("--guth-field", type=int, choices=(1, 2), help="evaluate only Guth's total (1) or central (2) field")
     sc.add_argument("--N", type=float, default=50.0, help="threshold count N of the Q criterion (default 50)")
     sc.add_argument("--alpha-arcmin", type=float, default=10.0, help="critical detail α [arcmin] (default 10)")
     sc.add_argument("--q-weight-exponent", type=int, choices=(0, 1, 2), default=1,
                     help="Q weight w = P^-m (default m = 1)")
     sc.add_argument("--sweep", action="store_true", help="also compute Q(N) for N = 1…100 in one pass")
+    sc.add_argument("--noise-samples", type=int, default=256,
+                    help="draws of the field sums for the per-pixel noise of maps that carry a "
+                         "per-pixel uncertainty (0: off; default 256)")
+    sc.add_argument("--q-noise-samples", type=int, default=4,
+                    help="resampled maps for Q's noise and bias (0: off; default 4)")
     sc.add_argument("--sources-png", metavar="OUT.png", help="write the glare-source map")
     sc.add_argument("--contrast-png", metavar="OUT.png", help="write the Q contrast map")
     sc.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
@@ -649,6 +719,19 @@ def build_parser():
     cmp_.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
     cmp_.add_argument("--json", action="store_true", help="print the JSON record")
     cmp_.set_defaults(func=cmd_compare)
+
+    vw = sub.add_parser("view", help="interactive luminance viewer: one self-contained HTML file")
+    vw.add_argument("map", help="luminance map (.exr or .hdr)")
+    vw.add_argument("map2", nargs="?", help="a second map of the same view and camera geometry "
+                    "(e.g. the model of the photo), shown side by side and as a ratio")
+    vw.add_argument("-o", "--output", required=True, help="HTML file to write")
+    vw.add_argument("--title", help="heading of the page (default: the first map's name)")
+    vw.add_argument("--name", help="name of the first map (default: its file name)")
+    vw.add_argument("--name2", help="name of the second map (default: its file name)")
+    vw.add_argument("--no-score", action="store_true",
+                    help="leave out the metrics overlays (glare sources, Q contrast map)")
+    vw.add_argument("--json", action="store_true", help="print a JSON summary")
+    vw.set_defaults(func=cmd_view)
 
     st = sub.add_parser("study", help="correlate observers' ratings with metrics (the paper's analyses)")
     st.add_argument("ratings", help="RATINGS.csv: scene, observer, rating")

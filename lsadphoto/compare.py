@@ -28,13 +28,14 @@ from .errors import BadInputError
 from .geometry.field import pixel_geometry, visual_field
 from .geometry.observer import ObserverFrame
 from .luminance_map import LuminanceMap
+from .metrics.registry import FIELD, INDICES
 from .metrics.score import score_map
 
 __all__ = ["Comparison", "compare_maps", "model_scale_uncertainty"]
 
-#: Metrics compared (keys of :meth:`Score.to_dict`).
-COMPARED_METRICS = ("ugr_pixel", "ugr_grouped", "q", "dgp", "vertical_illuminance",
-                    "background_luminance", "mean_luminance", "dgi", "ugp", "cgi")
+#: Metrics compared (keys of :meth:`Score.to_dict`): every field quantity and index of the
+#: metric registry, and Q.
+COMPARED_METRICS = tuple(m.name for m in FIELD + INDICES) + ("q",)
 
 
 @dataclass

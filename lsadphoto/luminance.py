@@ -130,11 +130,11 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         factor = profile.calibration_constant
         u_factor = profile.calibration_constant_uncertainty or DEFAULT_CALIBRATION_CONSTANT_UNCERTAINTY
         calibrated, spot_records, method = False, [], "exposure-equation"
-    # Negative values (noise around black) are no luminance: they become 0, keeping their
-    # noise in the uncertainty. u² = (L·u_k)² + k²·var(Y).
-    positive = np.maximum(relative, np.float32(0))
-    luminance = np.float32(factor) * positive
-    uncertainty = np.float32(factor) * np.sqrt((positive * np.float32(u_factor)) ** 2 + relative_var)
+    # Signed values: noise around black stays negative so that means over dark regions are
+    # unbiased (clamping at 0 biases them upwards); u² = (L·u_k)² + k²·var(Y) says where a
+    # pixel is noise.
+    luminance = np.float32(factor) * relative
+    uncertainty = np.float32(factor) * np.sqrt((relative * np.float32(u_factor)) ** 2 + relative_var)
     saturated_fraction = float(saturated.mean())
     if saturated_fraction > 0:
         warnings.warn(

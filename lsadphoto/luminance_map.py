@@ -20,8 +20,9 @@ class LuminanceMap:
     ----------
     luminance : array_like, shape (rows, cols)
         Luminance [cd·m⁻²], stored as float32; NaN where unknown (saturated beyond
-        recovery, outside the image circle). Signed: noise about zero may make dark pixels
-        negative, and keeping them keeps means unbiased; metrics that cannot use them say so.
+        recovery, outside the image circle). Values are signed: a measured map keeps the
+        slightly negative values of noise around zero, so that means over dark regions are
+        unbiased; ``uncertainty`` says where a pixel is noise.
     uncertainty : array_like, shape (rows, cols), optional
         Standard uncertainty of each pixel's luminance [cd·m⁻²] (calibration and noise
         combined), ≥ 0; NaN where unknown.

@@ -27,6 +27,23 @@ def realdata(relative):
     return path
 
 
+#: File name endings of camera RAW files looked for by :func:`raw_samples`.
+RAW_SUFFIXES = (".dng", ".arw", ".cr2", ".cr3", ".nef", ".raf", ".orf", ".rw2", ".pef", ".srw")
+
+
+def raw_samples():
+    """Real camera RAW files: ../shared/realdata/raw and the folders in LSADPHOTO_RAW_SAMPLES
+    (``os.pathsep``-separated; files of other people, never part of the repository)."""
+    folders = [REALDATA / "raw"]
+    folders += [Path(p) for p in __import__("os").environ.get("LSADPHOTO_RAW_SAMPLES", "").split(
+        __import__("os").pathsep) if p]
+    found = []
+    for folder in folders:
+        if folder.is_dir():
+            found += sorted(p for p in folder.rglob("*") if p.suffix.lower() in RAW_SUFFIXES)
+    return found
+
+
 @pytest.fixture
 def camera():
     return SyntheticCamera(width=256, height=192)
@@ -81,4 +98,4 @@ def smooth_mask(truth, radius=4, tolerance=0.01):
     return maximum_filter(truth, size) <= (1 + tolerance) * minimum_filter(truth, size)
 
 
-__all__ = ["realdata", "binned_truth", "smooth_mask", "interior_scene"]
+__all__ = ["raw_samples", "realdata", "binned_truth", "smooth_mask", "interior_scene"]

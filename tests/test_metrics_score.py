@@ -96,8 +96,19 @@ def test_all_nan_and_half_nan_maps():
 
 
 def test_source_on_the_line_of_sight_and_at_the_edge():
-    record = score_map(_map(300, 100.0, [(_direction(0, 0), 0.05, 10000.0)])).to_dict()
-    assert record["sources"][0]["position_index"] == pytest.approx(1.0, abs=1e-3)
+    lmap = _map(300, 100.0, [(_direction(0, 0), 0.05, 10000.0)])
+    centre = score_map(lmap, source_position="direction").to_dict()["sources"][0]
+    assert centre["position_index"] == pytest.approx(1.0, abs=1e-3)
+    # evalglare's position: the pixel of the mean pixel position (149.5, 149.5), truncated in
+    # its bottom-up coordinates: row 150, column 149, half a pixel off the axis diagonally.
+    record = score_map(lmap).to_dict()
+    source = record["sources"][0]
+    assert source["row"] == pytest.approx(149.5) and source["position_pixel"] == [150, 149]
+    d = lmap.projection.directions(150.0, 149.0)
+    from lsadphoto.geometry import ObserverFrame, position_index
+
+    assert source["position_index"] == pytest.approx(
+        float(position_index(*ObserverFrame().angles(d))), rel=1e-12)
     edge = score_map(_map(300, 100.0, [(_direction(89, 0), 0.05, 10000.0)])).to_dict()
     # Straight above at σ ≈ 90° Guth's index exceeds 16: evalglare's cap (FORMULAS.md §2.1).
     assert edge["sources"][0]["position_index"] == pytest.approx(16.0)

@@ -392,3 +392,77 @@ def test_study_cli_summary_json_and_one_line_errors(tmp_path):
                                                                       abs=1e-12)
     proc = cli(tmp_path / "r.csv", tmp_path / "missing.csv")
     assert proc.returncode == 2 and len(proc.stderr.strip().splitlines()) == 1
+
+
+# --- issue 17, defect 4: degenerate studies and the outputs of a failed one -----------------
+
+def _study_cli(*args):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "lsadphoto.cli", "study", *map(str, args)],
+                          capture_output=True, text=True, timeout=600)
+
+
+def _degenerate_tables(folder, constant):
+    """Five scenes, three observers; the ratings or the metric q the same for every scene."""
+    ratings = ["scene,observer,rating"] + [
+        f"S{s},o{o},{5 if constant == 'ratings' else 1 + s + o % 2}"
+        for s in range(5) for o in range(3)]
+    metrics = ["scene,q,ugr_pixel,q_n1,q_n2"] + [
+        f"S{s},{1.0 if constant == 'metric' else 0.5 * s + 0.1 * (s % 2)},{20 - s},{s},{s * s}"
+        for s in range(5)]
+    (folder / "R.csv").write_text("\n".join(ratings) + "\n")
+    (folder / "M.csv").write_text("\n".join(metrics) + "\n")
+    return folder / "R.csv", folder / "M.csv"
+
+
+@pytest.mark.parametrize("constant", ["ratings", "metric"])
+def test_constant_ratings_or_metric_give_nulls_with_a_note(tmp_path, constant):
+    """Was "internal error: TypeError: 'NoneType' object is not subscriptable", with figures
+    and JSON left behind; the guide promises null values with a note."""
+    ratings, metrics = _degenerate_tables(tmp_path, constant)
+    proc = _study_cli(ratings, metrics, "--n-jitter", "40", "--n-bootstrap", "40",
+                      "--figures", tmp_path / "figs", "--output-json", tmp_path / "s.json")
+    assert proc.returncode == 0, proc.stderr
+    assert "Traceback" not in proc.stderr and "internal error" not in proc.stderr
+    record = json.loads((tmp_path / "s.json").read_text())
+    q = record["correlations"]["q"]
+    assert q["pearson_r"] is None and q["spearman_rho"] is None and q["chaddock"] is None
+    expected = ("the mean rating is the same for every scene" if constant == "ratings"
+                else "metric 'q' is constant")
+    assert any(expected in note for note in record["notes"]), record["notes"]
+    assert f"note: {expected}" in proc.stdout
+    assert "Pearson r = — " in proc.stdout  # the text summary prints undefined values as —
+    if constant == "ratings":  # every r(N) is undefined too: no best N, said why
+        assert record["sweep"]["best"] is None and record["leave_one_out"]["r_loo"] is None
+        assert any("no best N" in note for note in record["notes"])
+        assert "ugr_pixel" in record["correlations"]
+        assert record["correlations"]["ugr_pixel"]["pearson_r"] is None
+    else:  # the other metrics still correlate
+        assert record["correlations"]["ugr_pixel"]["pearson_r"] == pytest.approx(-1.0)
+    assert sorted(p.name for p in (tmp_path / "figs").iterdir()) == ["r_vs_n.png", "scatter_q.png"]
+
+
+def test_too_few_rated_scenes_blame_the_ratings_file(tmp_path):
+    """Ratings for one scene of a five-scene metrics table: the error named metrics.csv."""
+    _, metrics = _degenerate_tables(tmp_path, None)
+    ratings = tmp_path / "one.csv"
+    ratings.write_text("scene,observer,rating\nS0,o1,4\nS0,o2,5\n")
+    with pytest.raises(BadInputError) as info:
+        run_study(ratings, metrics, n_jitter=0, n_bootstrap=0)
+    assert str(info.value) == (f"{ratings}: rates 1 of the 5 scene(s) of {metrics}; a "
+                               "correlation needs at least 3 rated scenes")
+
+
+def test_report_into_a_missing_survey_folder_is_one_line_and_writes_nothing(tmp_path):
+    """--report /nonexistent wrote a report of an empty survey there."""
+    ratings, metrics = _degenerate_tables(tmp_path, None)
+    missing = tmp_path / "no" / "such-survey"
+    proc = _study_cli(ratings, metrics, "--n-jitter", "0", "--n-bootstrap", "0",
+                      "--report", missing, "--figures", tmp_path / "figs",
+                      "--output-json", tmp_path / "s.json")
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr == (f"lsadphoto: error: survey folder {missing} does not exist (--report "
+                           "takes the output folder of `lsadphoto survey`)\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["M.csv", "R.csv"]

@@ -9,6 +9,9 @@ is run once per module with the local spawn pool; the other tests reuse or copy 
 import csv
 import json
 import shutil
+import socket
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +19,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from lsadphoto.errors import BadInputError
-from lsadphoto.survey import SWEEP, load_manifest, run_survey
+from lsadphoto.survey import LOCK_NAME, SWEEP, StaleLockWarning, load_manifest, run_survey
 
 ROOT = Path(__file__).resolve().parents[1]
 OFFICE = ROOT / "data_samples" / "office"
@@ -79,6 +82,15 @@ type = "area"
 flux = 3000
 shape = { type = "polygon", vertices = [[2.7, 1.7, 2.99], [2.7, 2.3, 2.99], [3.3, 2.3, 2.99], [3.3, 1.7, 2.99]] }
 """
+
+
+#: The manifest with only the corrupt view: a survey that fails fast, without decoding.
+CORRUPT_ONLY = MANIFEST[:MANIFEST.index("[[view]]")] + '[[view]]\nid = "corrupt"\nraw = "broken.dng"\n'
+
+
+def cli(*args):
+    return subprocess.run([sys.executable, "-m", "lsadphoto.cli", *map(str, args)],
+                          capture_output=True, text=True, timeout=600)
 
 
 def make_survey(folder, text=MANIFEST):
@@ -329,7 +341,7 @@ def crash_on_boom(task):
 
 
 def test_a_dying_worker_fails_only_its_own_view(tmp_path, monkeypatch):
-    from lsadphoto.survey import _run_local
+    from lsadphoto.survey.executors import run_local
 
     # A module of its own (spawned workers find it on the inherited sys.path), so that the
     # workers start without importing lsadphoto.
@@ -338,7 +350,7 @@ def test_a_dying_worker_fails_only_its_own_view(tmp_path, monkeypatch):
     from survey_crash_helper import crash_on_boom
 
     outcomes = []
-    _run_local([{"view": "boom"}, {"view": "fine"}], 2, outcomes.append, function=crash_on_boom)
+    run_local([{"view": "boom"}, {"view": "fine"}], 2, outcomes.append, function=crash_on_boom)
     by_view = {o["view"]: o for o in outcomes}
     assert set(by_view) == {"boom", "fine"} and len(outcomes) == 2
     assert by_view["fine"]["ok"]
@@ -346,7 +358,7 @@ def test_a_dying_worker_fails_only_its_own_view(tmp_path, monkeypatch):
 
 
 def test_progress_bar_is_silent_off_a_terminal():
-    from lsadphoto.survey import _progress_bar
+    from lsadphoto.survey.run import _progress_bar
 
     bar = _progress_bar(total=3, initial=1, enabled=True)  # pytest's stderr is no terminal
     assert bar.disable
@@ -360,14 +372,14 @@ def test_progress_bar_is_silent_off_a_terminal():
 
 
 BAD_MANIFESTS = [
-    ("missing raw", ('raw = "broken.dng"\n', ""), "view 'corrupt': raw: missing"),
-    ("missing id", ('id = "corrupt"\n', ""), "view #4: id: missing"),
+    ("missing raw", ('raw = "broken.dng"\n', ""), "[view[3]] missing required key 'raw'"),
+    ("missing id", ('id = "corrupt"\n', ""), "[view[3]] missing required key 'id'"),
     ("unknown view key", ('id = "corrupt"\n', 'id = "corrupt"\nspot = "x.csv"\n'),
-     "view 'corrupt': view: unknown key(s) 'spot'; valid: id, raw, profile, spots"),
+     "[view[3]] unknown key 'spot' (did you mean 'spots'?); valid: id, raw, profile, spots"),
     ("unknown top key", ('name = "test survey"\n', 'name = "t"\nworkers = 3\n'),
-     "manifest: unknown key(s) 'workers'; valid: schema, name"),
+     "unknown key 'workers'; valid: schema, name"),
     ("unknown score option", ("n_thresholds = 50\n", "N = 50\n"),
-     "score: unknown key(s) 'N'; valid: line_of_sight"),
+     "[score] unknown key 'N'; valid: line_of_sight"),
     ("missing file", ('raw = "broken.dng"\n', 'raw = ["broken.dng", "gone.dng"]\n'),
      "view 'corrupt': raw: RAW file "),
     ("missing spots file", ('spots = "office/spots.csv"\n', 'spots = "office/nope.csv"\n'),
@@ -376,19 +388,19 @@ BAD_MANIFESTS = [
      "view 'Bracket': id: duplicate id (view #1 has it too)"),
     ("unsafe id", ('id = "corrupt"\n', 'id = "../escape"\n'),
      "view #4: id: '../escape' is not safe as a file name"),
-    ("bad spot", ("cd_m2 = 60}", "cd_m2 = -60}"), "view 'single': spots: spots[1]: cd_m2 must be positive"),
-    ("spot lacks a field", ("col = 320, cd_m2 = 60}", "cd_m2 = 60}"), "view 'single': spots[1]: lacks col"),
+    ("bad spot", ("cd_m2 = 60}", "cd_m2 = -60}"), "view[1].spots[0].cd_m2 must be > 0, got -60.0"),
+    ("spot lacks a field", ("col = 320, cd_m2 = 60}", "cd_m2 = 60}"), "[view[1].spots[0]] missing required key 'col'"),
     ("bad ratings", ("ratings = [4, 5, 3]", 'ratings = [4, "good", 3]'),
-     "view 'bracket': ratings[2]: must be a finite number"),
+     "view[0].ratings[1] must be a number, got 'good'"),
     ("bad line of sight", ("line_of_sight = [0.0, 0.1, 1.0]", "line_of_sight = [0, 1]"),
-     "view 'single': line_of_sight: must be three numbers"),
-    ("model without scene", ('scene = "model.toml"\n', ""), "view 'single': model: lacks scene"),
+     "view[1].line_of_sight must have 3 elements, got 2"),
+    ("model without scene", ('scene = "model.toml"\n', ""), "[view[1].model] missing required key 'scene'"),
     ("missing model scene", ('scene = "model.toml"', 'scene = "gone.toml"'),
      "view 'single': model.scene: scene model "),
     ("wrong schema", ('schema = "lsadphoto.survey/1"', 'schema = "lsadphoto.survey/9"'),
-     "schema: unsupported 'lsadphoto.survey/9'"),
+     "schema must be one of 'lsadphoto.survey/1', got 'lsadphoto.survey/9'"),
     ("bad demosaic", ('name = "test survey"\n', 'demosaic = "magic"\n'),
-     "demosaic: unknown demosaic method 'magic'; valid: 'superpixel'"),
+     "demosaic must be one of 'superpixel', 'linear'"),
     ("missing profile", ('profile = "camera.toml"', 'profile = "nocamera.toml"'),
      "profile: camera profile "),
 ]
@@ -409,7 +421,7 @@ def test_bad_manifest_is_one_line_naming_manifest_view_and_field(tmp_path, old, 
 def test_manifest_without_views_and_not_toml(tmp_path):
     path = tmp_path / "survey.toml"
     path.write_text('schema = "lsadphoto.survey/1"\n')
-    with pytest.raises(BadInputError, match="no \\[\\[view\\]\\] entries"):
+    with pytest.raises(BadInputError, match="missing required key 'view'"):
         load_manifest(path)
     path.write_text("[[view]\n")
     with pytest.raises(BadInputError, match="not a valid TOML survey manifest"):
@@ -438,8 +450,9 @@ def test_run_survey_option_errors(tmp_path):
         ({"workers": -1}, "workers must be a non-negative integer"),
         ({"dask_address": "tcp://x:1", "client": object()}, "either a Dask scheduler address"),
         ({"workers": 2, "dask_address": "tcp://x:1"}, "workers sets the local process pool"),
-        ({"score_options": {"alpha": 10}}, "score_options: unknown key(s) 'alpha'"),
+        ({"score_options": {"alpha": 10}}, "score_options: unknown key 'alpha'"),
         ({"dask_address": "nonsense://host"}, "must look like tcp://HOST:PORT"),
+        ({"dask_address": "banana"}, "'banana' must look like tcp://HOST:PORT"),
     ]:
         with pytest.raises(BadInputError, match=None) as info:
             run_survey(path, tmp_path / "out", progress=False, **kwargs)
@@ -483,3 +496,81 @@ def test_cli_survey_rerun_then_study_reads_the_survey_tables(surveyed, tmp_path)
     # two rated views are too few for a correlation, which is the one-line answer.
     assert proc.returncode == 2
     assert proc.stderr.strip().endswith("2 scene(s); a correlation needs at least 3")
+
+
+# --------------------------------------------------------------------------- checked first
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ("n_thresholds = 50\n", "n_thresholds = -3\n", ": score.n_thresholds must be > 0, got -3.0"),
+    ("size_arcmin = 10\n", 'size_arcmin = "ten"\n', ": score.size_arcmin must be a number, got 'ten'"),
+    ("source_threshold = 1500\n", 'source_threshold = 1500\nq_cutoff = "sideways"\n',
+     ": view[2].score.q_cutoff must be one of 'difference', 'luminance', got 'sideways'"),
+    ("source_threshold = 1500\n", "source_threshold = 0\n",
+     ": view[2].score.source_threshold must be > 0, got 0.0"),
+])
+def test_bad_score_option_stops_the_survey_before_any_view(tmp_path, old, new, message):
+    """Issue 17, defect 3: a bad score option failed every view after its map was computed."""
+    path = make_survey(tmp_path, MANIFEST.replace(old, new, 1))
+    with pytest.raises(BadInputError) as info:
+        run_survey(path, tmp_path / "out", workers=0, progress=False)
+    assert str(info.value) == f"{path}{message}"
+    assert not (tmp_path / "out").exists()
+
+
+def test_cli_bad_options_are_one_line_before_anything_runs(tmp_path):
+    """--N=-2 (defect 3) and --dask banana (defect 6: printed its error, then hung 60 s)."""
+    path = make_survey(tmp_path, CORRUPT_ONLY)
+    for option, message in [("--N=-2", "--N/--alpha-arcmin: n_thresholds must be > 0, got -2.0"),
+                            ("--dask=banana", "Dask scheduler address 'banana' must look like")]:
+        proc = cli("survey", path, "-o", tmp_path / "out", "--quiet", option)
+        assert proc.returncode == 2, proc.stderr
+        assert proc.stderr.startswith(f"lsadphoto: error: {message}")
+        assert len(proc.stderr.splitlines()) == 1 and proc.stdout == ""
+        assert not (tmp_path / "out").exists()
+
+
+# --------------------------------------------------------------------------- one run per folder
+
+LOCK_HOLDER = """
+import sys, time
+from pathlib import Path
+from lsadphoto.survey import survey_lock
+with survey_lock(Path(sys.argv[1]), manifest=sys.argv[2]):
+    print("locked", flush=True)
+    time.sleep(600)
+"""
+
+
+def test_second_run_refuses_and_a_killed_runs_lock_is_taken_over(tmp_path):
+    """Issue 17, defect 2, with two real processes: the second run names the first and
+    touches nothing; once the first is killed (SIGKILL: no clean-up), its lock is taken over."""
+    path = make_survey(tmp_path, CORRUPT_ONLY)
+    out = tmp_path / "out"
+    out.mkdir()
+    earlier = "corrupt: the first run's reason\n"
+    (out / "failures.log").write_text(earlier)
+    holder = subprocess.Popen([sys.executable, "-c", LOCK_HOLDER, str(out), str(path)],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "locked"
+        proc = cli("survey", path, "-o", out, "--workers", "0", "--quiet")
+        assert proc.returncode == 2
+        line, = proc.stderr.splitlines()
+        assert line.startswith(f"lsadphoto: error: output folder {out} is in use by process "
+                               f"{holder.pid} on {socket.gethostname()}, started 20"), line
+        assert f"(manifest {path})" in line
+        # Nothing of the first run's was touched: no table, its failures.log as it was.
+        assert sorted(p.name for p in out.iterdir()) == sorted([LOCK_NAME, "failures.log"])
+        assert (out / "failures.log").read_text() == earlier
+    finally:
+        holder.kill()
+        holder.wait()
+        holder.stdout.close()
+    assert (out / LOCK_NAME).is_file()  # a killed run leaves its lock file behind
+    with pytest.warns(StaleLockWarning, match=f"took over the lock of process {holder.pid} on "):
+        result = run_survey(path, out, workers=0, progress=False)
+    assert [v for v, _ in result.failures] == ["corrupt"]
+    log = (out / "failures.log").read_text()
+    assert log.startswith("corrupt: ") and "not a readable RAW file" in log and log != earlier
+    assert not (out / LOCK_NAME).exists()  # released at the end

@@ -1,22 +1,14 @@
-"""Photometric calibration (spot meter, vignetting) and camera profiles."""
+"""Photometric calibration (spot meter, vignetting) and camera profiles.
 
-from .geometric import GeometricCalibration, calibrate_geometry, parse_pattern
-from .profile import CameraProfile, load_profile, save_profile
-from .spot import SpotCalibration, SpotReading, calibrate_spots, spot_cone
-from .vignetting import VignettingModel, fit_vignetting_polynomial, vignetting_gain
+Public names are imported on first use (:mod:`lsadphoto._lazy`): OpenCV and the RAW stage
+load only where a calibration needs them.
+"""
 
-__all__ = [
-    "CameraProfile",
-    "GeometricCalibration",
-    "calibrate_geometry",
-    "parse_pattern",
-    "load_profile",
-    "save_profile",
-    "SpotReading",
-    "SpotCalibration",
-    "calibrate_spots",
-    "spot_cone",
-    "VignettingModel",
-    "vignetting_gain",
-    "fit_vignetting_polynomial",
-]
+from .._lazy import lazy_exports
+
+__getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
+    ".profile": ["CameraProfile", "load_profile", "save_profile"],
+    ".geometric": ["GeometricCalibration", "calibrate_geometry", "parse_pattern"],
+    ".spot": ["SpotReading", "SpotCalibration", "calibrate_spots", "spot_cone"],
+    ".vignetting": ["VignettingModel", "vignetting_gain", "fit_vignetting_polynomial"],
+})

@@ -1,6 +1,12 @@
-"""Synthetic data with known answers: a synthetic camera that writes real DNG files, and scenes."""
+"""Synthetic data with known answers: a synthetic camera that writes real DNG files, and scenes.
 
-from .scenes import disk_sources_scene, interior_scene, uniform_field
-from .synthetic import SyntheticCamera, write_dng
+Public names are imported on first use (:mod:`lsadphoto._lazy`).
+"""
 
-__all__ = ["SyntheticCamera", "write_dng", "interior_scene", "uniform_field", "disk_sources_scene"]
+from .._lazy import lazy_exports
+
+__getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
+    ".synthetic": ["SyntheticCamera", "write_dng"],
+    ".scenes": ["interior_scene", "uniform_field", "disk_sources_scene",
+                   "window_scene"],
+})

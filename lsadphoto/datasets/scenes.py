@@ -69,3 +69,54 @@ def disk_sources_scene(directions, *, background, sources):
             scene[d @ c >= np.cos(radius)] = value
     scene[~np.isfinite(d[..., 0])] = np.nan
     return scene
+
+
+def window_scene(directions, *, background, windows=(), disks=()):
+    """A daylit-room-like scene: windows with luminance gradients and disk sources.
+
+    Parameters
+    ----------
+    directions : ndarray, shape (rows, cols, 3)
+        Unit pixel directions in the camera frame (x right, y down, z forward; NaN where
+        invalid: those pixels come out NaN).
+    background : (float, float)
+        Background luminance [cd·m⁻²] at elevation −90° and +90° (linear in between: a
+        darker floor, a brighter ceiling).
+    windows : sequence of dict
+        Each a spherical rectangle in azimuth a = atan2(x, z) and elevation
+        e = atan2(−y, √(x² + z²)) [deg]: ``azimuth`` (a0, a1), ``elevation`` (e0, e1) and
+        ``luminance`` (L at e0, L at e1) [cd·m⁻²], log-linear in elevation (a sky brighter
+        upwards), optionally ``side_gradient`` g: a factor 1 + g·(a − a_mid)/(a1 − a0)
+        (sun-side brighter), and ``mullions``: azimuths [deg] of vertical bars of width
+        ``mullion_width`` [deg] (default 2°) at the background luminance. Its solid angle
+        is (a1 − a0)·(sin e1 − sin e0) [sr] (angles in radians) less the mullions.
+    disks : sequence of (direction, angular_radius, luminance)
+        Uniform circular sources as in :func:`disk_sources_scene`, painted last.
+
+    Returns
+    -------
+    ndarray, float64, shape (rows, cols)
+    """
+    d = np.asarray(directions, dtype=np.float64)
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    with np.errstate(invalid="ignore"):
+        azimuth = np.degrees(np.arctan2(x, z))
+        elevation = np.degrees(np.arctan2(-y, np.hypot(x, z)))
+        low, high = background
+        scene = low + (high - low) * (elevation + 90.0) / 180.0
+        for w in windows:
+            a0, a1 = w["azimuth"]
+            e0, e1 = w["elevation"]
+            l0, l1 = w["luminance"]
+            inside = (azimuth >= a0) & (azimuth <= a1) & (elevation >= e0) & (elevation <= e1)
+            t = (elevation - e0) / (e1 - e0)
+            value = l0 * (l1 / l0) ** t * (1.0 + w.get("side_gradient", 0.0)
+                                          * (azimuth - (a0 + a1) / 2) / (a1 - a0))
+            for m in w.get("mullions", ()):
+                inside &= np.abs(azimuth - m) > w.get("mullion_width", 2.0) / 2
+            scene = np.where(inside, value, scene)
+    if disks:
+        lit = disk_sources_scene(d, background=-1.0, sources=disks)
+        scene = np.where(lit >= 0, lit, scene)
+    scene[~np.isfinite(d[..., 0])] = np.nan
+    return scene

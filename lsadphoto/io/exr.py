@@ -52,7 +52,8 @@ def write_exr(lmap, path):
 def read_exr(path):
     """Read a luminance map from an OpenEXR file.
 
-    Files written by :func:`write_exr` come back with all their metadata. Other files are
+    Files written by :func:`write_exr` come back with all their metadata and their signed
+    values (noise around zero stays negative). Other files are
     accepted with a ``Y`` channel or ``R``, ``G``, ``B`` channels (converted with the
     Rec. 709 luminance weights); their scale is whatever the file holds, marked
     uncalibrated.
@@ -85,8 +86,9 @@ def read_exr(path):
         fields = metadata_fields(header[METADATA_ATTRIBUTE], path)
     else:
         fields = {"provenance": {"source": str(path), "note": "foreign EXR, relative scale"}}
-    # Negative values from foreign files (e.g. filtered renderings) are not luminances.
-    luminance = np.where(luminance < 0, np.nan, luminance)
+        # Negative values from foreign files (e.g. filtered renderings) are not luminances;
+        # our own maps keep their signed noise (see LuminanceMap).
+        luminance = np.where(luminance < 0, np.nan, luminance)
     try:
         return LuminanceMap(luminance, uncertainty=uncertainty, **fields)
     except BadInputError as exc:  # e.g. a negative uncertainty channel, a projection of another size

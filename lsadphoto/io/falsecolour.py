@@ -59,4 +59,6 @@ def write_false_colour_png(lmap, path, *, luminance_range=None, title=None, colo
         label += " (uncalibrated)"
     ax.set_title(label, fontsize=10)
     with atomic_path(path) as temp:
-        fig.savefig(temp, format="png")
+        fig.savefig(temp, format="png", metadata={"Comment": (
+            "false colour; luminance <= 0 (noise around zero) shown at the legend's lower end; "
+            "the OpenEXR map keeps signed values")})

@@ -91,62 +91,6 @@ def _encode_scanlines(rgbe):
     return line.tobytes()
 
 
-def _decode_scanline(data, pos, cols, out_row):
-    """Decode one scanline starting at ``data[pos]`` into ``out_row`` (cols, 4); new position."""
-    n = len(data)
-    if (
-        _MIN_RLE <= cols <= _MAX_RLE
-        and pos + 4 <= n
-        and data[pos] == 2
-        and data[pos + 1] == 2
-        and not data[pos + 2] & 0x80
-    ):
-        if (data[pos + 2] << 8 | data[pos + 3]) != cols:
-            raise UnsupportedFileError("scanline length mismatch")
-        pos += 4
-        for c in range(4):
-            col = 0
-            while col < cols:
-                if pos >= n:
-                    raise UnsupportedFileError("file truncated inside a scanline")
-                code = data[pos]
-                pos += 1
-                if code > 128:
-                    run = code - 128
-                    if col + run > cols or pos >= n:
-                        raise UnsupportedFileError("corrupt run length")
-                    out_row[col : col + run, c] = data[pos]
-                    pos += 1
-                else:
-                    if code == 0 or col + code > cols or pos + code > n:
-                        raise UnsupportedFileError("corrupt run length")
-                    out_row[col : col + code, c] = np.frombuffer(data, np.uint8, code, pos)
-                    pos += code
-                col += run if code > 128 else code
-        return pos
-    # Flat pixels, possibly with old-style runs (1,1,1,n repeats the previous pixel).
-    col, shift = 0, 0
-    while col < cols:
-        if pos + 4 > n:
-            raise UnsupportedFileError("file truncated inside a scanline")
-        pixel = data[pos : pos + 4]
-        pos += 4
-        if pixel[0] == 1 and pixel[1] == 1 and pixel[2] == 1:
-            if col == 0:
-                raise UnsupportedFileError("old-style run at the start of a scanline")
-            run = pixel[3] << shift
-            if col + run > cols:
-                raise UnsupportedFileError("corrupt old-style run")
-            out_row[col : col + run] = out_row[col - 1]
-            col += run
-            shift += 8
-        else:
-            out_row[col] = np.frombuffer(pixel, np.uint8)
-            col += 1
-            shift = 0
-    return pos
-
-
 # --- header ----------------------------------------------------------------------------------
 
 
@@ -277,18 +221,25 @@ def _read_header(data, path):
     return header, rows, cols, eol + 1
 
 
-def read_hdr_rgb(path):
-    """Read a Radiance picture: float64 RGB ``(rows, cols, 3)`` with EXPOSURE and COLORCORR
-    divided out, and the parsed header."""
+def _read_rgbe(path):
+    """RGBE bytes ``(rows, cols, 4)`` uint8 of a Radiance picture and its parsed header."""
+    from ._rgbe import SCANLINE_ERRORS, decode_scanlines  # numba loads only for reading
+
     path = check_file(path, "HDR file")
     data = path.read_bytes()
     header, rows, cols, pos = _read_header(data, path)
     rgbe = np.zeros((rows, cols, 4), dtype=np.uint8)
-    try:
-        for row in range(rows):
-            pos = _decode_scanline(data, pos, cols, rgbe[row])
-    except UnsupportedFileError as exc:
-        raise UnsupportedFileError(f"{path}: {exc}") from None
+    _, error, row = decode_scanlines(np.frombuffer(data, np.uint8), pos,
+                                     _MIN_RLE <= cols <= _MAX_RLE, rgbe)
+    if error:
+        raise UnsupportedFileError(f"{path}: {SCANLINE_ERRORS[error]} (scanline {row})")
+    return rgbe, header
+
+
+def read_hdr_rgb(path):
+    """Read a Radiance picture: float64 RGB ``(rows, cols, 3)`` with EXPOSURE and COLORCORR
+    divided out, and the parsed header."""
+    rgbe, header = _read_rgbe(path)
     rgb = rgbe_to_float(rgbe) / header["exposure"] / header["colorcorr"]
     return rgb, header
 
@@ -303,10 +254,14 @@ def read_hdr(path):
     provenance (``radiance_view``) without a projection, so that their luminance can still
     be read.
     """
-    rgb, header = read_hdr_rgb(path)
-    weights = np.asarray(RADIANCE_RGB_LUMINANCE_WEIGHTS)
-    luminance = (RADIANCE_WHITE_EFFICACY * (rgb @ weights)).astype(np.float32)
-    rows, cols = luminance.shape
+    from ._rgbe import rgbe_luminance
+
+    rgbe, header = _read_rgbe(path)
+    rows, cols = rgbe.shape[:2]
+    luminance = np.empty((rows, cols), dtype=np.float32)
+    rgbe_luminance(rgbe, float(header["exposure"]), np.asarray(header["colorcorr"], np.float64),
+                   np.asarray(RADIANCE_RGB_LUMINANCE_WEIGHTS, np.float64),
+                   float(RADIANCE_WHITE_EFFICACY), luminance)
     if header["lsadphoto"] is not None:
         fields = metadata_fields(header["lsadphoto"], path)
     else:
@@ -329,9 +284,14 @@ def write_hdr(lmap, path):
 
     Pixels are grey with R = G = B = L/179; unknown (NaN) pixels are written as 0, which is
     what evalglare does with invalid pixels. ``EXPOSURE`` is not written (1). The
-    ``VIEW=`` line comes from the projection where it has a Radiance equivalent.
+    ``VIEW=`` line comes from the projection where it has a Radiance equivalent. RGBE cannot
+    hold negative values: negative luminances (noise around zero in a measured map) are
+    written as 0, and a ``CLAMPED=`` header line says how many, since means over dark
+    regions of such a file are biased upwards (the OpenEXR map keeps the signed values).
     """
     luminance = np.nan_to_num(np.asarray(lmap.luminance, np.float64), nan=0.0)
+    negative = int(np.count_nonzero(luminance < 0))
+    luminance = np.maximum(luminance, 0.0)
     value = luminance / RADIANCE_WHITE_EFFICACY
     rgbe = float_to_rgbe(np.repeat(value[..., None], 3, axis=-1))
     rows, cols = luminance.shape
@@ -341,6 +301,9 @@ def write_hdr(lmap, path):
             lines.append(f"VIEW= {lmap.projection.radiance_view()}")
         except BadInputError:
             pass  # no Radiance view type for this projection (e.g. equisolid): no VIEW= line
+    if negative:
+        lines.append(f"CLAMPED= {negative} pixels of negative luminance (noise) written as 0; "
+                     "means over dark regions are biased upwards; the OpenEXR map keeps them signed")
     lines.append(f"LSADPHOTO={metadata_json(lmap)}")
     lines.append("FORMAT=32-bit_rle_rgbe")
     head = ("\n".join(lines) + f"\n\n-Y {rows} +X {cols}\n").encode("latin-1", "replace")

@@ -14,7 +14,7 @@ CIE 117:1995 *Discomfort glare in interior lighting* (L_b = E_ind/π). Radiance
 """
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit, prange
@@ -26,6 +26,8 @@ __all__ = [
     "FieldSums",
     "evaluated_field",
     "field_sums",
+    "NoiseMoments",
+    "noise_moments",
     "vertical_illuminance",
     "mean_luminance",
     "background_luminance",
@@ -116,6 +118,9 @@ def background_luminance(luminance, solid_angle, cos_sigma, source_mask, *, meth
         the non-source pixels (``-q 1``; L̄ when every pixel is a source). ``"Ev"``: E_v/π
         (``-q 2``).
 
+    The value is :meth:`FieldSums.background_luminance` of the map's :func:`field_sums` — the
+    one definition that :func:`~lsadphoto.metrics.score.score_map` also uses.
+
     Examples
     --------
     A uniform field of 50 cd·m⁻² over the front hemisphere has L_b = 50 in CIE mode
@@ -126,16 +131,10 @@ def background_luminance(luminance, solid_angle, cos_sigma, source_mask, *, meth
     50.0
     """
     check_choice(method, "background luminance method", BACKGROUND_METHODS)
-    source_mask = np.asarray(source_mask, dtype=bool)
-    if method == "Ev":
-        return vertical_illuminance(luminance, solid_angle, cos_sigma) / math.pi
-    if method == "CIE":
-        # E_v − E_dir summed directly over the non-source pixels (no cancellation).
-        return vertical_illuminance(luminance, solid_angle, cos_sigma, mask=~source_mask) / math.pi
-    background = mean_luminance(luminance, solid_angle, cos_sigma, mask=~source_mask)
-    if math.isnan(background):
-        return mean_luminance(luminance, solid_angle, cos_sigma)
-    return background
+    L, w, c, mask = np.broadcast_arrays(np.asarray(luminance, dtype=np.float64), solid_angle,
+                                        cos_sigma, np.asarray(source_mask, dtype=bool))
+    # P = 1 everywhere: the position index enters only ugr_sum, unused here.
+    return field_sums(L, w, c, np.ones(L.shape), mask).background_luminance(method)
 
 
 # --- all field sums in one pass ----------------------------------------------------------------
@@ -174,6 +173,44 @@ class FieldSums:
     background_luminance_solid_angle: float
     background_illuminance: float
     ugr_sum: float
+
+    @property
+    def mean_luminance(self):
+        """Solid-angle-weighted mean luminance L̄ = ΣL·ω/Σω over the field [cd·m⁻²]; NaN
+        when the field is empty."""
+        if not self.solid_angle > 0:
+            return math.nan
+        return self.luminance_solid_angle / self.solid_angle
+
+    def background_luminance(self, method="CIE"):
+        """Background luminance L_b [cd·m⁻²] by ``method`` (see :func:`background_luminance`)."""
+        check_choice(method, "background luminance method", BACKGROUND_METHODS)
+        if method == "CIE":  # (E_v − E_dir)/π, summed over the non-source pixels: no cancellation
+            return self.background_illuminance / math.pi
+        if method == "Ev":
+            return self.illuminance / math.pi
+        if self.background_solid_angle > 0:
+            return self.background_luminance_solid_angle / self.background_solid_angle
+        return self.mean_luminance  # every pixel a source: the field's mean
+
+    def quantities(self, background_method="CIE"):
+        """The field quantities of :data:`~lsadphoto.metrics.registry.FIELD` and the pixel
+        sum of pixel-wise UGR, as a dict: E_v and E_dir [lx], L_b and L̄ [cd·m⁻²],
+        ``pixel_ugr_sum`` [cd²·m⁻⁴·sr]."""
+        return {"vertical_illuminance": self.illuminance,
+                "direct_illuminance": self.source_illuminance,
+                "background_luminance": self.background_luminance(background_method),
+                "mean_luminance": self.mean_luminance, "pixel_ugr_sum": self.ugr_sum}
+
+    def scaled(self, factor):
+        """The sums of the luminances scaled by ``factor`` (ΣL²ω/P² by its square)."""
+        k = float(factor)
+        return replace(self, luminance_solid_angle=k * self.luminance_solid_angle,
+                       illuminance=k * self.illuminance,
+                       source_illuminance=k * self.source_illuminance,
+                       background_luminance_solid_angle=k * self.background_luminance_solid_angle,
+                       background_illuminance=k * self.background_illuminance,
+                       ugr_sum=k * k * self.ugr_sum)
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True)
@@ -245,3 +282,116 @@ def field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask):
     total = sums.sum(axis=0)
     n_field, n_source = (int(v) for v in counts.sum(axis=0))
     return FieldSums(n_field, n_source, *(float(v) for v in total[[0, 1, 2, 3, 4, 5, 6, 7]]))
+
+
+# --- per-pixel noise: second moments of the field sums -----------------------------------------
+
+@dataclass(frozen=True)
+class NoiseMoments:
+    """Means and covariances of the sums of :class:`FieldSums` under independent per-pixel noise.
+
+    With pixel luminances L_j + ε_j, ε_j independent with variance v_j, every linear sum
+    Σ a_j·L_j gets the variance Σ a_j²·v_j and two sums the covariance Σ a_j·b_j·v_j; sums
+    over disjoint pixel sets are independent. The background (non-source field pixels) and
+    each source s are such sets. The pixel-UGR sum U = Σ u_j·L_j² (u_j = ω_j/P_j²) is
+    quadratic: U + 2Σu_j·L_j·ε_j + Σu_j·ε_j², whose linear part enters the covariances and
+    whose quadratic part has mean Σu_j·v_j and, for Gaussian ε, variance 2Σu_j²·v_j² and no
+    correlation with the linear sums.
+
+    Attributes
+    ----------
+    background : ndarray, shape (2, 2)
+        Covariance of (ΣL·cos σ·ω, ΣL·ω) over the background pixels.
+    source_means : ndarray, shape (n, 3)
+        Per source (label order): ΣL·cos σ·ω [lx], ΣL·ω [cd·m⁻²·sr], ΣL²·ω/P².
+    source_covariances : ndarray, shape (n, 3, 3)
+        Their covariances (linear part for the third).
+    quadratic_mean, quadratic_variance : float
+        Mean and variance of Σu_j·ε_j² over all source pixels.
+    """
+
+    background: np.ndarray
+    source_means: np.ndarray
+    source_covariances: np.ndarray
+    quadratic_mean: float
+    quadratic_variance: float
+
+
+@njit(cache=True, error_model="numpy", nogil=True)
+def _noise_moments(luminance, solid_angle, cos_sigma, position_index, labels, variance, n):
+    background = np.zeros(3)
+    means = np.zeros((n, 3))
+    second = np.zeros((n, 6))  # EE, ET, TT, EU, TU, UU
+    quadratic = np.zeros(2)
+    for i in range(luminance.size):
+        L = float(luminance[i])
+        w = float(solid_angle[i])
+        c = float(cos_sigma[i])
+        if not (math.isfinite(L) and w > 0 and c >= 0):
+            continue
+        v = float(variance[i])
+        if not v > 0:
+            v = 0.0
+        k = labels[i] - 1
+        if k < 0:
+            background[0] += v * w * w * c * c
+            background[1] += v * w * w * c
+            background[2] += v * w * w
+            continue
+        P = float(position_index[i])
+        u = w / (P * P)
+        if not math.isfinite(u * L * L):
+            u = 0.0
+        means[k, 0] += L * w * c
+        means[k, 1] += L * w
+        means[k, 2] += u * L * L
+        second[k, 0] += v * w * w * c * c
+        second[k, 1] += v * w * w * c
+        second[k, 2] += v * w * w
+        second[k, 3] += 2.0 * u * L * v * w * c
+        second[k, 4] += 2.0 * u * L * v * w
+        second[k, 5] += 4.0 * u * u * L * L * v
+        quadratic[0] += u * v
+        quadratic[1] += 2.0 * u * u * v * v
+    return background, means, second, quadratic
+
+
+def noise_moments(luminance, solid_angle, cos_sigma, position_index, source_labels, variance,
+                  n_sources):
+    """The :class:`NoiseMoments` of a map's field sums, in one (serial, float64) pass.
+
+    Parameters
+    ----------
+    luminance, solid_angle, cos_sigma, position_index : ndarray, shape (rows, cols)
+        L [cd·m⁻²], ω [sr], cos σ [–], P [–]; the field is that of :func:`evaluated_field`.
+    source_labels : ndarray of int, shape (rows, cols)
+        Source number + 1 per pixel, 0 for the background.
+    variance : ndarray, shape (rows, cols)
+        Variance of each pixel's luminance noise [cd²·m⁻⁴] (NaN or ≤ 0: no noise).
+    n_sources : int
+        Number of sources (largest label).
+
+    Returns
+    -------
+    NoiseMoments
+
+    Examples
+    --------
+    Two background pixels of variance 4 and 9, ω = 0.5 and 1, cos σ = 1: the variance of E_v is
+    4·0.25 + 9·1 = 10:
+
+    >>> m = noise_moments(np.array([10.0, 20.0]), np.array([0.5, 1.0]), np.ones(2), np.ones(2),
+    ...                   np.zeros(2, int), np.array([4.0, 9.0]), 0)
+    >>> float(m.background[0, 0])
+    10.0
+    """
+    flat = [np.ascontiguousarray(a, dtype=np.float64).ravel()
+            for a in (luminance, solid_angle, cos_sigma, position_index, variance)]
+    labels = np.ascontiguousarray(source_labels, dtype=np.int64).ravel()
+    background, means, second, quadratic = _noise_moments(*flat[:4], labels, flat[4],
+                                                          int(n_sources))
+    ee, et, tt, eu, tu, uu = second.T
+    covariances = np.stack([np.stack([ee, et, eu], -1), np.stack([et, tt, tu], -1),
+                            np.stack([eu, tu, uu], -1)], -2)
+    return NoiseMoments(np.array([[background[0], background[1]], [background[1], background[2]]]),
+                        means, covariances, float(quadratic[0]), float(quadratic[1]))

@@ -133,8 +133,9 @@ def dgr_Guth1963(luminance, solid_angle, position_index, adaptation_luminance):
 def vcp_Guth1963(dgr, *, constant=6.374):
     """Visual comfort probability [%] from DGR: 50·erf((c − 1.3227·ln DGR)/√2) + 50.
 
-    c = 6.374 as published (IES Lighting Handbook); evalglare's code has 6.347 (pass
-    ``constant=6.347`` to reproduce it). 100 below DGR = 20 and 0 above 750, as in evalglare.
+    c = 6.374 as published (IES Lighting Handbook) and in evalglare since v2.07, whose
+    change log records the fix of an earlier 6.347 (pass ``constant=6.347`` to reproduce
+    older evalglare results). 100 below DGR = 20 and 0 above 750, as in evalglare.
     """
     if not np.isfinite(dgr):
         return math.nan

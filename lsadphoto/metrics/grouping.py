@@ -7,7 +7,7 @@ two pixels share a source exactly when a chain of source pixels links them in wh
 step is at most r/2 apart (r the ``-r`` search *opening* angle, 0.2 rad by default; the
 code tests 2·arccos(d̂₁·d̂₂) ≤ r). That fixed point is single-linkage clustering at an
 angular distance of r/2, which this module computes directly: links between neighbouring
-pixels plus, through a k-d tree on the unit directions, links between boundary pixels of
+pixels plus, through a grid of cubes on the unit directions, links between boundary pixels of
 different patches (the closest pair of two patches always includes a boundary pixel). It
 does not depend on scan order, which evalglare's merge rule (a source moves into a *larger*
 one) only affects for exact ties in solid angle.
@@ -33,17 +33,19 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
-from scipy.spatial import cKDTree
 
 from .._validation import check_positive
 
-__all__ = ["GlareSource", "group_sources_evalglare", "DEFAULT_SEARCH_ANGLE",
-           "DEFAULT_PEAK_LUMINANCE"]
+__all__ = ["GlareSource", "group_sources_evalglare", "position_pixel_evalglare",
+           "SOURCE_POSITIONS", "DEFAULT_SEARCH_ANGLE", "DEFAULT_PEAK_LUMINANCE"]
 
 #: evalglare's ``-r`` search opening angle [rad].
 DEFAULT_SEARCH_ANGLE = 0.2
 #: evalglare's peak-extraction limit ``-Y`` [cd·m⁻²].
 DEFAULT_PEAK_LUMINANCE = 50000.0
+#: Where a source's position index is evaluated: evalglare's pixel of the mean pixel
+#: position (default), or the mean direction (see :func:`position_pixel_evalglare`).
+SOURCE_POSITIONS = ("evalglare", "direction")
 
 @dataclass(frozen=True)
 class GlareSource:
@@ -76,6 +78,48 @@ class GlareSource:
     min_luminance: float
     n_pixels: int
     peak: bool = False
+
+
+def position_pixel_evalglare(row, col, shape):
+    """The pixel at which evalglare evaluates a source's position index.
+
+    evalglare keeps each source's L·ω-weighted mean pixel position (``add_pixel_to_gs``,
+    L·ω weights since v2.14) in its own pixel coordinates — x the column, y the row counted
+    from the *bottom* of the picture — and hands it to ``get_posindex(float x, float y)``,
+    whose angle functions (``pict_get_sigma`` …) pass it on to ``pict_get_dir(int x, int y)``:
+    the position is truncated to a pixel, and σ, τ are those of that pixel's centre
+    direction. In our row/column convention (row 0 at the top) that is column ⌊col⌋ and row
+    rows − 1 − ⌊rows − 1 − row⌋ (= ⌈row⌉), with the coordinates rounded to float32 first
+    as the ``float`` parameters do. The result can lie off the valid image (a crescent
+    along a fisheye's rim); it is clipped to the picture.
+
+    Parameters
+    ----------
+    row, col : float
+        L·ω-weighted mean pixel position [px] (:attr:`GlareSource.row`, ``col``).
+    shape : (int, int)
+        Picture shape (rows, cols).
+
+    Returns
+    -------
+    (int, int)
+        Row and column of the pixel.
+
+    Examples
+    --------
+    >>> position_pixel_evalglare(116.85, 295.85, (400, 400))
+    (117, 295)
+
+    References
+    ----------
+    Radiance ``src/util/evalglare.c`` (add_pixel_to_gs, get_posindex) and
+    ``src/util/pictool.c`` (pict_get_sigma, pict_get_tau, pict_get_vangle, pict_get_dir,
+    pict_read_fp: bottom-up rows of a standard ``-Y N +X M`` picture).
+    """
+    rows, cols = (int(n) for n in shape)
+    y = math.floor(float(np.float32(rows - 1 - float(row))))
+    x = math.floor(float(np.float32(float(col))))
+    return min(max(rows - 1 - y, 0), rows - 1), min(max(x, 0), cols - 1)
 
 
 def _chord(angle):
@@ -177,6 +221,46 @@ def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, l
     return n
 
 
+@njit(**_OPTIONS)
+def _close_pairs(directions, rows, cols, chord):
+    """Index pairs (a < b) of the pixels (rows[a], cols[a]), (rows[b], cols[b]) whose directions
+    are :func:`_close`: each direction falls in a cube of side ``chord``, and only the 27 cubes
+    around a pixel's can hold its partners (a grid hash; one pass counts, one fills)."""
+    m = rows.size
+    cell = np.empty((m, 3), np.int64)
+    for a in range(m):
+        for k in range(3):
+            cell[a, k] = np.int64(math.floor((np.float64(directions[rows[a], cols[a], k]) + 1.0) / chord))
+    span = np.int64(math.floor(2.0 / chord)) + 3  # cube indices −1 … span − 2 along each axis
+    key = ((cell[:, 0] + 1) * span + cell[:, 1] + 1) * span + cell[:, 2] + 1
+    order = np.argsort(key)
+    sorted_key = key[order]
+    count = 0
+    pair_a = np.empty(0, np.int64)
+    pair_b = np.empty(0, np.int64)
+    for fill in (False, True):
+        if fill:
+            pair_a = np.empty(count, np.int64)
+            pair_b = np.empty(count, np.int64)
+            count = 0
+        for a in range(m):
+            for dx in range(-1, 2):
+                for dy in range(-1, 2):
+                    for dz in range(-1, 2):
+                        near = (((cell[a, 0] + dx + 1) * span + cell[a, 1] + dy + 1) * span
+                                + cell[a, 2] + dz + 1)
+                        s = np.searchsorted(sorted_key, near)
+                        while s < m and sorted_key[s] == near:
+                            b = order[s]
+                            s += 1
+                            if b > a and _close(directions, rows[a], cols[a], rows[b], cols[b], chord):
+                                if fill:
+                                    pair_a[count] = a
+                                    pair_b[count] = b
+                                count += 1
+    return pair_a, pair_b
+
+
 def _link(mask, directions, separation):
     """Single-linkage labels (1…n, 0 elsewhere) of ``mask`` pixels at angular ``separation``."""
     labels = np.zeros(mask.shape, dtype=np.int64)
@@ -187,12 +271,8 @@ def _link(mask, directions, separation):
     # Boundary pixels of different patches within reach of each other (the closest pair of
     # two patches always includes a boundary pixel).
     bnodes = np.flatnonzero(boundary)
-    pairs = np.empty((0, 2), dtype=np.int64)
-    if bnodes.size > 1:
-        pts = directions[node_rows[bnodes], node_cols[bnodes]].astype(np.float64)
-        pairs = cKDTree(pts).query_pairs(chord, output_type="ndarray")
-    n = _components(node, node_rows, node_cols, directions, chord,
-                    bnodes[pairs[:, 0]].astype(np.int64), bnodes[pairs[:, 1]].astype(np.int64),
+    pair_a, pair_b = _close_pairs(directions, node_rows[bnodes], node_cols[bnodes], chord)
+    n = _components(node, node_rows, node_cols, directions, chord, bnodes[pair_a], bnodes[pair_b],
                     labels)
     return labels, n
 

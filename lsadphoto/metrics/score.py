@@ -2,53 +2,52 @@
 
 :func:`score_map` takes a :class:`~lsadphoto.LuminanceMap` with a camera projection (our EXR
 maps, or Radiance pictures with a VIEW= line), builds the per-pixel geometry once (cached),
-selects glare-source pixels, groups them as evalglare does and evaluates pixel-wise UGR,
-grouped UGR, the Q criterion, DGP and the other indices, E_v, L_b and luminance statistics.
+selects glare-source pixels, groups them as evalglare does and evaluates every metric of
+:mod:`~lsadphoto.metrics.registry` — pixel-wise and grouped UGR, DGP, DGI, UGP, CGI, DGR/VCP,
+the Q criterion, E_v, L_b — through the public functions listed there, from one set of field
+sums (:func:`~lsadphoto.metrics.field.field_sums`), plus luminance statistics.
+
+Source position: by default each source's position index is taken where evalglare 3.06
+takes it, at the pixel of the source's L·ω-weighted mean *pixel position*
+(:func:`~lsadphoto.metrics.grouping.position_pixel_evalglare`); ``source_position=
+"direction"`` takes it at the L·ω-weighted mean *direction* instead. The two differ for
+large sources in a non-gnomonic projection (the mean of pixel positions is not the image of
+the mean direction): 2–3° for a window of 1–2 sr in an equidistant fisheye.
 
 Uncertainty: a calibrated map carries the relative standard uncertainty u of its
 calibration factor, a common scale of every pixel. Each metric is re-evaluated with the
 luminances scaled by 1 ± u (the same source pixels and groups) and half the difference is
 reported as its standard uncertainty (``uncertainty`` in the result). For UGR-type indices
-this is exactly 8·u/ln 10 to first order. Per-pixel noise averages out in the field sums and
-is not propagated.
+this is exactly 8·u/ln 10 to first order.
 
 Undefined values are ``None`` in :meth:`Score.to_dict` with the reason in ``notes``.
 """
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numba import njit, prange
 
 from .._provenance import build_provenance
-from .._validation import check_choice, check_positive
+from .._validation import check_choice, check_positive, check_positive_int
 from ..errors import BadInputError
 from ..geometry import ObserverFrame, position_index
 from ..geometry.field import pixel_geometry, visual_field
 from ..geometry.position_index import METHODS as POSITION_INDEX_METHODS
-from .field import BACKGROUND_METHODS, field_sums
-from .glare_indices import (
-    DGP_COEFFICIENTS,
-    cgi_Einhorn1979,
-    dgi_Hopkinson1972,
-    dgi_mod_Fisekis2003,
-    dgp_Wienold2006,
-    dgr_Guth1963,
-    ugp2_Hirning2016,
-    ugp_Hirning2014,
-    ugr_exp_Fisekis2003,
-    vcp_Guth1963,
-)
+from .field import BACKGROUND_METHODS, field_sums, noise_moments
+from .glare_indices import DGP_COEFFICIENTS
 from .grouping import (
     DEFAULT_PEAK_LUMINANCE,
     DEFAULT_SEARCH_ANGLE,
+    SOURCE_POSITIONS,
     group_sources_evalglare,
+    position_pixel_evalglare,
 )
 from .quality import q_Budak2021, q_sweep
+from .registry import evaluate_indices
 from .sources import SOURCE_METHODS, select_source_pixels
 from .statistics import luminance_statistics
-from .ugr import ugr_CIE117
 
 __all__ = ["Score", "score_map"]
 
@@ -88,7 +87,10 @@ class Score:
     """The result of :func:`score_map`.
 
     ``values`` holds the scalar metrics (NaN where undefined), ``uncertainty`` their
-    standard uncertainties from the calibration, ``sources`` the grouped sources,
+    combined standard uncertainties, ``uncertainty_calibration`` and ``uncertainty_noise``
+    its two parts (calibration scale, per-pixel noise), ``noise_bias`` the mean change of
+    each metric under the map's noise (with its Monte Carlo standard error in
+    ``noise_bias_standard_error``), ``sources`` the grouped sources,
     ``source_mask`` and ``source_labels`` the per-pixel selection (for the glare-source
     map), ``contrast`` the Q criterion's per-pixel contrast map, ``notes`` the reasons for
     undefined values.
@@ -105,6 +107,10 @@ class Score:
     provenance: dict
     notes: list = field(default_factory=list)
     q_sweep: dict | None = None
+    uncertainty_calibration: dict = field(default_factory=dict)
+    uncertainty_noise: dict = field(default_factory=dict)
+    noise_bias: dict = field(default_factory=dict)
+    noise_bias_standard_error: dict = field(default_factory=dict)
 
     def to_dict(self):
         """JSON-ready record: every metric at the top level (None where undefined)."""
@@ -115,13 +121,17 @@ class Score:
             return value if math.isfinite(value) else None
 
         out = {key: clean(value) for key, value in self.values.items()}
-        out["uncertainty"] = {key: clean(value) for key, value in self.uncertainty.items()}
+        for name in ("uncertainty", "uncertainty_calibration", "uncertainty_noise", "noise_bias",
+                     "noise_bias_standard_error"):
+            out[name] = {key: clean(value) for key, value in getattr(self, name).items()}
         out["sources"] = [
             {"luminance": s.luminance, "solid_angle": s.solid_angle,
              "direction": list(s.direction), "row": s.row, "col": s.col,
              "position_index": s.position_index, "sigma_deg": s.sigma_deg,
              "tau_deg": s.tau_deg, "max_luminance": s.max_luminance,
-             "min_luminance": s.min_luminance, "n_pixels": s.n_pixels, "peak": s.peak}
+             "min_luminance": s.min_luminance, "n_pixels": s.n_pixels, "peak": s.peak,
+             "position_direction": list(s.position_direction),
+             "position_pixel": None if s.position_pixel is None else list(s.position_pixel)}
             for s in self.sources
         ]
         out["statistics"] = self.statistics
@@ -135,7 +145,13 @@ class Score:
 
 @dataclass(frozen=True)
 class ScoredSource:
-    """A grouped source with its place in the visual field."""
+    """A grouped source with its place in the visual field.
+
+    ``direction`` is the L·ω-weighted mean direction and (``row``, ``col``) the L·ω-weighted
+    mean pixel position; ``position_direction`` is the direction at which the position index
+    (and σ, τ) was evaluated, ``position_pixel`` the pixel it belongs to (None for
+    ``source_position="direction"``).
+    """
 
     luminance: float
     solid_angle: float
@@ -149,6 +165,8 @@ class ScoredSource:
     min_luminance: float
     n_pixels: int
     peak: bool
+    position_direction: tuple = ()
+    position_pixel: tuple | None = None
 
 
 def _frame(lmap, line_of_sight, up):
@@ -158,37 +176,31 @@ def _frame(lmap, line_of_sight, up):
                          (0.0, -1.0, 0.0) if up is None else tuple(map(float, up)))
 
 
-def _ugr_pixel(n_sources, total, l_b):
-    """Pixel-wise UGR from the number of source pixels and their ΣL²ω/P², with the undefined
-    cases of :func:`~lsadphoto.metrics.ugr.ugr_pixel` (no source, L_b ≤ 0, empty sum)."""
-    if n_sources == 0 or not l_b > 0 or total <= 0:
-        return math.nan
-    return 8.0 * math.log10(0.25 / l_b * total)
-
-
-def _indices(sources_l, sources_w, sources_p, *, e_v, e_dir, l_b, mean_l, pixel_sum, settings):
-    """Every source-based index for given source luminances (a function of scale);
-    ``pixel_sum`` is (number of source pixels, their ΣL²ω/P²)."""
-    values = {
-        "ugr_grouped": ugr_CIE117(sources_l, sources_w, sources_p, l_b),
-        "ugr_pixel": _ugr_pixel(*pixel_sum, l_b),
-        "dgp": dgp_Wienold2006(e_v, sources_l, sources_w, sources_p,
-                               coefficients=settings["dgp_coefficients"]),
-        "dgp_low_light": dgp_Wienold2006(e_v, sources_l, sources_w, sources_p,
-                                         coefficients=settings["dgp_coefficients"],
-                                         low_light_correction=True),
-        "dgi": dgi_Hopkinson1972(sources_l, sources_w, sources_p, l_b),
-        "dgi_mod": dgi_mod_Fisekis2003(sources_l, sources_w, sources_p, e_v),
-        "ugr_exp": ugr_exp_Fisekis2003(sources_l, sources_w, sources_p, e_v, l_b),
-        "ugp": ugp_Hirning2014(sources_l, sources_w, sources_p, l_b),
-        "ugp2": ugp2_Hirning2016(sources_l, sources_w, sources_p, l_b),
-        "cgi": cgi_Einhorn1979(sources_l, sources_w, sources_p, e_v, e_dir),
-    }
-    dgr = dgr_Guth1963(sources_l, sources_w, sources_p, mean_l)
-    values["dgr"] = dgr
-    values["vcp"] = vcp_Guth1963(dgr, constant=settings["vcp_constant"]) if len(sources_l) else \
-        math.nan
-    return values
+def _scored_sources(groups, geometry, frame, *, position_index_method, source_position, notes):
+    """Each group's position index at its evalglare pixel or its mean direction."""
+    sources = []
+    fallback = 0
+    for g in groups:
+        pixel, direction = None, g.direction
+        if source_position == "evalglare":
+            pixel = position_pixel_evalglare(g.row, g.col, geometry.valid.shape)
+            d = np.asarray(geometry.directions[pixel], dtype=np.float64)
+            if geometry.valid[pixel] and np.all(np.isfinite(d)) and frame.angles(d)[0] <= \
+                    math.pi / 2:
+                direction = tuple(map(float, d))
+            else:  # the centroid pixel lies off the image or behind the observer
+                pixel = None
+                fallback += 1
+        sigma, tau = frame.angles(np.asarray(direction))
+        p = float(position_index(sigma, tau, method=position_index_method))
+        sources.append(ScoredSource(g.luminance, g.solid_angle, g.direction, g.row, g.col, p,
+                                    math.degrees(sigma), math.degrees(tau), g.max_luminance,
+                                    g.min_luminance, g.n_pixels, g.peak, direction, pixel))
+    if fallback:
+        notes.append(f"{fallback} source(s) have their mean pixel position off the valid image "
+                     "or behind the observer: their position index is taken at their mean "
+                     "direction")
+    return sources
 
 
 def _scaled_thresholds(quality, n_thresholds, size_arcmin, method, scales):
@@ -215,13 +227,113 @@ def _scaled_thresholds(quality, n_thresholds, size_arcmin, method, scales):
     return out
 
 
+#: Resamples of the field sums for the per-pixel noise (cheap: a few vectors per sample).
+DEFAULT_NOISE_SAMPLES = 256
+#: Resampled maps for Q's per-pixel noise (each one a full Q evaluation).
+DEFAULT_Q_NOISE_SAMPLES = 4
+#: Seed of the noise resampling: every run draws the same numbers (common random numbers).
+DEFAULT_NOISE_SEED = 20261201
+
+
+def noise_variance(lmap):
+    """Variance of each pixel's luminance noise [cd²·m⁻⁴], or None when the map has no
+    per-pixel uncertainty.
+
+    :attr:`LuminanceMap.uncertainty` combines the calibration scale and the noise,
+    u_j² = (L_j·u_k)² + v_j (u_k = ``calibration_uncertainty``); the calibration part is a
+    common scale propagated separately, so v_j = max(u_j² − (L_j·u_k)², 0). NaN counts as 0.
+    """
+    if lmap.uncertainty is None:
+        return None
+    u = np.asarray(lmap.uncertainty, dtype=np.float64)
+    scale = np.asarray(lmap.luminance, dtype=np.float64) * float(lmap.calibration_uncertainty)
+    variance = u * u - scale * scale
+    return np.where(variance > 0, variance, 0.0)
+
+
+def _gaussian(rng, mean, covariance, n_samples):
+    """``n_samples`` draws of normal vectors (stacked: mean (..., k), covariance (..., k, k));
+    positive semi-definite covariances through their eigen-decomposition."""
+    lam, vec = np.linalg.eigh(covariance)
+    root = vec * np.sqrt(np.clip(lam, 0.0, None))[..., None, :]
+    z = rng.standard_normal((n_samples, *np.shape(mean)))
+    return mean + np.einsum("...ij,m...j->m...i", root, z)
+
+
+def _noise_resampling(indices, sums, source_solid_angle, moments, n_samples, rng):
+    """Every index evaluated on ``n_samples`` draws of the field sums under pixel noise.
+
+    The sums are linear in the pixel luminances (pixel-UGR's quadratically, handled as in
+    :class:`~lsadphoto.metrics.field.NoiseMoments`), so for Gaussian pixel noise they are
+    jointly Gaussian with the moments computed in one pass: drawing them is drawing noisy
+    maps, without the maps. Returns a dict name → array of the sample values.
+    """
+    background = _gaussian(rng, np.array([sums.background_illuminance,
+                                          sums.background_luminance_solid_angle]),
+                           moments.background, n_samples)
+    per_source = _gaussian(rng, moments.source_means, moments.source_covariances, n_samples)
+    quadratic = moments.quadratic_mean + math.sqrt(moments.quadratic_variance) * \
+        rng.standard_normal(n_samples)
+    samples = []
+    for m in range(n_samples):
+        e_dir, total_lw, ugr_sum = per_source[m].sum(axis=0)
+        field = replace(sums, illuminance=background[m, 0] + e_dir, source_illuminance=e_dir,
+                        background_illuminance=background[m, 0],
+                        background_luminance_solid_angle=background[m, 1],
+                        luminance_solid_angle=background[m, 1] + total_lw,
+                        ugr_sum=ugr_sum + quadratic[m])
+        samples.append(indices(field, per_source[m][:, 1] / source_solid_angle))
+    return {key: np.array([v[key] for v in samples]) for key in samples[0]}
+
+
+def _noise_summary(values, samples):
+    """Standard deviation, bias (mean − value) and the bias's standard error per metric."""
+    spread, bias, error = {}, {}, {}
+    for key, draws in samples.items():
+        if not math.isfinite(values[key]) or not np.all(np.isfinite(draws)) or draws.size < 2:
+            continue
+        spread[key] = float(np.std(draws, ddof=1))
+        bias[key] = float(np.mean(draws) - values[key])
+        error[key] = spread[key] / math.sqrt(draws.size)
+    return spread, bias, error
+
+
+def _pixel_noise(lmap, values, indices, sums, source_solid_angle, labels, n_sources, *, arrays,
+                 noise_samples, q_noise_samples, seed, q_of):
+    """Per-pixel noise: standard uncertainty, bias and its standard error of every metric.
+
+    The indices from resampled field sums (:func:`_noise_resampling`), Q from
+    ``q_noise_samples`` maps L + √v·z; the same source pixels and groups throughout.
+    Empty dicts when the map has no per-pixel uncertainty or the samples are 0.
+    """
+    noise_samples = 0 if noise_samples == 0 else check_positive_int(noise_samples, "noise_samples")
+    q_noise_samples = 0 if q_noise_samples == 0 else check_positive_int(q_noise_samples,
+                                                                        "q_noise_samples")
+    variance = noise_variance(lmap)
+    if variance is None or not np.any(variance > 0):
+        return {}, {}, {}
+    rng = np.random.default_rng(int(seed))
+    samples = {}
+    luminance = arrays[0]
+    if noise_samples > 1:
+        moments = noise_moments(*arrays, labels, variance, n_sources)
+        samples = _noise_resampling(indices, sums, source_solid_angle, moments, noise_samples, rng)
+    if q_noise_samples > 1 and math.isfinite(values["q"]):
+        sd = np.sqrt(variance)
+        samples["q"] = np.array([q_of(luminance + sd * rng.standard_normal(sd.shape))
+                                 for _ in range(q_noise_samples)])
+    return _noise_summary(values, samples)
+
+
 def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
               source_threshold=None, task_direction=None, task_opening_deg=20.0,
               search_angle=DEFAULT_SEARCH_ANGLE, peak_luminance=DEFAULT_PEAK_LUMINANCE,
-              background_method="CIE", position_index_method="evalglare", guth_field=None,
-              n_thresholds=50.0, size_arcmin=10.0, q_weight_exponent=1, q_threshold="Adrian1989",
+              background_method="CIE", position_index_method="evalglare",
+              source_position="evalglare", guth_field=None, n_thresholds=50.0,
+              size_arcmin=10.0, q_weight_exponent=1, q_threshold="Adrian1989",
               q_cutoff="difference", dgp_coefficients="evalglare", vcp_constant=6.374,
-              sweep=None):
+              sweep=None, noise_samples=DEFAULT_NOISE_SAMPLES,
+              q_noise_samples=DEFAULT_Q_NOISE_SAMPLES, seed=DEFAULT_NOISE_SEED):
     """Score a luminance map with every metric (see the module notes).
 
     Parameters
@@ -246,15 +358,27 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     background_method : {"CIE", "mean", "Ev"}
         L_b definition.
     position_index_method : {"evalglare", "Guth", "Kim2011"}
+    source_position : {"evalglare", "direction"}
+        Where each source's position index is evaluated: ``"evalglare"`` (default) at the
+        pixel of its L·ω-weighted mean pixel position, as evalglare 3.06 does
+        (:func:`~lsadphoto.metrics.grouping.position_pixel_evalglare`); ``"direction"`` at
+        its L·ω-weighted mean direction, which does not depend on the projection.
     guth_field : {None, 1, 2}
         Restrict the evaluation to Guth's total (1) or central (2) field of view.
     n_thresholds, size_arcmin, q_weight_exponent, q_threshold, q_cutoff
         Options of the Q criterion (and N, α of the contrast source rule).
     dgp_coefficients : {"evalglare", "Wienold2006"}
     vcp_constant : float
-        6.374 as published; evalglare's code uses 6.347.
+        6.374 as published and in evalglare ≥ 2.07 (6.347 before its fix).
     sweep : sequence of float, optional
         N values for the one-pass Q(N) sweep (e.g. ``range(1, 101)``).
+    noise_samples : int
+        Draws of the field sums for the per-pixel noise (used when the map has a per-pixel
+        ``uncertainty``); 0 switches the noise propagation off.
+    q_noise_samples : int
+        Resampled maps for Q's noise (each a full Q evaluation); 0 switches it off.
+    seed : int
+        Seed of the noise resampling (the same draws in every run).
 
     Returns
     -------
@@ -266,6 +390,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     check_choice(source_method, "glare-source method", SOURCE_METHODS)
     check_choice(background_method, "background luminance method", BACKGROUND_METHODS)
     check_choice(position_index_method, "position index method", POSITION_INDEX_METHODS)
+    check_choice(source_position, "source position", SOURCE_POSITIONS)
     check_choice(dgp_coefficients, "DGP coefficient set", tuple(DGP_COEFFICIENTS))
     if guth_field not in (None, 1, 2):
         raise BadInputError(f"guth_field must be 1, 2 or None, got {guth_field!r}")
@@ -289,6 +414,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         "source_method": source_method, "source_threshold": source_threshold,
         "search_angle": float(search_angle), "peak_luminance": peak_luminance,
         "background_method": background_method, "position_index_method": position_index_method,
+        "source_position": source_position,
         "guth_field": guth_field, "n_thresholds": float(n_thresholds),
         "size_arcmin": float(size_arcmin), "q_weight_exponent": q_weight_exponent,
         "q_threshold": q_threshold, "q_cutoff": q_cutoff, "dgp_coefficients": dgp_coefficients,
@@ -309,41 +435,20 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     groups, labels = group_sources_evalglare(luminance, geometry.directions, omega, mask,
                                              search_angle=search_angle,
                                              peak_luminance=peak_luminance)
-    sources = []
-    for g in groups:
-        sigma, tau = frame.angles(np.asarray(g.direction))
-        p = float(position_index(sigma, tau, method=position_index_method))
-        sources.append(ScoredSource(g.luminance, g.solid_angle, g.direction, g.row, g.col, p,
-                                    math.degrees(sigma), math.degrees(tau), g.max_luminance,
-                                    g.min_luminance, g.n_pixels, g.peak))
+    sources = _scored_sources(groups, geometry, frame, position_index_method=position_index_method,
+                              source_position=source_position, notes=notes)
     s_l = np.array([s.luminance for s in sources])
     s_w = np.array([s.solid_angle for s in sources])
     s_p = np.array([s.position_index for s in sources])
-    # Every field sum at once; a scale k of the luminances scales them by k (ΣL²ω/P² by k²).
+    # Every field sum at once; the indices are functions of these sums and the sources.
     sums = field_sums(luminance, omega, vf.cos_sigma, pindex, mask)
 
-    def evaluate(scale):
-        e_v = scale * sums.illuminance
-        e_dir = scale * sums.source_illuminance
-        mean_l = scale * sums.luminance_solid_angle / sums.solid_angle \
-            if sums.solid_angle > 0 else math.nan
-        if background_method == "CIE":  # (E_v − E_dir)/π, summed over the non-source pixels
-            l_b = scale * sums.background_illuminance / math.pi
-        elif background_method == "Ev":
-            l_b = e_v / math.pi
-        elif sums.background_solid_angle > 0:
-            l_b = scale * sums.background_luminance_solid_angle / sums.background_solid_angle
-        else:  # every pixel a source: the mean over the field (as background_luminance)
-            l_b = mean_l
-        values = {"vertical_illuminance": e_v, "direct_illuminance": e_dir,
-                  "background_luminance": l_b, "mean_luminance": mean_l}
-        values.update(_indices(s_l * scale, s_w, s_p, e_v=e_v, e_dir=e_dir, l_b=l_b,
-                               mean_l=mean_l,
-                               pixel_sum=(sums.n_sources, scale * scale * sums.ugr_sum),
-                               settings=settings))
-        return values
+    def indices(field, source_luminance):
+        quantities = field.quantities(background_method)
+        quantities["sources"] = (source_luminance, s_w, s_p)
+        return evaluate_indices(quantities, settings)
 
-    values = evaluate(1.0)
+    values = indices(sums, s_l)
     quality = q_Budak2021(luminance, geometry.directions, omega, pindex,
                           n_thresholds=n_thresholds, size_arcmin=size_arcmin,
                           weight_exponent=q_weight_exponent, threshold=q_threshold,
@@ -351,13 +456,15 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     values["q"] = quality.q
     values["n_sources"] = len(sources)
     values["source_solid_angle"] = float(s_w.sum()) if len(sources) else 0.0
-    u = float(lmap.calibration_uncertainty)
-    uncertainty = {}
     q_options = dict(size_arcmin=size_arcmin, weight_exponent=q_weight_exponent,
                      threshold=q_threshold, cutoff=q_cutoff, valid=valid)
+    # Calibration: a common scale k = 1 ± u of every luminance (same sources and groups).
+    u = float(lmap.calibration_uncertainty)
+    uncertainty = {}
     extra_n = []
     if u > 0:
-        hi, lo = evaluate(1.0 + u), evaluate(1.0 - u)
+        hi, lo = indices(sums.scaled(1.0 + u), s_l * (1.0 + u)), indices(sums.scaled(1.0 - u),
+                                                                         s_l * (1.0 - u))
         uncertainty = {k: abs(hi[k] - lo[k]) / 2.0 for k in hi}
         extra_n = _scaled_thresholds(quality, n_thresholds, size_arcmin, q_threshold, (1 + u, 1 - u))
     sweep_n = [] if sweep is None else [float(n) for n in sweep]
@@ -374,6 +481,18 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
             scaled = [q * factor for q, (_, factor) in zip(q_values[len(sweep_n):], extra_n,
                                                             strict=True)]
             uncertainty["q"] = abs(scaled[0] - scaled[1]) / 2.0
+    calibration = dict(uncertainty)
+    noise, bias, bias_error = _pixel_noise(
+        lmap, values, indices, sums, s_w, labels, len(sources),
+        arrays=(luminance, omega, vf.cos_sigma, pindex), noise_samples=noise_samples,
+        q_noise_samples=q_noise_samples, seed=seed,
+        q_of=lambda noisy: q_Budak2021(noisy, geometry.directions, omega, pindex,
+                                       n_thresholds=n_thresholds, **q_options).q)
+    uncertainty = {key: math.hypot(calibration.get(key, 0.0), noise.get(key, 0.0))
+                   for key in {**calibration, **noise}}
+    if noise:
+        settings["noise"] = {"samples": int(noise_samples), "q_samples": int(q_noise_samples),
+                             "seed": int(seed)}
     if not mask.any():
         notes.append("no glare sources: UGR, DGI, UGP, CGI, DGR and VCP have no value")
     elif not values["background_luminance"] > 0:
@@ -405,4 +524,6 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     return Score(values=values, uncertainty=uncertainty, sources=sources, source_mask=mask,
                  source_labels=labels, contrast=quality.contrast,
                  statistics=luminance_statistics(luminance, omega, vf.cos_sigma),
-                 settings=settings, provenance=provenance, notes=notes, q_sweep=sweep_record)
+                 settings=settings, provenance=provenance, notes=notes, q_sweep=sweep_record,
+                 uncertainty_calibration=calibration, uncertainty_noise=noise, noise_bias=bias,
+                 noise_bias_standard_error=bias_error)

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-__all__ = ["ugr_CIE117", "ugr_pixel", "ugr_sum"]
+__all__ = ["ugr_CIE117", "ugr_from_sum", "ugr_pixel", "ugr_sum"]
 
 
 def ugr_sum(luminance, solid_angle, position_index):
@@ -34,6 +34,22 @@ def ugr_sum(luminance, solid_angle, position_index):
     with np.errstate(invalid="ignore", divide="ignore"):
         terms = L * L * w / (P * P)
     return float(np.sum(terms[np.isfinite(terms)]))
+
+
+def ugr_from_sum(total, background_luminance):
+    """UGR = 8·log10[(0.25/L_b)·Σ] from the source sum Σ = ΣL²·ω/P² [cd²·m⁻⁴·sr].
+
+    The one formula behind :func:`ugr_CIE117` (Σ over grouped sources) and :func:`ugr_pixel`
+    (Σ over source pixels). NaN when L_b ≤ 0 or Σ ≤ 0 (no source: see the module notes).
+
+    Examples
+    --------
+    >>> round(ugr_from_sum(1e4 ** 2 * 0.01, 100.0), 6)
+    27.18352
+    """
+    if not background_luminance > 0 or not total > 0:
+        return math.nan
+    return 8.0 * math.log10(0.25 / background_luminance * total)
 
 
 def ugr_CIE117(luminance, solid_angle, position_index, background_luminance):
@@ -61,12 +77,7 @@ def ugr_CIE117(luminance, solid_angle, position_index, background_luminance):
     """
     if np.size(luminance) == 0:
         return math.nan
-    if not background_luminance > 0:
-        return math.nan
-    total = ugr_sum(luminance, solid_angle, position_index)
-    if total <= 0:
-        return math.nan
-    return 8.0 * math.log10(0.25 / background_luminance * total)
+    return ugr_from_sum(ugr_sum(luminance, solid_angle, position_index), background_luminance)
 
 
 def ugr_pixel(luminance, solid_angle, position_index, source_mask, background_luminance):

@@ -11,21 +11,20 @@ Linear Reference Values". LibRaw API notes (libraw.org/docs/API-datastruct-eng.h
 block), #80 and #122 (per-channel white level).
 """
 
+import contextlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 import rawpy
 
-from .._native import native_output
 from .._validation import check_choice, check_file, check_positive
 from ..constants import SATURATION_FRACTION
 from ..errors import BadInputError, UnsupportedFileError
 from ._dngtags import dng_black_map, read_dng_tags
+from .integrity import check_declared_extent, check_repeated_rows, libraw_reports
 from .metadata import ExposureMetadata, read_exposure_metadata
-
-#: Demosaic methods: ours ("superpixel") and LibRaw's interpolations.
-DEMOSAIC_METHODS = ("superpixel", "linear", "ahd", "dcb")
+from .methods import DEMOSAIC_METHODS
 
 _LIBRAW_ALGORITHM = {
     "linear": rawpy.DemosaicAlgorithm.LINEAR,
@@ -98,6 +97,35 @@ def _open(path):
         raise UnsupportedFileError(f"{path}: not a readable RAW file ({kind})") from None
 
 
+@contextlib.contextmanager
+def _reading(path):
+    """Open and unpack ``path`` with LibRaw after the integrity checks of :mod:`.integrity`.
+
+    A file shorter than its declared data is refused before LibRaw reads it; whatever LibRaw
+    reports about damaged data while it opens and unpacks the file refuses it, naming the
+    report (LibRaw writes it to the C standard error stream; it is captured, not shown).
+    """
+    check_declared_extent(path)
+    failure = None
+    with libraw_reports() as reports:
+        raw = _open(path)
+        try:
+            raw.unpack()
+        except rawpy.LibRawError as exc:
+            failure = type(exc).__name__
+    with raw:
+        if reports:
+            report = reports[0].removeprefix(f"{path}:").strip()
+            raise UnsupportedFileError(f"{path}: damaged: LibRaw reports {report!r}")
+        try:
+            if failure is None:
+                yield raw
+        except rawpy.LibRawError as exc:
+            failure = type(exc).__name__
+        if failure:
+            raise UnsupportedFileError(f"{path}: RAW data is corrupt or truncated ({failure})")
+
+
 def _cfa_info(raw, path):
     pattern = raw.raw_pattern
     if pattern is None or raw.raw_type != rawpy.RawType.Flat:
@@ -113,6 +141,7 @@ def _cfa_info(raw, path):
 
 
 def _copy_raw(raw, path):
+    check_repeated_rows(raw.raw_image, path)
     try:
         image = raw.raw_image_visible.copy()
         colours = raw.raw_colors_visible.copy()
@@ -147,7 +176,7 @@ def read_dark_frame(paths):
     frames = []
     for path in paths:
         path = check_file(path, "dark frame")
-        with _open(path) as raw:
+        with _reading(path) as raw:
             _cfa_info(raw, path)
             image, _ = _copy_raw(raw, path)
         if frames and image.shape != frames[0].shape:
@@ -200,13 +229,8 @@ def decode_raw(path, *, demosaic="superpixel", saturation_fraction=SATURATION_FR
     path = check_file(path, "RAW file")
     check_choice(demosaic, "demosaic method", DEMOSAIC_METHODS)
     saturation_fraction = check_positive(saturation_fraction, "saturation_fraction")
-    chatter = []  # LibRaw prints its own line (e.g. "Unexpected end of file"): it goes into ours
-    try:
-        with native_output(chatter), _open(path) as raw:
-            return _decode(path, raw, demosaic, saturation_fraction, dark_frame)
-    except rawpy.LibRawError as exc:
-        detail = type(exc).__name__ + "".join(f": {line.removeprefix(f'{path}: ')}" for line in chatter[:1])
-        raise UnsupportedFileError(f"{path}: RAW data is corrupt or truncated ({detail})") from None
+    with _reading(path) as raw:
+        return _decode(path, raw, demosaic, saturation_fraction, dark_frame)
 
 
 def _decode(path, raw, demosaic, saturation_fraction, dark_frame):

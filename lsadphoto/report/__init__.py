@@ -4,12 +4,15 @@
 * :mod:`~lsadphoto.report.plots` — the paper's Figures 1, 2 and 4 for a user's data;
 * :mod:`~lsadphoto.report.html` — self-contained HTML reports of a survey and of a
   model-vs-photo comparison (``docs/user-guide-report.md``).
+
+Public names are imported on first use (:mod:`lsadphoto._lazy`): matplotlib loads only
+where a figure is drawn.
 """
 
-from .figures import write_contrast_png, write_glare_source_png, write_ratio_png
-from .html import write_comparison_report, write_survey_report
-from .plots import figure_q_vs_ugr, figure_r_vs_n, figure_ratings_vs_metric
+from .._lazy import lazy_exports
 
-__all__ = ["write_glare_source_png", "write_contrast_png", "write_ratio_png",
-           "write_survey_report", "write_comparison_report", "figure_ratings_vs_metric",
-           "figure_r_vs_n", "figure_q_vs_ugr"]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
+    ".figures": ["write_glare_source_png", "write_contrast_png", "write_ratio_png"],
+    ".html": ["write_survey_report", "write_comparison_report"],
+    ".plots": ["figure_ratings_vs_metric", "figure_r_vs_n", "figure_q_vs_ugr"],
+})

@@ -13,37 +13,18 @@ Budak, V. P., Zheltov, V. S., Kalakutsky, T. K. (2012). *Computer Research and M
 4(1), 75–84. Marchuk, G. I. et al. (1980). *The Monte Carlo Methods in Atmospheric
 Optics*. Springer. Kollig, T., Keller, A. (2004). Illumination in the presence of weak
 singularities. Veach, E. (1997). PhD thesis, Stanford.
+
+Public names are imported on first use (:mod:`lsadphoto._lazy`).
 """
 
-from .intensity import IntensityTable
-from .radiance import read_radiance_scene
-from .rendering import SolverWarning, render, render_path_traced
-from .scene import (
-    AreaLuminaire,
-    PointLuminaire,
-    Scene,
-    View,
-    camera_to_world,
-    load_scene,
-    scene_from_dict,
-)
-from .simulation import simulate
-from .store import LsadStore, load_store
+from .._lazy import lazy_exports
 
-__all__ = [
-    "AreaLuminaire",
-    "IntensityTable",
-    "LsadStore",
-    "PointLuminaire",
-    "Scene",
-    "SolverWarning",
-    "View",
-    "camera_to_world",
-    "load_scene",
-    "load_store",
-    "read_radiance_scene",
-    "render",
-    "render_path_traced",
-    "scene_from_dict",
-    "simulate",
-]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
+    ".intensity": ["IntensityTable"],
+    ".radiance": ["read_radiance_scene"],
+    ".rendering": ["SolverWarning", "render", "render_path_traced"],
+    ".scene": ["AreaLuminaire", "PointLuminaire", "Scene", "View", "camera_to_world",
+               "load_scene", "scene_from_dict"],
+    ".simulation": ["simulate"],
+    ".store": ["LsadStore", "load_store"],
+})

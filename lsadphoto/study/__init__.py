@@ -16,45 +16,17 @@ scenes it is reported for.
 * :func:`run_study` — all of it, returning a :class:`StudyResult`.
 
 The user guide is ``docs/user-guide-study.md``.
+
+Public names are imported on first use (:mod:`lsadphoto._lazy`).
 """
 
-from .correlation import (
-    CHADDOCK_SCALE,
-    chaddock_label,
-    correlate,
-    fisher_interval_Fisher1921,
-    kendall_tau_b,
-    pearson_r,
-)
-from .resampling import bootstrap_correlation, jitter_correlations, jitter_summary
-from .run import MIN_SCENES, StudyResult, run_study
-from .selection import (
-    DIRECTIONS,
-    best_index,
-    leave_one_out_selection,
-    sweep_correlations,
-)
-from .tables import read_metrics, read_ratings, scene_ratings, sweep_columns
+from .._lazy import lazy_exports
 
-__all__ = [
-    "run_study",
-    "StudyResult",
-    "MIN_SCENES",
-    "read_ratings",
-    "read_metrics",
-    "scene_ratings",
-    "sweep_columns",
-    "correlate",
-    "pearson_r",
-    "kendall_tau_b",
-    "fisher_interval_Fisher1921",
-    "chaddock_label",
-    "CHADDOCK_SCALE",
-    "jitter_correlations",
-    "jitter_summary",
-    "bootstrap_correlation",
-    "sweep_correlations",
-    "best_index",
-    "leave_one_out_selection",
-    "DIRECTIONS",
-]
+__getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
+    ".correlation": ["CHADDOCK_SCALE", "chaddock_label", "correlate",
+                     "fisher_interval_Fisher1921", "kendall_tau_b", "pearson_r"],
+    ".resampling": ["bootstrap_correlation", "jitter_correlations", "jitter_summary"],
+    ".run": ["MIN_SCENES", "StudyResult", "run_study"],
+    ".selection": ["DIRECTIONS", "best_index", "leave_one_out_selection", "sweep_correlations"],
+    ".tables": ["read_metrics", "read_ratings", "scene_ratings", "sweep_columns"],
+})

@@ -1,0 +1,249 @@
+"""Latency as a user feels it: a whole ``lsadphoto score MAP.hdr --json`` process beside a
+whole ``evalglare -d MAP.hdr`` process on the same picture, in the same run.
+
+For each size a square 180° equidistant (``-vta``) fisheye picture is written as Radiance
+HDR by the project's generator — ``disks``: the four glare sources of
+``bench_metrics.py``; ``window``: a window of 1.8 sr (2500 cd·m⁻²) with a bright patch, like
+the daylit office photograph of issue 11 — then the two commands run one after the other,
+``--runs`` times (interleaved, so that both see the same machine load), each as a fresh
+process. Reported: median wall time, the spread (min–max), median process CPU time (all
+threads, from ``getrusage`` of the child), and the ratio of the medians. Before the timed
+runs each command runs once untimed, so that the numba cache and the page cache are warm
+(a fresh installation compiles the kernels once, in its first run; that run is not what a
+user waits for afterwards).
+
+Per-stage timings inside our process come from ``--stages``: the same command run through
+``lsadphoto.cli.main`` in a child that times the imports, reading the picture, scoring it,
+the time numba spends loading compiled kernels from its cache (inside those two) and the
+output; the interpreter's start-up is the process wall time minus the time inside.
+
+Usage::
+
+    python benchmarks/bench_score_process.py [--sizes 786,1572,4899] [--runs 5]
+        [--evalglare-runs-large 1] [--large-mp 10] [--scene disks|window] [--stages 3]
+
+Sizes above ``--large-mp`` megapixels run evalglare ``--evalglare-runs-large`` times (at
+24 MP one evalglare run takes about five minutes). The machine may be shared: the load
+average before and after is printed; compare the ratios, which interleaving keeps fair.
+"""
+
+import argparse
+import contextlib
+import io
+import json
+import math
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+def _scene(name):
+    from bench_metrics import SOURCES, _direction
+
+    if name == "disks":
+        return 150.0, SOURCES
+    window = (_direction(45, 90), 0.78, 2500.0)  # 2π(1 − cos 0.78) = 1.8 sr
+    patch = (_direction(40, 80), 0.05, 30000.0)
+    return 100.0, [window, patch]
+
+
+def write_picture(size, scene, folder):
+    """The generated fisheye picture of ``size``² pixels as a Radiance HDR file."""
+    from lsadphoto.datasets import disk_sources_scene
+    from lsadphoto.geometry import IdealFisheyeProjection
+    from lsadphoto.io import write_hdr
+    from lsadphoto.luminance_map import LuminanceMap
+
+    cam = IdealFisheyeProjection("equidistant", (size - 1) / 2, (size - 1) / 2, size / 2, 180.0,
+                                 size, size)
+    background, sources = _scene(scene)
+    L = disk_sources_scene(cam.directions(*cam.pixel_grid()), background=background,
+                           sources=sources)
+    path = Path(folder) / f"{scene}_{size}.hdr"
+    write_hdr(LuminanceMap(L, projection=cam, calibrated=True), path)
+    return path
+
+
+def _lsadphoto_command(path):
+    return [sys.executable, "-c", "import sys; from lsadphoto.cli import main; sys.exit(main())",
+            "score", str(path), "--json"]
+
+
+def _evalglare_command(path):
+    import pyradiance
+
+    return [os.path.join(os.path.dirname(pyradiance.__file__), "bin", "evalglare"), "-d", str(path)]
+
+
+def timed(command):
+    """(wall [s], CPU of the child [s], stdout) of one fresh process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    done = subprocess.run(command, capture_output=True, text=True, check=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, done.stdout
+
+
+def _child_stages(path):
+    """Run ``lsadphoto score PATH --json`` inside this process, timing its stages; prints
+    one JSON line of {stage: [wall, cpu]} on stderr."""
+    t_start, c_start = time.perf_counter(), time.process_time()
+    stages = {}
+
+    def lap(name, t, c):
+        now_t, now_c = time.perf_counter(), time.process_time()
+        stages[name] = [now_t - t, now_c - c]
+        return now_t, now_c
+
+    t, c = t_start, c_start
+    import lsadphoto.cli as cli
+    t, c = lap("import cli", t, c)
+    import lsadphoto.io
+    import lsadphoto.metrics.score as score_module
+    t, c = lap("import score modules (numba, scipy, …)", t, c)
+
+    from numba.core import dispatcher
+
+    loading = [0.0, 0.0]
+    compile_ = dispatcher.Dispatcher.compile
+
+    def counted_compile(self, sig):
+        t0, c0 = time.perf_counter(), time.process_time()
+        try:
+            return compile_(self, sig)
+        finally:
+            loading[0] += time.perf_counter() - t0
+            loading[1] += time.process_time() - c0
+
+    dispatcher.Dispatcher.compile = counted_compile
+    inner = {}
+
+    def wrap(module, name, label):
+        function = getattr(module, name)
+
+        def timed_call(*args, **kwargs):
+            t0, c0 = time.perf_counter(), time.process_time()
+            l0 = list(loading)
+            try:
+                return function(*args, **kwargs)
+            finally:
+                inner[label] = [time.perf_counter() - t0 - (loading[0] - l0[0]),
+                                time.process_time() - c0 - (loading[1] - l0[1])]
+
+        setattr(module, name, timed_call)
+
+    wrap(lsadphoto.io, "read_map", "read picture")
+    wrap(score_module, "score_map", "score_map")
+    with contextlib.redirect_stdout(io.StringIO()):
+        code = cli.main(["score", str(path), "--json"])
+    t, c = lap("command", t, c)
+    stages.update(inner)
+    stages["numba kernel loading"] = list(loading)
+    command = stages.pop("command")
+    rest = [command[i] - sum(v[i] for k, v in inner.items()) - loading[i] for i in range(2)]
+    stages["rest of the command (options, JSON)"] = rest
+    stages["total inside"] = [time.perf_counter() - t_start, time.process_time() - c_start]
+    print(json.dumps(stages), file=sys.stderr)
+    return code
+
+
+def stage_table(path, repeat):
+    """Median per-stage [wall, cpu] over ``repeat`` fresh processes, and the process wall."""
+    runs = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        done = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--child", str(path)],
+                              capture_output=True, text=True, check=True)
+        wall = time.perf_counter() - t0
+        stages = json.loads(done.stderr.strip().splitlines()[-1])
+        stages["interpreter start-up and exit"] = [wall - stages["total inside"][0], math.nan]
+        stages["process"] = [wall, math.nan]
+        runs.append(stages)
+    return {k: [statistics.median(r[k][i] for r in runs) for i in range(2)] for k in runs[0]}
+
+
+def _median_spread(values):
+    return statistics.median(values), min(values), max(values)
+
+
+def bench(size, scene, folder, runs, evalglare_runs):
+    path = write_picture(size, scene, folder)
+    ours_cmd, peer_cmd = _lsadphoto_command(path), _evalglare_command(path)
+    timed(ours_cmd)  # warm-up: numba cache, page cache
+    ours, peer = [], []
+    for k in range(runs):
+        ours.append(timed(ours_cmd))
+        if k < evalglare_runs:
+            peer.append(timed(peer_cmd))
+    record = json.loads(ours[-1][2])
+    summary = next(x for x in peer[-1][2].splitlines() if x.startswith("dgp,av_lum"))
+    peer_ugr = float(summary.split(":", 1)[1].split()[6])
+    path_size = path.stat().st_size
+    return {"size": size, "mp": size * size / 1e6, "file_mb": path_size / 1e6,
+            "ours_wall": _median_spread([w for w, _, _ in ours]),
+            "ours_cpu": statistics.median(c for _, c, _ in ours),
+            "peer_wall": _median_spread([w for w, _, _ in peer]),
+            "peer_cpu": statistics.median(c for _, c, _ in peer),
+            "runs": len(ours), "peer_runs": len(peer),
+            "ugr": record["ugr_grouped"], "peer_ugr": peer_ugr, "path": path}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", default="786,1572,4899")
+    parser.add_argument("--scene", choices=("disks", "window"), default="disks")
+    parser.add_argument("--runs", type=int, default=5, help="interleaved runs of each command")
+    parser.add_argument("--large-mp", type=float, default=10.0)
+    parser.add_argument("--evalglare-runs-large", type=int, default=1)
+    parser.add_argument("--stages", type=int, default=3, help="processes timed stage by stage")
+    parser.add_argument("--child", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        sys.exit(_child_stages(args.child))
+    sys.path.insert(0, str(HERE))
+    print(f"# {os.cpu_count()} CPUs; load average before: {os.getloadavg()[0]:.2f}; scene "
+          f"{args.scene}; medians of interleaved fresh processes, spread min–max; cpu = user + "
+          f"system time of the process (all threads)")
+    rows = []
+    with tempfile.TemporaryDirectory() as folder:
+        for size in (int(s) for s in args.sizes.split(",")):
+            peer_runs = args.runs if size * size / 1e6 <= args.large_mp else args.evalglare_runs_large
+            r = bench(size, args.scene, folder, args.runs, peer_runs)
+            r["stages"] = stage_table(r["path"], args.stages) if args.stages else None
+            r["path"].unlink()
+            rows.append(r)
+            print(f"# done {size}² (load {os.getloadavg()[0]:.2f})", file=sys.stderr, flush=True)
+    print("\n| picture | MP | HDR file [MB] | lsadphoto score: wall median (min–max) [s] | cpu [s] "
+          "| evalglare -d: wall median (min–max) [s] | cpu [s] | runs ours / evalglare "
+          "| wall ratio | UGR ours / evalglare |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for r in rows:
+        (ow, olo, ohi), (pw, plo, phi) = r["ours_wall"], r["peer_wall"]
+        print(f"| {r['size']}² | {r['mp']:.1f} | {r['file_mb']:.1f} | {ow:.2f} ({olo:.2f}–{ohi:.2f}) "
+              f"| {r['ours_cpu']:.2f} | {pw:.1f} ({plo:.1f}–{phi:.1f}) | {r['peer_cpu']:.1f} "
+              f"| {r['runs']} / {r['peer_runs']} | {pw / ow:.1f}× | {r['ugr']:.2f} / {r['peer_ugr']:.2f} |")
+    if any(r["stages"] for r in rows):
+        names = list(rows[0]["stages"])
+        print("\nStages of our process (median of fresh processes; wall / cpu [s]):\n")
+        print("| stage | " + " | ".join(f"{r['size']}²" for r in rows) + " |")
+        print("|---|" + "---|" * len(rows))
+        for name in names:
+            cells = []
+            for r in rows:
+                w, c = r["stages"][name]
+                cells.append(f"{w:.3f}" + ("" if math.isnan(c) else f" / {c:.3f}"))
+            print(f"| {name} | " + " | ".join(cells) + " |")
+    print(f"\n# load average after: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,120 @@
+"""Compiled RGBE decoding of Radiance pictures: scanlines to bytes, bytes to luminance.
+
+The scanline decoder follows Radiance's ``freadcolrs``: in a picture 8…0x7FFF pixels wide,
+a scanline whose first bytes are 2, 2 and a byte below 128 is new-style run-length
+encoded, one component after the other in packets — a count above 128 repeats the next byte
+count − 128 times, a count of 1…128 is followed by that many literal bytes; any other
+scanline is flat RGBE pixels, where a pixel 1, 1, 1, n repeats the previous pixel n·256ᵏ
+times (k counts the consecutive repeat pixels: Radiance's old-style runs). It runs once over
+the file's bytes; a Python loop over the packets (the previous decoder) took 1.2 s for a
+1572² picture.
+
+:func:`rgbe_luminance` decodes a pixel as Radiance's ``colr_color`` does,
+(mantissa + ½)·2^(exponent − 136), divides by the EXPOSURE product and the COLORCORR factors
+and weights the channels, without a float64 RGB copy of the whole picture.
+
+References
+----------
+G. Ward, "Real pixels", *Graphics Gems II* (1991) 80–83. Radiance ``src/common/color.c``
+(freadcolrs, oldreadcolrs, colr_color).
+"""
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+__all__ = ["SCANLINE_ERRORS", "decode_scanlines", "rgbe_luminance"]
+
+
+#: Messages of the error codes :func:`decode_scanlines` returns.
+SCANLINE_ERRORS = {
+    1: "file truncated inside a scanline",
+    2: "scanline length mismatch",
+    3: "corrupt run length",
+    4: "old-style run at the start of a scanline",
+    5: "corrupt old-style run",
+}
+
+
+@njit(cache=True, nogil=True)
+def decode_scanlines(data, pos, rle, rgbe):
+    """Decode ``rgbe.shape[0]`` scanlines from ``data[pos:]`` (uint8) into ``rgbe``
+    ``(rows, cols, 4)`` uint8, taking new-style scanlines where ``rle`` (the width allows
+    them); returns ``(position after the last scanline, error code, row)`` with error code 0
+    on success (else a key of :data:`SCANLINE_ERRORS`)."""
+    rows, cols = rgbe.shape[0], rgbe.shape[1]
+    n = data.size
+    for row in range(rows):
+        out = rgbe[row]
+        if rle and pos + 4 <= n and data[pos] == 2 and data[pos + 1] == 2 and data[pos + 2] < 128:
+            if (np.int64(data[pos + 2]) << 8 | np.int64(data[pos + 3])) != cols:
+                return pos, 2, row
+            pos += 4
+            for c in range(4):
+                col = 0
+                while col < cols:
+                    if pos >= n:
+                        return pos, 1, row
+                    code = np.int64(data[pos])
+                    pos += 1
+                    if code > 128:
+                        run = code - 128
+                        if col + run > cols or pos >= n:
+                            return pos, 3, row
+                        value = data[pos]
+                        pos += 1
+                        for k in range(col, col + run):
+                            out[k, c] = value
+                        col += run
+                    else:
+                        if code == 0 or col + code > cols or pos + code > n:
+                            return pos, 3, row
+                        for k in range(code):
+                            out[col + k, c] = data[pos + k]
+                        pos += code
+                        col += code
+            continue
+        col, shift = 0, 0
+        while col < cols:
+            if pos + 4 > n:
+                return pos, 1, row
+            if data[pos] == 1 and data[pos + 1] == 1 and data[pos + 2] == 1:
+                if col == 0:
+                    return pos, 4, row
+                run = np.int64(data[pos + 3]) << shift
+                if col + run > cols:
+                    return pos, 5, row
+                for k in range(col, col + run):
+                    for c in range(4):
+                        out[k, c] = out[col - 1, c]
+                col += run
+                shift += 8
+            else:
+                for c in range(4):
+                    out[col, c] = data[pos + c]
+                col += 1
+                shift = 0
+            pos += 4
+    return pos, 0, rows
+
+
+@njit(parallel=True, cache=True, nogil=True)
+def rgbe_luminance(rgbe, exposure, colorcorr, weights, efficacy, out):
+    """``out`` (rows, cols) float32 = efficacy · Σ_c weights[c] · rgb_c with
+    rgb_c = (m_c + ½)·2^(e − 136) / exposure / colorcorr[c] (the float64 operations of
+    :func:`lsadphoto.io.hdr.read_hdr_rgb`) for the RGBE pixels ``rgbe`` (rows, cols, 4);
+    0 where the exponent byte is 0."""
+    rows, cols = out.shape
+    for row in prange(rows):
+        for col in range(cols):
+            e = np.int64(rgbe[row, col, 3])
+            if e == 0:
+                out[row, col] = 0.0
+                continue
+            scale = math.ldexp(1.0, e - 136)
+            total = 0.0
+            for c in range(3):
+                value = (np.float64(rgbe[row, col, c]) + 0.5) * scale
+                total += value / exposure / colorcorr[c] * weights[c]
+            out[row, col] = np.float32(efficacy * total)

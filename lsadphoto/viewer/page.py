@@ -1,0 +1,413 @@
+"""Build the viewer page: a luminance map, its geometry and its metrics packed into HTML.
+
+Everything the page shows is computed here by the package's own code and embedded; the
+browser script (``viewer.js``) only decodes, draws and sums.
+
+Embedded arrays
+---------------
+Each array is stored little-endian, its bytes regrouped into planes (all first bytes, then
+all second bytes, …), each byte replaced by its difference from the previous one (mod 256),
+compressed with zlib (RFC 1950, what the browser's ``DecompressionStream("deflate")``
+reads) and written as base64 into a ``<script type="application/octet-stream">`` element.
+This is lossless; the regrouping and differencing are the OpenEXR ZIP predictor's idea
+(neighbouring floats share their high bytes) and make the payload 0.7–0.8 of the OpenEXR
+file's size on the real maps of ``docs/performance.md``.
+
+* luminance (and its per-pixel standard uncertainty where the map has one): float32, every
+  pixel — the probe and the regions read these exact values;
+* the validity of every pixel's geometry (uint8) and the glare-source labels (uint16 or
+  uint32, 0 = no source) of :func:`~lsadphoto.metrics.score.score_map`;
+* the Q criterion's contrast map K [rad⁻¹]: float16 (3 significant digits), an overlay;
+* the pixel geometry — direction, solid angle ω [sr] and position index — from
+  :func:`~lsadphoto.geometry.pixel_geometry` and :func:`~lsadphoto.geometry.visual_field`
+  on a grid of every :data:`GEOMETRY_STRIDE`-th row and column (plus the last), float32,
+  interpolated bilinearly by the page; the pixels of every grid cell where that misses by
+  more than :data:`GEOMETRY_TOLERANCE` carry their exact values. σ, τ and cos σ follow
+  from the direction and the observer frame's axes, as
+  :meth:`~lsadphoto.geometry.ObserverFrame.angles` defines them. The largest remaining
+  error against the package's full-resolution maps, over all valid pixels, is stated on
+  the page. Embedding the maps at every pixel would make the page 5–6× larger than the
+  map.
+
+References
+----------
+P. Deutsch, J.-L. Gailly, "ZLIB Compressed Data Format Specification version 3.3", RFC 1950
+(1996). OpenEXR file layout (ZIP compression's predictor and byte reordering):
+https://openexr.com/en/latest/OpenEXRFileLayout.html. WHATWG Compression Standard
+(``DecompressionStream``): https://compression.spec.whatwg.org/.
+"""
+
+import base64
+import html
+import json
+import math
+import zlib
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .._version import __version__
+from ..errors import BadInputError
+from ..geometry import ObserverFrame, pixel_geometry, visual_field
+from ..geometry.observer import _ON_AXIS  # τ's on-axis rule, as ObserverFrame.angles has it
+from ..io._atomic import atomic_text
+from ..io.falsecolour import false_colour_range
+from ..luminance_map import LuminanceMap
+
+__all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "viewer_assets", "viewer_fragment",
+           "write_viewer"]
+
+#: Rows and columns between the embedded geometry samples [px].
+GEOMETRY_STRIDE = 8
+#: Largest interpolation errors accepted in a grid cell (else its pixels are stored
+#: exactly): pixel solid angle (relative: region means and solid angles within 10⁻⁴, ten
+#: times inside the 0.1 % the viewer promises), direction [deg] (a hundredth of the
+#: LS-100's 1° field; σ's error is at most the direction's) and position index (1…16;
+#: 0.05 is the rounding of its usual two decimals, and 0.01 would store 3× more pixels
+#: exactly on the real fisheye of docs/performance.md).
+GEOMETRY_TOLERANCE = {"solid_angle_relative": 1e-4, "direction_deg": 0.01,
+                      "position_index": 0.05}
+#: zlib level: 6 is zlib's default (level 9 gains < 1 % here at twice the time).
+_ZLIB_LEVEL = 6
+#: Colour maps offered for the false-colour view (matplotlib names), then the fixed ones of
+#: the ratio, contrast and source overlays.
+FALSE_COLOUR_MAPS = ("turbo", "viridis", "inferno", "gray")
+_OVERLAY_MAPS = {"ratio": "RdBu_r", "contrast": "magma"}
+
+
+def _encode(array, dtype):
+    """The array as the page stores it (see the module notes): (description, base64 text)."""
+    a = np.ascontiguousarray(array, dtype=np.dtype(dtype).newbyteorder("<"))
+    planes = a.view(np.uint8).reshape(-1, a.itemsize).T.reshape(-1)
+    delta = np.diff(planes, prepend=np.uint8(0))
+    text = base64.b64encode(zlib.compress(delta.tobytes(), _ZLIB_LEVEL)).decode("ascii")
+    return {"dtype": np.dtype(dtype).name, "shape": list(a.shape)}, text
+
+
+class _Arrays:
+    """Collects the encoded arrays of one viewer; each becomes a ``<script>`` element."""
+
+    def __init__(self):
+        self.scripts = []
+
+    def add(self, name, array, dtype):
+        description, text = _encode(array, dtype)
+        self.scripts.append(f'<script type="application/octet-stream" data-array="{name}">'
+                            f"{text}</script>")
+        return dict(description, name=name)
+
+
+def _colour_tables():
+    """256-entry RGB tables (base64 of 768 bytes) of the colour maps the page offers."""
+    import matplotlib
+
+    names = {name: name for name in FALSE_COLOUR_MAPS} | _OVERLAY_MAPS
+    tables = {}
+    for key, name in names.items():
+        rgb = matplotlib.colormaps[name](np.linspace(0.0, 1.0, 256))[:, :3]
+        tables[key] = base64.b64encode(np.round(rgb * 255).astype(np.uint8).tobytes()).decode()
+    palette = matplotlib.colormaps["tab10"](np.arange(10))[:, :3]
+    tables["sources"] = base64.b64encode(np.round(palette * 255).astype(np.uint8).tobytes()).decode()
+    return tables
+
+
+def _nodes(n, stride):
+    """Grid node positions [px]: 0, stride, 2·stride, … and the last pixel."""
+    nodes = list(range(0, n, stride))
+    if nodes[-1] != n - 1:
+        nodes.append(n - 1)
+    return np.asarray(nodes)
+
+
+def _bilinear(grid, node_rows, node_cols, stride, rows, cols):
+    """Bilinear interpolation of ``grid`` (values on the nodes, every ``stride`` px) at
+    integer pixels ``(rows, cols)``, as the page does it."""
+    i = np.minimum(rows // stride, max(len(node_rows) - 2, 0))
+    j = np.minimum(cols // stride, max(len(node_cols) - 2, 0))
+    i1, j1 = np.minimum(i + 1, len(node_rows) - 1), np.minimum(j + 1, len(node_cols) - 1)
+    ti = np.where(i1 > i, (rows - node_rows[i]) / np.maximum(node_rows[i1] - node_rows[i], 1), 0.0)
+    tj = np.where(j1 > j, (cols - node_cols[j]) / np.maximum(node_cols[j1] - node_cols[j], 1), 0.0)
+    top = grid[i, j] * (1 - tj) + grid[i, j1] * tj
+    bottom = grid[i1, j] * (1 - tj) + grid[i1, j1] * tj
+    return top * (1 - ti) + bottom * ti
+
+
+def _frame_of(lmap, score):
+    """The observer frame and position-index method: the score's, else the map's line of
+    sight (or the optical axis) with the camera's up, as :func:`score_map` takes them."""
+    if score is not None:
+        settings = score["settings"]
+        return (ObserverFrame(tuple(settings["line_of_sight"]), tuple(settings["up"])),
+                settings["position_index_method"])
+    sight = lmap.line_of_sight if lmap.line_of_sight is not None else (0.0, 0.0, 1.0)
+    return ObserverFrame(tuple(map(float, sight)), (0.0, -1.0, 0.0)), "evalglare"
+
+
+def _cells(n, nodes, stride):
+    """Index of the grid interval of each pixel 0…n−1 and of the node after it."""
+    i = np.minimum(np.arange(n) // stride, max(len(nodes) - 2, 0))
+    return i, np.minimum(i + 1, len(nodes) - 1)
+
+
+def _band_errors(full, grids, node_rows, node_cols, rows, frame, field):
+    """Errors of the page's interpolation at every pixel of the image rows ``rows``:
+    direction [deg], σ [deg], τ [deg] (NaN within 1° of the line of sight, where τ is
+    undefined), solid angle (relative) and position index (absolute), each (rows, cols)."""
+    cols = full["dx"].shape[1]
+    r, c = rows[:, None], np.arange(cols)[None, :]
+    at = {key: _bilinear(grids[key].astype(np.float64), node_rows, node_cols,
+                         GEOMETRY_STRIDE, r, c) for key in full}
+    d = np.stack([at["dx"], at["dy"], at["dz"]], axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        true = np.stack([full[k][rows] for k in ("dx", "dy", "dz")], axis=-1)
+        direction = np.degrees(np.arccos(np.clip(np.sum(d * true, axis=-1), -1.0, 1.0)))
+        sigma, tau = frame.angles(d)
+        true_sigma = field.sigma[rows]
+        return {"direction_deg": direction,
+                "sigma_deg": np.degrees(np.abs(sigma - true_sigma)),
+                "tau_deg_beyond_1deg": np.where(true_sigma > math.radians(1.0),
+                                                np.degrees(np.abs(tau - field.tau[rows])), np.nan),
+                "solid_angle_relative": np.abs(at["solid_angle"] / full["solid_angle"][rows] - 1.0),
+                "position_index": np.abs(at["position_index"] - field.position_index[rows])}
+
+
+def _geometry(lmap, score, arrays):
+    """Embedded geometry with its interpolation error, or None (no projection).
+
+    Direction, solid angle and position index are sampled every :data:`GEOMETRY_STRIDE` px
+    and interpolated bilinearly; every grid cell in which the interpolation misses any of
+    them by more than :data:`GEOMETRY_TOLERANCE` at any valid pixel (the rim of a fisheye's
+    image circle, the line of sight, the horizon where evalglare's position index changes
+    formula, small images where a cell spans degrees) stores its pixels' exact values
+    instead. σ and τ follow on the page from the direction and the observer's axes
+    (v̂, û, ĥ), as :meth:`~lsadphoto.geometry.ObserverFrame.angles` defines them: they have
+    a cone point at the line of sight that no grid interpolates. The errors stated on the
+    page are the largest over all valid pixels.
+    """
+    if lmap.projection is None:
+        return None
+    frame, method = _frame_of(lmap, score)
+    geometry = pixel_geometry(lmap.projection)
+    field = visual_field(lmap.projection, frame, position_index_method=method)
+    full = {"dx": geometry.directions[..., 0], "dy": geometry.directions[..., 1],
+            "dz": geometry.directions[..., 2], "solid_angle": geometry.solid_angle,
+            "position_index": field.position_index}
+    valid = geometry.valid
+    rows, cols = valid.shape
+    node_rows, node_cols = _nodes(rows, GEOMETRY_STRIDE), _nodes(cols, GEOMETRY_STRIDE)
+    ix = np.ix_(node_rows, node_cols)
+    grids = {key: np.where(valid[ix], np.asarray(value[ix], dtype=np.float64), 0.0)
+             .astype(np.float32) for key, value in full.items()}
+    row_cell, _ = _cells(rows, node_rows, GEOMETRY_STRIDE)
+    col_cell, _ = _cells(cols, node_cols, GEOMETRY_STRIDE)
+    col_starts = np.flatnonzero(np.diff(col_cell, prepend=-1))
+    exact = np.zeros((rows, cols), dtype=bool)
+    largest = dict.fromkeys(("direction_deg", "sigma_deg", "tau_deg_beyond_1deg",
+                             "solid_angle_relative", "position_index"), 0.0)
+    for cell in range(int(row_cell[-1]) + 1):
+        band = np.flatnonzero(row_cell == cell)
+        errors = _band_errors(full, grids, node_rows, node_cols, band, frame, field)
+        ok = valid[band]
+        bad = ~ok.copy()
+        for key, limit in GEOMETRY_TOLERANCE.items():
+            bad |= ~(errors[key] <= limit)
+        # A cell is exact if any valid pixel of it fails (invalid pixels fail trivially).
+        failing = np.logical_or.reduceat((bad & ok), col_starts, axis=1).any(axis=0)
+        exact_band = failing[col_cell][None, :] & ok
+        exact[band] = exact_band
+        kept = ok & ~exact_band
+        for key in largest:
+            values = errors[key][kept]
+            values = values[np.isfinite(values)]
+            if values.size:
+                largest[key] = max(largest[key], float(values.max()))
+    exact_index = np.flatnonzero(exact)
+    exact_values = {key: np.asarray(value.reshape(-1)[exact_index], dtype=np.float32)
+                    for key, value in full.items()}
+    largest["exact_pixels"] = int(exact_index.size)
+    largest["valid_pixels"] = int(valid.sum())
+    return {"stride": GEOMETRY_STRIDE, "node_rows": node_rows.tolist(),
+            "node_cols": node_cols.tolist(),
+            "fields": {key: arrays.add(f"geometry.{key}", grids[key], np.float32)
+                       for key in full},
+            "exact_index": arrays.add("geometry.exact_index", exact_index, np.uint32),
+            "exact": {key: arrays.add(f"geometry.exact.{key}", exact_values[key], np.float32)
+                      for key in full},
+            "valid": arrays.add("geometry.valid", valid, np.uint8),
+            "interpolation_error": _json_safe(largest), "position_index_method": method,
+            "axes": [np.asarray(a, dtype=np.float64).tolist() for a in frame.axes()],
+            "on_axis": _ON_AXIS, "projection": lmap.projection.to_dict()}
+
+
+def _json_safe(value):
+    """``value`` with every non-finite float (and numpy scalar) made JSON-ready (None)."""
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    return value
+
+
+def _score_record(score, arrays, prefix):
+    """Sources, values and (from a :class:`Score`) the label and contrast maps."""
+    if score is None:
+        return None
+    record = score.to_dict() if hasattr(score, "to_dict") else score
+    out = _json_safe({"sources": record.get("sources", []),
+                      "values": {k: v for k, v in record.items()
+                                 if isinstance(v, (int, float)) and not isinstance(v, bool)},
+                      "uncertainty": record.get("uncertainty", {}),
+                      "notes": record.get("notes", [])})
+    if hasattr(score, "source_labels"):
+        labels = np.asarray(score.source_labels)
+        most = labels.max(initial=0)
+        dtype = np.uint8 if most < 256 else np.uint16 if most < 65536 else np.uint32
+        out["labels"] = arrays.add(f"{prefix}.labels", labels, dtype)
+        contrast = np.asarray(score.contrast, dtype=np.float64)
+        positive = contrast[np.isfinite(contrast) & (contrast > 0)]
+        # float16 ends at 65504: larger contrasts (the rim of a sun) are shown at that value.
+        out["contrast"] = arrays.add(f"{prefix}.contrast",
+                                     np.minimum(contrast, np.finfo(np.float16).max), np.float16)
+        if positive.size:
+            low, high = np.percentile(positive, [1.0, 99.9])
+            out["contrast_range"] = [float(low), float(max(high, low * 10))]
+    return out
+
+
+def _map_record(lmap, name, score, arrays, prefix):
+    luminance = np.asarray(lmap.luminance, dtype=np.float32)
+    finite = luminance[np.isfinite(luminance) & (luminance > 0)]
+    record = {
+        "name": name, "rows": lmap.shape[0], "cols": lmap.shape[1],
+        "calibrated": lmap.calibrated, "calibration_factor": lmap.calibration_factor,
+        "calibration_uncertainty": lmap.calibration_uncertainty,
+        "luminance": arrays.add(f"{prefix}.luminance", luminance, np.float32),
+        "uncertainty": (arrays.add(f"{prefix}.uncertainty", lmap.uncertainty, np.float32)
+                        if lmap.uncertainty is not None else None),
+        "range": list(false_colour_range(luminance)),
+        # Log-average luminance (the key of the tone mapping) [cd·m⁻²].
+        "log_average": float(np.exp(np.mean(np.log(finite)))) if finite.size else 1.0,
+        "source": str(lmap.provenance.get("source", "")) if isinstance(lmap.provenance, dict)
+        else "",
+        "score": _score_record(score, arrays, prefix),
+    }
+    return record
+
+
+def check_same_geometry(first, second, *, names=("first map", "second map")):
+    """Raise :class:`BadInputError` unless two maps have one pixel grid and camera geometry.
+
+    The side-by-side view and the ratio map compare pixel with pixel, so the two maps must
+    have the same size and the same projection (or both none).
+    """
+    a, b = names
+    if first.shape != second.shape:
+        raise BadInputError(f"{b} is {second.shape[0]}×{second.shape[1]} px but {a} is "
+                            f"{first.shape[0]}×{first.shape[1]} px: side by side needs one "
+                            "pixel grid")
+    if (first.projection is None) != (second.projection is None):
+        which = a if first.projection is None else b
+        raise BadInputError(f"{which} has no camera geometry and the other has: side by side "
+                            "needs one camera geometry")
+    if first.projection is not None and first.projection != second.projection:
+        raise BadInputError(f"{a} and {b} have different camera geometries "
+                            f"({first.projection.to_dict()} against "
+                            f"{second.projection.to_dict()}): side by side needs one")
+
+
+def viewer_fragment(lmap, *, second=None, score=None, second_score=None,
+                    names=("photo", "model"), title=None, lazy=False):
+    """The viewer of one view as an HTML fragment (a ``<div>``) for embedding in a page.
+
+    The page must also hold :func:`viewer_assets` once (the script and style).
+
+    Parameters
+    ----------
+    lmap : LuminanceMap
+        The map [cd·m⁻²].
+    second : LuminanceMap, optional
+        A second map of the same view (same pixel grid and camera geometry, e.g. a model
+        rendered through the photo's camera), shown side by side with one probe and as the
+        ratio second/first.
+    score, second_score : Score or dict, optional
+        :func:`~lsadphoto.metrics.score.score_map` results of the maps (or their
+        ``to_dict()``, which gives the source list but not the label and contrast maps).
+    names : (str, str)
+        Names of the two maps.
+    title : str, optional
+        Heading of the viewer.
+    lazy : bool
+        Decode the data only when the viewer is scrolled into sight (for reports with many
+        views).
+
+    Returns
+    -------
+    str
+        HTML.
+
+    References
+    ----------
+    See the module notes.
+    """
+    if not isinstance(lmap, LuminanceMap) or (second is not None
+                                              and not isinstance(second, LuminanceMap)):
+        raise BadInputError("the viewer needs LuminanceMap objects")
+    if second is not None:
+        check_same_geometry(lmap, second, names=names)
+    arrays = _Arrays()
+    base_score = score.to_dict() if hasattr(score, "to_dict") else score
+    maps = [_map_record(lmap, names[0], score, arrays, "map0")]
+    if second is not None:
+        maps.append(_map_record(second, names[1], second_score, arrays, "map1"))
+    data = {"version": __version__, "title": title or names[0], "maps": maps,
+            "geometry": _geometry(lmap, base_score, arrays),
+            "colour_tables": _colour_tables(), "colour_maps": list(FALSE_COLOUR_MAPS)}
+    meta = json.dumps(data, allow_nan=False, separators=(",", ":")).replace("</", "<\\/")
+    return (f'<div class="lsad-viewer" data-lazy="{"yes" if lazy else "no"}">'
+            f'<script type="application/json" data-meta="1">{meta}</script>'
+            + "".join(arrays.scripts) + "</div>")
+
+
+def _asset(name):
+    return resources.files(__package__).joinpath(name).read_text(encoding="utf-8")
+
+
+def viewer_assets():
+    """The viewer's style and script (package files ``viewer.css``, ``viewer.js``), inline,
+    to be placed once in a page that holds :func:`viewer_fragment` elements."""
+    script = _asset("viewer.js").replace("</script", "<\\/script")
+    return f"<style>{_asset('viewer.css')}</style>\n<script>{script}</script>"
+
+
+def write_viewer(lmap, path, *, second=None, score=None, second_score=None,
+                 names=("photo", "model"), title=None):
+    """Write a self-contained viewer page (one HTML file, no external resource; atomic).
+
+    Parameters are those of :func:`viewer_fragment`; ``path`` is the ``.html`` file.
+
+    Returns
+    -------
+    pathlib.Path
+
+    References
+    ----------
+    See the module notes.
+    """
+    path = Path(path)
+    fragment = viewer_fragment(lmap, second=second, score=score, second_score=second_score,
+                               names=names, title=title)
+    heading = html.escape(title or names[0])
+    page = ("<!DOCTYPE html>\n<html lang=\"en\">\n<head>\n<meta charset=\"utf-8\">\n"
+            f"<meta name=\"generator\" content=\"lsadphoto {__version__}\">\n"
+            f"<title>{heading}</title>\n{viewer_assets()}\n</head>\n<body class=\"lsad-page\">\n"
+            f"{fragment}\n</body>\n</html>\n")
+    atomic_text(path, page)
+    return path

@@ -1,0 +1,150 @@
+"""RAW integrity: truncated or damaged files are refused in one line; levels of real files."""
+
+import struct
+import subprocess
+import sys
+
+import exifread
+import numpy as np
+import pytest
+
+from lsadphoto.errors import UnsupportedFileError
+from lsadphoto.raw import decode_raw
+from lsadphoto.raw.integrity import declared_extent
+
+from .conftest import interior_scene, raw_samples, realdata
+
+SAMPLES = raw_samples()
+#: The real Canon DNG's exposure fields are empty; the decoder says so with a MetadataWarning
+#: (tested in test_decode.py). Here only its levels and its integrity matter.
+EMPTY_EXPOSURE = pytest.mark.filterwarnings("ignore::lsadphoto.errors.MetadataWarning")
+#: The issue's cuts: 1 MB, 50 %, 90 %, 99 % of the file.
+CUTS = ("1MB", 0.5, 0.9, 0.99)
+
+
+def _cut(source, tmp_path, cut):
+    data = source.read_bytes()
+    n = 1_000_000 if cut == "1MB" else int(cut * len(data))
+    if n >= len(data):
+        pytest.skip(f"{source.name} is not larger than {cut}")
+    path = tmp_path / f"cut{source.suffix}"
+    path.write_bytes(data[:n])
+    return path
+
+
+def _sample_ids():
+    return [p.name for p in SAMPLES]
+
+
+@pytest.mark.parametrize("cut", CUTS)
+@pytest.mark.parametrize("source", ["realdata", "data_samples"])
+def test_truncated_dng_refused_in_one_line(tmp_path, source, cut):
+    """The CLI's luminance command refuses each cut of a real DNG (Canon 550D, tinydng) and of
+    the project's own sample DNG with exit 2 and one line, and writes nothing."""
+    from pathlib import Path
+
+    full = (realdata("raw/tinydng_colorchart.dng") if source == "realdata"
+            else Path(__file__).parents[1] / "data_samples" / "office" / "office_1.dng")
+    path = _cut(full, tmp_path, cut)
+    out = tmp_path / "map.exr"
+    run = subprocess.run([sys.executable, "-m", "lsadphoto.cli", "luminance", str(path), "--spot",
+                          "100,100,50", "-o", str(out)], capture_output=True, text=True)
+    assert run.returncode == 2
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and "truncated" in lines[0] and "bytes missing" in lines[0], run.stderr
+    assert not out.exists()
+
+
+@pytest.mark.skipif(not SAMPLES, reason="no real RAW samples (../shared/realdata/raw, LSADPHOTO_RAW_SAMPLES)")
+@pytest.mark.parametrize("cut", CUTS)
+@pytest.mark.parametrize("source", SAMPLES, ids=_sample_ids())
+def test_every_real_sample_refused_when_cut(tmp_path, source, cut):
+    path = _cut(source, tmp_path, cut)
+    with pytest.raises(UnsupportedFileError, match="truncated|damaged|corrupt|not a readable"):
+        decode_raw(path)
+
+
+def test_libraw_report_refuses_a_file_whose_tags_lie(tmp_path):
+    """A DNG cut at 50 % whose StripByteCounts is rewritten to the shorter length passes the
+    extent check; LibRaw then runs out of data and says so, and that report refuses it."""
+    import tifffile
+
+    source = realdata("raw/tinydng_colorchart.dng")
+    data = bytearray(source.read_bytes())
+    half = len(data) // 2
+    with tifffile.TiffFile(source) as tif:
+        page = tif.pages[0]
+        counts, offsets = page.tags[279], page.tags[273]
+        order = tif.byteorder
+        assert counts.count == 1 and counts.dtype == 4  # one LONG, stored in the entry
+        data[counts.valueoffset:counts.valueoffset + 4] = struct.pack(order + "I", half - offsets.value[0])
+    path = tmp_path / "lying.dng"
+    path.write_bytes(bytes(data[:half]))
+    end, _ = declared_extent(path)
+    assert end == half  # the structure alone no longer shows the damage
+    with pytest.raises(UnsupportedFileError, match="LibRaw reports 'Unexpected end of file'"):
+        decode_raw(path)
+
+
+def test_repeated_bottom_rows_refused(camera, shoot, tmp_path):
+    """Rows filled with copies of the last good one (what LibRaw leaves in a cut compressed
+    file) are refused; the same scene with its real bottom rows decodes."""
+    from lsadphoto.datasets import write_dng
+
+    truth = interior_scene((camera.height, camera.width))
+    raw = camera.expose(truth, exposure_time=1 / 125, f_number=4.0, iso=100, noise=True,
+                        rng=np.random.default_rng(1))
+    good = write_dng(tmp_path / "good.dng", raw, camera, exposure_time=1 / 125, f_number=4.0, iso=100)
+    decode_raw(good)
+    filled = raw.copy()
+    filled[-40:] = filled[-41]
+    bad = write_dng(tmp_path / "filled.dng", filled, camera, exposure_time=1 / 125, f_number=4.0, iso=100)
+    with pytest.raises(UnsupportedFileError, match="last 41 raw rows are copies"):
+        decode_raw(bad)
+
+
+def _exif_levels(path):
+    with open(path, "rb") as fh:
+        tags = exifread.process_file(fh, details=True)
+    found = {}
+    for key, tag in tags.items():
+        name = key.split()[-1]
+        if name in ("BlackLevel", "WhiteLevel") or key.endswith("Tag 0xC61A") or key.endswith("Tag 0xC61D"):
+            label = "black" if ("Black" in name or key.endswith("C61A")) else "white"
+            values = [float(v.num) / float(v.den) if hasattr(v, "num") else float(v) for v in tag.values]
+            found.setdefault(label, values)
+    return found
+
+
+@EMPTY_EXPOSURE
+def test_real_canon_dng_levels_match_its_tags():
+    """Black and white levels of the real Canon 550D DNG: the decoder's per-channel values
+    equal the DNG BlackLevel/WhiteLevel tags read by exifread (an independent TIFF parser),
+    2056 and 15000 as shared/realdata's README records."""
+    path = realdata("raw/tinydng_colorchart.dng")
+    image = decode_raw(path)
+    levels = _exif_levels(path)
+    np.testing.assert_array_equal(image.black_level, np.full(4, levels["black"][0]))
+    np.testing.assert_array_equal(image.white_level, np.full(4, levels["white"][0]))
+    assert (image.black_level[0], image.white_level[0]) == (2056, 15000)
+
+
+@pytest.mark.skipif(not SAMPLES, reason="no real RAW samples (../shared/realdata/raw, LSADPHOTO_RAW_SAMPLES)")
+@pytest.mark.parametrize("source", SAMPLES, ids=_sample_ids())
+@EMPTY_EXPOSURE
+def test_real_samples_exposure_metadata_match_exifread(source):
+    """Exposure time, f-number and focal length decoded from each real sample agree with
+    exifread's reading of the same file within 1 % (EXIF rationals rounded by the maker)."""
+    image = decode_raw(source)
+    with open(source, "rb") as fh:
+        tags = exifread.process_file(fh, details=False)
+    meta = image.metadata
+    for field, tag in (("exposure_time", "ExposureTime"), ("f_number", "FNumber"), ("focal_length", "FocalLength")):
+        value = tags.get(f"EXIF {tag}") or tags.get(f"Image {tag}")
+        if value is None or getattr(meta, field) is None:
+            continue
+        v = value.values[0]
+        exif = float(v.num) / float(v.den) if hasattr(v, "num") and v.den else float(v)
+        if exif > 0:
+            assert getattr(meta, field) == pytest.approx(exif, rel=0.01), field
+    assert np.all(image.white_level > image.black_level)
