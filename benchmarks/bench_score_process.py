@@ -3,8 +3,8 @@ whole ``evalglare -d MAP.hdr`` process on the same picture, in the same run.
 
 For each size a square 180° equidistant (``-vta``) fisheye picture is written as Radiance
 HDR by the project's generator — ``disks``: the four glare sources of
-``bench_metrics.py``; ``window``: a window of 1.8 sr (2500 cd·m⁻²) with a bright patch, like
-the daylit office photograph of issue 11 — then the two commands run one after the other,
+``bench_metrics.py``; ``window``: a window of 1.8 sr (2500–12 000 cd·m⁻², brighter upwards
+and to one side, a mullion), like the daylit office photograph of issue 11 — then the two commands run one after the other,
 ``--runs`` times (interleaved, so that both see the same machine load), each as a fresh
 process. Reported: median wall time, the spread (min–max), median process CPU time (all
 threads, from ``getrusage`` of the child), and the ratio of the medians. Before the timed
@@ -44,28 +44,29 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 
-def _scene(name):
-    from bench_metrics import SOURCES, _direction
+def _luminance(name, directions):
+    """Luminance [cd·m⁻²] of the benchmark scene ``name`` for the pixel ``directions``."""
+    from bench_metrics import SOURCES
+
+    from lsadphoto.datasets import disk_sources_scene, window_scene
 
     if name == "disks":
-        return 150.0, SOURCES
-    window = (_direction(45, 90), 0.78, 2500.0)  # 2π(1 − cos 0.78) = 1.8 sr
-    patch = (_direction(40, 80), 0.05, 30000.0)
-    return 100.0, [window, patch]
+        return disk_sources_scene(directions, background=150.0, sources=SOURCES)
+    # (100° of azimuth) × (sin 60° + sin 10°) = 1.8 sr, brighter upwards and to one side.
+    window = dict(azimuth=(-20, 80), elevation=(-10, 60), luminance=(2500.0, 12000.0),
+                  side_gradient=0.5, mullions=(30.0,), mullion_width=3.0)
+    return window_scene(directions, background=(40.0, 160.0), windows=[window])
 
 
 def write_picture(size, scene, folder):
     """The generated fisheye picture of ``size``² pixels as a Radiance HDR file."""
-    from lsadphoto.datasets import disk_sources_scene
     from lsadphoto.geometry import IdealFisheyeProjection
     from lsadphoto.io import write_hdr
     from lsadphoto.luminance_map import LuminanceMap
 
     cam = IdealFisheyeProjection("equidistant", (size - 1) / 2, (size - 1) / 2, size / 2, 180.0,
                                  size, size)
-    background, sources = _scene(scene)
-    L = disk_sources_scene(cam.directions(*cam.pixel_grid()), background=background,
-                           sources=sources)
+    L = _luminance(scene, cam.directions(*cam.pixel_grid()))
     path = Path(folder) / f"{scene}_{size}.hdr"
     write_hdr(LuminanceMap(L, projection=cam, calibrated=True), path)
     return path
@@ -143,8 +144,9 @@ def _child_stages(path):
 
     wrap(lsadphoto.io, "read_map", "read picture")
     wrap(score_module, "score_map", "score_map")
+    sys.argv = ["lsadphoto", "score", str(path), "--json"]
     with contextlib.redirect_stdout(io.StringIO()):
-        code = cli.main(["score", str(path), "--json"])
+        code = cli.main()  # as the console script calls it: the process is the command
     t, c = lap("command", t, c)
     stages.update(inner)
     stages["numba kernel loading"] = list(loading)
@@ -185,14 +187,16 @@ def bench(size, scene, folder, runs, evalglare_runs):
         if k < evalglare_runs:
             peer.append(timed(peer_cmd))
     record = json.loads(ours[-1][2])
-    summary = next(x for x in peer[-1][2].splitlines() if x.startswith("dgp,av_lum"))
-    peer_ugr = float(summary.split(":", 1)[1].split()[6])
+    peer_ugr = math.nan
+    if peer:
+        summary = next(x for x in peer[-1][2].splitlines() if x.startswith("dgp,av_lum"))
+        peer_ugr = float(summary.split(":", 1)[1].split()[6])
     path_size = path.stat().st_size
     return {"size": size, "mp": size * size / 1e6, "file_mb": path_size / 1e6,
             "ours_wall": _median_spread([w for w, _, _ in ours]),
             "ours_cpu": statistics.median(c for _, c, _ in ours),
-            "peer_wall": _median_spread([w for w, _, _ in peer]),
-            "peer_cpu": statistics.median(c for _, c, _ in peer),
+            "peer_wall": _median_spread([w for w, _, _ in peer] or [math.nan]),
+            "peer_cpu": statistics.median([c for _, c, _ in peer] or [math.nan]),
             "runs": len(ours), "peer_runs": len(peer),
             "ugr": record["ugr_grouped"], "peer_ugr": peer_ugr, "path": path}
 

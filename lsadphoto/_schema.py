@@ -177,7 +177,7 @@ class Variants:
         if not isinstance(value, dict):
             raise BadInputError(f"{where} must be a table, got {_describe(value)}")
         name = value.get(self.key, self.default)
-        if name not in self.variants:
+        if not isinstance(name, str) or name not in self.variants:  # a table or list is unhashable
             valid = ", ".join(repr(v) for v in self.variants)
             raise BadInputError(f"{where}.{self.key} must be one of {valid}, got {name!r}")
         table = self.variants[name]

@@ -5,6 +5,7 @@ Every error lsadphoto raises on purpose becomes one line on stderr and a non-zer
 """
 
 import argparse
+import gc
 import json
 import os
 import sys
@@ -41,7 +42,14 @@ def _print_json(record):
 
 class _Choices:
     """Valid values of an option, defined in the library (``module.name``) and imported only
-    when argparse checks a value or prints help, so that ``lsadphoto`` starts fast."""
+    when argparse checks a value or prints help, so that ``lsadphoto`` starts fast.
+
+    ``add_argument`` formats every option's choices once to check its metavar: while
+    :func:`build_parser` runs (``building``) they are empty, otherwise building the parser
+    would import every command's modules (the study's SciPy, the solver) in every process.
+    """
+
+    building = False
 
     def __init__(self, module, name):
         self.module, self.name = module, name
@@ -55,7 +63,7 @@ class _Choices:
         return value in self._values()
 
     def __iter__(self):
-        return iter(self._values())
+        return iter(()) if _Choices.building else iter(self._values())
 
 
 def _given(**options):
@@ -199,6 +207,71 @@ def _line_of_sight(text, lmap):
     return _vector(text, "--line-of-sight")
 
 
+def _numbers(text, name, counts):
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) not in counts:
+        raise BadInputError(f"{name} needs {' or '.join(map(str, counts))} comma-separated "
+                            f"numbers, got {text!r}")
+    return values
+
+
+def _centre_and_angles(text, name):
+    """``px:ROW,COL,DEG1[,DEG2]`` or ``X,Y,Z,DEG1[,DEG2]``: (centre, angles [deg])."""
+    if text.startswith("px:"):
+        values = _numbers(text[3:], name, (3, 4))
+        return values[:2], values[2:]
+    values = _numbers(text, name, (4, 5))
+    return values[:3], values[3:]
+
+
+def _task(text):
+    """``--task``: ``px:ROW,COL`` (image point) or ``X,Y,Z`` (direction)."""
+    if text is None:
+        return None
+    if text.startswith("px:"):
+        return _numbers(text[3:], "--task px:ROW,COL", (2,))
+    return _vector(text, "--task")
+
+
+def _evalglare_options(args):
+    """score_map keywords of the evalglare 3.06 options of ``score`` (see its --help)."""
+    from .io import read_map
+
+    options = {}
+    if args.band_deg is not None:
+        options["band_deg"] = args.band_deg
+    if args.zones:
+        options["zone_centre"], options["zone_opening_deg"] = _centre_and_angles(args.zones,
+                                                                                 "--zones")
+    if args.mask:
+        options["mask"] = read_map(args.mask)
+    if args.checkfile:
+        options["checkfile"] = args.checkfile
+    if args.smooth:
+        options["smooth"] = True
+    if args.patch_deg is not None:
+        options["patch_deg"] = args.patch_deg
+    if args.age is not None:
+        options["age"] = args.age
+    if args.illuminance is not None:
+        options["illuminance"] = args.illuminance
+    if args.illuminance_fill:
+        lux, row_max, row_min = _numbers(args.illuminance_fill, "--illuminance-fill", (3,))
+        options["illuminance_fill"] = (lux, row_max, row_min)
+    if args.correction_mode is not None:
+        from .metrics.corrections import low_light_correction_on
+
+        options["low_light_correction"] = low_light_correction_on(args.correction_mode)
+    if args.dgp_coefficients:
+        named = args.dgp_coefficients in ("evalglare", "Wienold2006")
+        options["dgp_coefficients"] = args.dgp_coefficients if named else _numbers(
+            args.dgp_coefficients, "--dgp-coefficients", (8,))
+    return options
+
+
 def _format(value, digits=3):
     return "—" if value is None else f"{value:.{digits}f}"
 
@@ -224,14 +297,14 @@ def cmd_score(args):
         lmap, line_of_sight=_line_of_sight(args.line_of_sight, lmap),
         up=_vector(args.up, "--up") if args.up else None, source_method=method,
         source_threshold=args.threshold,
-        task_direction=_vector(args.task, "--task") if args.task else None,
+        task_direction=_task(args.task),
         task_opening_deg=args.task_opening_deg, search_angle=args.search_angle,
         peak_luminance=None if args.no_peak_extraction else args.peak_luminance,
         background_method=args.background, position_index_method=args.position_index,
         source_position=args.source_position, guth_field=args.guth_field,
         noise_samples=args.noise_samples, q_noise_samples=args.q_noise_samples, n_thresholds=args.N, size_arcmin=args.alpha_arcmin,
         q_weight_exponent=args.q_weight_exponent,
-        sweep=range(1, 101) if args.sweep else None,
+        sweep=range(1, 101) if args.sweep else None, **_evalglare_options(args),
     )
     record = score.to_dict()
     record["provenance"]["input"] = str(args.map)
@@ -288,6 +361,34 @@ def _bias_matters(bias, record, key):
     error = record["noise_bias_standard_error"].get(key) or 0.0
     u = record["uncertainty"].get(key) or 0.0
     return abs(bias) > 2 * error and abs(bias) > 0.1 * u
+
+
+def cmd_design(args):
+    from ._progress import progress_callback
+    from .design.run import run_design
+    from .report.design import design_report_html
+
+    callback, close = progress_callback("design", enabled=False if args.quiet else None)
+    try:
+        record = run_design(args.problem, args.output, report=design_report_html,
+                            progress=None if callback is None else (lambda _stage, f: callback(f, None)),
+                            log=(lambda line: None) if args.quiet or args.json else
+                            (lambda line: print(line, file=sys.stderr)))
+    finally:
+        close()
+    if args.json:
+        _print_json(record)
+    else:
+        best = record["best"]
+        if best is None:
+            print(f"no design meets the constraints; wrote {args.output}/design.json with the "
+                  f"{len(record['closest'])} closest designs")
+        else:
+            parts = [f"{v['ugr_grouped'] if v['ugr_grouped'] is not None else '—'}" for v in best["views"].values()]
+            print(f"best design: {best['luminaires']} luminaires, {best['power_w']:g} W, grouped UGR "
+                  f"{', '.join(parts)} ({', '.join(best['views'])}); {len(record['pareto'])} Pareto "
+                  f"designs; wrote {args.output}/design.json, best.toml, report.html")
+    return 0
 
 
 def cmd_compare(args):
@@ -356,6 +457,10 @@ def cmd_view(args):
 def cmd_study(args):
     from .study import run_study
 
+    if args.report:  # before any work: a typo must not become a report of an empty survey
+        from .report import check_survey_folder
+
+        check_survey_folder(args.report, option="--report")
     report = Path(args.report) / "report.html" if args.report else None
     plan = _plan({"report": report, "json": args.output_json}, folders={"figures": args.figures})
     result = run_study(args.ratings, args.metrics, metric=args.metric,
@@ -379,7 +484,7 @@ def cmd_study(args):
     c = record["correlations"][args.metric]
     ci = c["pearson_ci"] or [None, None]
     print(f"{args.metric} vs mean rating over {c['n']} scenes: Pearson r = {_format(c['pearson_r'])} "
-          f"[{_format(ci[0])}, {_format(ci[1])}] ({c['chaddock']}), Spearman ρ = "
+          f"[{_format(ci[0])}, {_format(ci[1])}] ({c['chaddock'] or 'undefined'}), Spearman ρ = "
           f"{_format(c['spearman_rho'])}, Kendall τ = {_format(c['kendall_tau'])}")
     sweep = record.get("sweep")
     if sweep and sweep.get("best"):
@@ -391,8 +496,10 @@ def cmd_study(args):
               f"(in-sample {_format(loo['r_in_sample'])})")
     jit = record.get("jitter")
     if jit:
+        change = jit["max_relative_change"]
         print(f"ratings jittered ±{jit['half_width']:g} × {jit['n_trials']}: r = {_format(jit['mean'])} ± "
-              f"{_format(jit['sd'])}, largest relative change {100 * jit['max_relative_change']:.1f} %")
+              f"{_format(jit['sd'])}, largest relative change "
+              f"{'—' if change is None else f'{100 * change:.1f} %'}")
     for note in record.get("notes", []):
         print(f"  note: {note}")
     if "report" in record:
@@ -618,6 +725,14 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser():
+    _Choices.building = True
+    try:
+        return _build_parser()
+    finally:
+        _Choices.building = False
+
+
+def _build_parser():
     from .constants import LS100_ACCEPTANCE_ANGLE
 
     demosaic = _Choices("lsadphoto.raw.methods", "DEMOSAIC_METHODS")
@@ -680,8 +795,12 @@ def build_parser():
                     help="glare-source rule (default: fixed threshold)")
     sc.add_argument("--threshold", type=float,
                     help="glare-source threshold [cd/m²] (fixed, default 2000) or factor (task, mean; default 5)")
-    sc.add_argument("--task", metavar="X,Y,Z", help="task direction for --source-method task (default: line of sight)")
-    sc.add_argument("--task-opening-deg", type=float, default=20.0, help="task cone full opening angle [deg]")
+    sc.add_argument("--task", metavar="px:ROW,COL|X,Y,Z",
+                    help="task area centre (evalglare -t): an image point or a direction; its mean "
+                         "luminance is reported (task) and used by --source-method task and PGSV "
+                         "(default for the task rule: the line of sight)")
+    sc.add_argument("--task-opening-deg", type=float, default=20.0,
+                    help="task cone full opening angle [deg] (evalglare -t angle × 180/π)")
     sc.add_argument("--search-angle", type=float, default=0.2, help="evalglare -r grouping opening angle [rad]")
     sc.add_argument("--peak-luminance", type=float, default=50000.0, help="peak-extraction limit [cd/m²]")
     sc.add_argument("--no-peak-extraction", action="store_true")
@@ -704,6 +823,39 @@ def build_parser():
                          "per-pixel uncertainty (0: off; default 256)")
     sc.add_argument("--q-noise-samples", type=int, default=4,
                     help="resampled maps for Q's noise and bias (0: off; default 4)")
+    eg = sc.add_argument_group("evalglare 3.06 analyses (angles in degrees, evalglare's radians × 180/π)")
+    eg.add_argument("--band-deg", type=float, metavar="A",
+                    help="evalglare -B: statistics of the horizontal band of half-width A about the "
+                         "middle row (0 < A ≤ 180); JSON 'band'")
+    eg.add_argument("--zones", metavar="px:ROW,COL,DEG1[,DEG2]|X,Y,Z,DEG1[,DEG2]",
+                    help="evalglare -l (one angle) / -L (two): zone 1 a cone of full opening DEG1 "
+                         "about the centre, zone 2 the ring out to DEG2; sources are split at the "
+                         "zone borders; JSON 'zones', each source's 'zone'")
+    eg.add_argument("--mask", metavar="FILE",
+                    help="evalglare -A: statistics of the pixels of a same-size picture above "
+                         "0.1 cd/m² (the window), with PGSV, PGSV_sat, PGSV_con; JSON 'mask'")
+    eg.add_argument("--smooth", action="store_true",
+                    help="evalglare -s: pixels around sources join them (smoothing)")
+    eg.add_argument("--patch-deg", type=float, metavar="A",
+                    help="evalglare -z A 1: sources are fixed patches of A degrees instead of "
+                         "grouped pixels (angular fisheye only)")
+    eg.add_argument("--checkfile", metavar="OUT.hdr",
+                    help="evalglare -c: write a Radiance picture with the sources, band, mask and "
+                         "zones in colour")
+    eg.add_argument("--age", type=float, metavar="YEARS",
+                    help="observer age: CIE 146 age factor 1 + (A/70)^4 of the veiling luminance "
+                         "Lveil_cie (evalglare 3.06 has none)")
+    eg.add_argument("--illuminance", type=float, metavar="LUX",
+                    help="evalglare -i: external vertical illuminance for DGP [lx]")
+    eg.add_argument("--illuminance-fill", metavar="LUX,ROW_MAX,ROW_MIN",
+                    help="evalglare -I: as --illuminance, after filling cut rows with the last "
+                         "known values; evalglare's y_max, y_min given as rows from the top "
+                         "(row = rows - 1 - y)")
+    eg.add_argument("--correction-mode", choices=("l+", "l-", "0"),
+                    help="evalglare -C: l+ DGP low-light correction on, l- or 0 off (default off)")
+    eg.add_argument("--dgp-coefficients", metavar="NAME|a1,a2,a3,a4,a5,c1,c2,c3",
+                    help="evalglare -w: DGP coefficients, 'evalglare' (default), 'Wienold2006' or "
+                         "eight numbers")
     sc.add_argument("--sources-png", metavar="OUT.png", help="write the glare-source map")
     sc.add_argument("--contrast-png", metavar="OUT.png", help="write the Q contrast map")
     sc.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
@@ -719,6 +871,13 @@ def build_parser():
     cmp_.add_argument("--output-json", metavar="OUT.json", help="write the JSON record to a file")
     cmp_.add_argument("--json", action="store_true", help="print the JSON record")
     cmp_.set_defaults(func=cmd_compare)
+
+    dsg = sub.add_parser("design", help="choose luminaires and their layout for a quality (Q, UGR, DGP, illuminance)")
+    dsg.add_argument("problem", help="design problem (TOML, schema lsadphoto.design/1)")
+    dsg.add_argument("-o", "--output", required=True, metavar="OUT", help="output folder")
+    dsg.add_argument("--json", action="store_true", help="print the design.json record")
+    dsg.add_argument("--quiet", action="store_true", help="no progress bar or stage lines")
+    dsg.set_defaults(func=cmd_design)
 
     vw = sub.add_parser("view", help="interactive luminance viewer: one self-contained HTML file")
     vw.add_argument("map", help="luminance map (.exr or .hdr)")
@@ -805,11 +964,31 @@ def build_parser():
     return parser
 
 
+#: Allocations between young-generation collections in a process that is one command
+#: (default 700): importing numba and loading its kernels allocates millions of objects, and
+#: collecting them every 700 cost about a quarter of a ``score`` process (docs/performance.md).
+_COMMAND_GC_THRESHOLD = (50_000, 20, 100)
+
+
 def main(argv=None):
+    """Run one command; ``argv`` None (the ``lsadphoto`` console script) means that the process
+    ends with it, so the garbage collector runs rarely and not at all over the objects left at
+    the end (``gc.freeze``: the interpreter's exit would otherwise traverse them all)."""
+    whole_process = argv is None
+    if whole_process:
+        gc.set_threshold(*_COMMAND_GC_THRESHOLD)
     parser = build_parser()
     _Parser.argv = tuple(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     warnings.showwarning = _warning_line
+    try:
+        return _run(args)
+    finally:
+        if whole_process:
+            gc.freeze()
+
+
+def _run(args):
     try:
         return args.func(args)
     except LsadError as exc:

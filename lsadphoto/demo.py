@@ -82,6 +82,11 @@ def run(out=Path("demo_output")):
         return code
     print(f"model-vs-photo reports: {survey / 'views' / '<view>' / '<view>-model-comparison.html'}")
     print(f"open the survey report: {survey / 'report.html'}")
+    design = out / "design"
+    code = cli(["design", str(samples / "design" / "problem.toml"), "-o", str(design), "--quiet"])
+    if code:
+        return code
+    print(f"design for a quality: {design / 'design.json'}, {design / 'best.toml'}, {design / 'report.html'}")
     return 0
 
 

@@ -99,3 +99,21 @@ def smooth_mask(truth, radius=4, tolerance=0.01):
 
 
 __all__ = ["raw_samples", "realdata", "binned_truth", "smooth_mask", "interior_scene"]
+
+
+def pytest_terminal_summary(terminalreporter):
+    """Count of fuzzed mutants per reader and command (tests/test_fuzz.py records them as the
+    user property ``fuzz_mutants``, which pytest-xdist carries back from its workers)."""
+    counts = {}
+    for reports in terminalreporter.stats.values():
+        for report in reports:
+            if getattr(report, "when", None) != "call":
+                continue
+            for key, value in getattr(report, "user_properties", ()):
+                if key == "fuzz_mutants":
+                    name, n = value
+                    counts[name] = counts.get(name, 0) + n
+    if counts:
+        terminalreporter.write_sep("-", f"fuzz: {sum(counts.values())} mutated files read (per reader and command)")
+        for name in sorted(counts):
+            terminalreporter.write_line(f"{counts[name]:6d}  {name}")

@@ -71,9 +71,23 @@ def test_sun_in_view_is_finite():
 
 
 @pytest.mark.parametrize("size", [1, 2])
-def test_tiny_maps_are_defined(size):
-    score = score_map(LuminanceMap(np.full((size, size), 3000.0), projection=_camera(size)))
-    json.dumps(score.to_dict(), allow_nan=False)
+def test_tiny_maps(size):
+    """One or four pixels of 3000 cd/m²: each is a glare source (above 2000 cd/m²), there is no
+    background, so L_b = (E_v − E_dir)/π = 0, the UGR-type indices (∝ log 1/L_b) and Q (no
+    3×3 stencil) are undefined with a note, and E_v is the sum L·ω·cos σ over the pixels'
+    solid angles and directions as the camera model gives them (the definition, FORMULAS.md)."""
+    cam = _camera(size)
+    record = score_map(LuminanceMap(np.full((size, size), 3000.0), projection=cam)).to_dict()
+    json.dumps(record, allow_nan=False)
+    grid = cam.pixel_grid()
+    expected = float(np.sum(3000.0 * cam.solid_angles(*grid) * np.clip(cam.directions(*grid)[..., 2], 0, None)))
+    assert record["vertical_illuminance"] == pytest.approx(expected, rel=1e-12)
+    assert record["direct_illuminance"] == pytest.approx(expected, rel=1e-12)
+    assert record["mean_luminance"] == pytest.approx(3000.0, rel=1e-12)
+    assert record["n_sources"] == size * size and record["background_luminance"] == 0.0
+    assert record["ugr_pixel"] is None and record["ugr_grouped"] is None and record["q"] is None
+    assert any("background luminance is zero" in n for n in record["notes"])
+    assert any("Q undefined" in n for n in record["notes"])
 
 
 def test_all_nan_and_half_nan_maps():

@@ -232,7 +232,11 @@ def test_mean_luminance_of_hemisphere(fisheye):
 
 
 @pytest.mark.parametrize("shape", [(1, 1), (2, 2)])
-def test_tiny_maps_are_defined(shape):
+def test_tiny_maps(shape):
+    """One or four pixels of 5000 cd/m²: every pixel is a source (above the fixed 2000 cd/m²),
+    each its own group (the four pixel directions lie ≈ 79° apart, far beyond the 0.2 rad
+    search angle); with no background L_b = (E_v − E_dir)/π = 0 and UGR, ∝ log(1/L_b), is
+    undefined (NaN); with a given L_b it is CIE 117's 8·log10(0.25/L_b · Σ L²ω/P²)."""
     cam = IdealFisheyeProjection("equidistant", (shape[1] - 1) / 2, (shape[0] - 1) / 2,
                                  shape[0] / 2, 180.0, shape[1], shape[0])
     r, c = cam.pixel_grid()
@@ -242,7 +246,10 @@ def test_tiny_maps_are_defined(shape):
     cos_sigma, P = _maps(d, w)
     sel = select_source_pixels(L, w, cos_sigma)
     groups, _ = group_sources_evalglare(L, d, w, sel.mask)
+    assert sel.mask.all()
+    assert len(groups) == L.size and all(g.n_pixels == 1 for g in groups)
     l_b = background_luminance(L, w, cos_sigma, sel.mask)
-    value = ugr_pixel(L, w, P, sel.mask, l_b)
-    assert math.isnan(value) or math.isfinite(value)
-    assert sum(g.n_pixels for g in groups) == int(sel.mask.sum())
+    assert l_b == 0.0
+    assert math.isnan(ugr_pixel(L, w, P, sel.mask, l_b))
+    expected = 8.0 * math.log10(0.25 / 20.0 * float(np.sum(L**2 * w / P**2)))
+    assert ugr_pixel(L, w, P, sel.mask, 20.0) == pytest.approx(expected, rel=1e-12)

@@ -10,6 +10,7 @@ that the report is tested without decoding RAW files; the observer study is a re
 import base64
 import csv
 import html
+import json
 import math
 import re
 import shutil
@@ -35,6 +36,7 @@ from lsadphoto.report import (
     write_survey_report,
 )
 from lsadphoto.study import run_study
+from lsadphoto.survey import ViewLayout
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: A view id that must come out escaped.
@@ -132,12 +134,16 @@ def survey_dir(tmp_path_factory):
                     "calibration_method": "spot", "calibration_factor": 1.02,
                     "calibrated": True, "notes": "", "warnings": ""})
         rows.append(row)
-        folder = root / "views" / view
-        folder.mkdir(parents=True)
+        layout = ViewLayout(root, view)
+        layout.folder.mkdir(parents=True)
         for kind, png in images.items():  # one set of images serves every view
-            (folder / f"{view}-{kind}.png").write_bytes(png)
-        (folder / f"{view}-score.json").write_text(
+            layout.path(kind).write_bytes(png)
+        layout.path("score").write_text(
             '{"settings": {"sweep": [1, 100], "threshold": 2000}, "provenance": {"x": 1}}')
+        # The done marker lists the view's files by kind, as the survey writes it.
+        layout.done.write_text(json.dumps(
+            {"view": view, "outputs": {k: p.name for k, p in layout.outputs().items()
+                                       if k != "done"}}))
     columns = list(dict.fromkeys(c for row in rows for c in row))
     with open(root / "metrics.csv", "w", newline="") as handle:
         writer = csv.DictWriter(handle, columns)
@@ -230,12 +236,20 @@ def test_survey_report_without_study_uses_the_table(survey_dir):
     page = Page(text)
     _check_self_contained(page, text)
     assert len(page.images) == 3 + 3 * len(VIEWS)
-    assert "computed here from metrics.csv" in page.text
-    assert "Best N (largest r over the sweep): N = 20" in page.text
-    # Pearson r of Q with the mean ratings, as the table gives them.
+    assert "Computed here by lsadphoto.study from the survey's ratings.csv and metrics.csv" \
+        in page.text
+    # The statistics are the study's on the survey's own tables (one path, not a copy) …
+    own = run_study(survey_dir / "ratings.csv", survey_dir / "metrics.csv", n_jitter=0,
+                    n_bootstrap=0).to_dict()
+    best = own["sweep"]["best"]
+    assert best["n"] == 20 and f"{best['r']:.3f}" in page.text  # the column equal to Q
+    assert f"{own['leave_one_out']['r_loo']:.3f}" in page.text
+    assert "The jitter check is not available" in page.text
+    # … and its Pearson r of Q is numpy's on the table's q and mean-rating columns.
     with open(survey_dir / "metrics.csv", newline="") as handle:
         rows = list(csv.DictReader(handle))
     r = np.corrcoef([float(r["q"]) for r in rows], [float(r["rating_mean"]) for r in rows])[0, 1]
+    assert own["correlations"]["q"]["pearson_r"] == pytest.approx(r, abs=1e-12)
     assert f"{r:.3f}" in page.text
     path.unlink()
 
@@ -274,14 +288,16 @@ def test_missing_pieces_give_notes_not_errors(tmp_path, case):
         (folder / "failures.log").write_text("")
         expected = ["Fig. 1 (ratings against Q) is not available: no observer ratings",
                     "Fig. 2 (r against N) is not available: no observer ratings",
-                    "No view failed", "no v0-falsecolour.png"]
+                    "No view failed", "not among the view's outputs"]
     elif case == "no_images":
         _write_csv(folder / "metrics.csv", ["scene", "q", "rating_mean"],
                    [["s1", 1.0, 3.0], ["s2", 2.0, 4.0]])
-        expected = ["Fig. 2 (r against N) is not available: metrics.csv has no Q(N) sweep",
+        _write_csv(folder / "ratings.csv", ["scene", "observer", "rating"],
+                   [["s1", "a", 3], ["s2", "a", 4]])
+        expected = ["Fig. 2 (r against N) is not available: the observer study could not be "
+                    "computed", "2 scene(s); a correlation needs at least 3",
                     "Fig. 4 (Q against UGR) is not available: metrics.csv lacks UGR",
-                    "Fig. 3 — glare-source maps — is not available",
-                    "fewer than 3 views have both a metric and ratings"]
+                    "Fig. 3 — glare-source maps — is not available"]
     elif case == "garbage":
         (folder / "metrics.csv").write_bytes(b"view,q,ugr_pixel\n\xff\xfe,x,\n")
         expected = ["metrics.csv could not be read"]

@@ -493,9 +493,12 @@ def test_cli_survey_rerun_then_study_reads_the_survey_tables(surveyed, tmp_path)
     proc = cli("study", copy / "ratings.csv", copy / "metrics.csv", "--n-jitter", "20",
                "--n-bootstrap", "20", "--json")
     # The tables parse (the text provenance columns are skipped, the unrated view left out);
-    # two rated views are too few for a correlation, which is the one-line answer.
+    # two rated views are too few for a correlation, which is the one-line answer, naming
+    # the ratings (not metrics.csv, which has a third, unrated view).
     assert proc.returncode == 2
-    assert proc.stderr.strip().endswith("2 scene(s); a correlation needs at least 3")
+    assert proc.stderr == (f"lsadphoto: error: {copy / 'ratings.csv'}: rates 2 of the 3 scene(s) "
+                           f"of {copy / 'metrics.csv'}; a correlation needs at least 3 rated "
+                           "scenes\n")
 
 
 # --------------------------------------------------------------------------- checked first
@@ -574,3 +577,24 @@ def test_second_run_refuses_and_a_killed_runs_lock_is_taken_over(tmp_path):
     log = (out / "failures.log").read_text()
     assert log.startswith("corrupt: ") and "not a readable RAW file" in log and log != earlier
     assert not (out / LOCK_NAME).exists()  # released at the end
+
+
+def test_interrupted_rerun_keeps_the_earlier_failures(surveyed, tmp_path, monkeypatch):
+    """A rerun interrupted before it retried the failed view rewrote failures.log empty."""
+    import lsadphoto.survey.run as run_module
+
+    manifest, outdir, first = surveyed
+    copy = tmp_path / "out"
+    shutil.copytree(outdir, copy)
+    before = (copy / "failures.log").read_text()
+    assert before.startswith("corrupt: ")
+
+    def interrupted(tasks, report):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(run_module, "run_serial", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        run_survey(manifest, copy, workers=0, progress=False)
+    assert (copy / "failures.log").read_text() == before
+    assert [r["view"] for r in read_csv(copy / "metrics.csv")] == GOOD
+    assert not (copy / LOCK_NAME).exists()  # released on the way out

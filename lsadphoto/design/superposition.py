@@ -56,8 +56,8 @@ def solve_candidate(space, luminaire, *, name=None, base=None, grids=(), samples
         The space as a scene document (the TOML scene schema of
         :func:`~lsadphoto.solver.scene_from_dict`) with its ``views`` and without the
         candidate's luminaire.
-    luminaire : dict
-        One ``[[luminaires]]`` entry (``type = "point"`` with ``photometry``, ``position``,
+    luminaire : dict or None
+        One ``[[luminaires]]`` entry (None: the space's own luminaires alone) (``type = "point"`` with ``photometry``, ``position``,
         ``nadir``…, or ``type = "area"``).
     base : path, optional
         Folder that relative paths (photometric files) are resolved against.
@@ -72,10 +72,10 @@ def solve_candidate(space, luminaire, *, name=None, base=None, grids=(), samples
     -------
     CandidateSolution
     """
-    if not isinstance(space, dict) or not isinstance(luminaire, dict):
+    if not isinstance(space, dict) or not (luminaire is None or isinstance(luminaire, dict)):
         raise BadInputError("a candidate needs the space as a scene table and one luminaire table")
     doc = dict(space)
-    doc["luminaires"] = list(space.get("luminaires", [])) + [luminaire]
+    doc["luminaires"] = list(space.get("luminaires", [])) + ([] if luminaire is None else [luminaire])
     scene = scene_from_dict(doc, base=base)
     if not scene.views:
         raise BadInputError("the design space has no views to evaluate")
@@ -88,7 +88,7 @@ def solve_candidate(space, luminaire, *, name=None, base=None, grids=(), samples
         if not isinstance(g, CalculationGrid):
             raise BadInputError("grids must be CalculationGrid objects (see work_plane_grid)")
         results[g.name] = grid_illuminance(store, g, seed=seed, **dict(grid_options or {}))
-    return CandidateSolution(name=name or str(luminaire.get("name", "candidate")), luminaire=luminaire,
+    return CandidateSolution(name=name or str((luminaire or {}).get("name", "space")), luminaire=luminaire,
                              maps=maps, grids=results, flux=float(scene.total_flux),
                              provenance={"chains": int(store.chains), "seed": int(seed)})
 

@@ -293,18 +293,28 @@ def write_hdr(lmap, path):
     negative = int(np.count_nonzero(luminance < 0))
     luminance = np.maximum(luminance, 0.0)
     value = luminance / RADIANCE_WHITE_EFFICACY
-    rgbe = float_to_rgbe(np.repeat(value[..., None], 3, axis=-1))
-    rows, cols = luminance.shape
-    lines = ["#?RADIANCE", f"SOFTWARE=lsadphoto {__version__}"]
-    if lmap.projection is not None and hasattr(lmap.projection, "radiance_view"):
-        try:
-            lines.append(f"VIEW= {lmap.projection.radiance_view()}")
-        except BadInputError:
-            pass  # no Radiance view type for this projection (e.g. equisolid): no VIEW= line
+    lines = []
     if negative:
         lines.append(f"CLAMPED= {negative} pixels of negative luminance (noise) written as 0; "
                      "means over dark regions are biased upwards; the OpenEXR map keeps them signed")
     lines.append(f"LSADPHOTO={metadata_json(lmap)}")
+    write_hdr_rgb(np.repeat(value[..., None], 3, axis=-1), path, projection=lmap.projection,
+                  header_lines=lines)
+
+
+def write_hdr_rgb(rgb, path, *, projection=None, header_lines=()):
+    """Write Radiance RGB values ``(rows, cols, 3)`` (W·sr⁻¹·m⁻², luminance = 179·(0.265074 R
+    + 0.670115 G + 0.064811 B)) as a Radiance picture (atomic), with a ``VIEW=`` line from
+    ``projection`` where it has a Radiance equivalent and the given extra header lines."""
+    rgbe = float_to_rgbe(np.nan_to_num(np.asarray(rgb, np.float64), nan=0.0))
+    rows, cols = rgbe.shape[:2]
+    lines = ["#?RADIANCE", f"SOFTWARE=lsadphoto {__version__}"]
+    if projection is not None and hasattr(projection, "radiance_view"):
+        try:
+            lines.append(f"VIEW= {projection.radiance_view()}")
+        except BadInputError:
+            pass  # no Radiance view type for this projection (e.g. equisolid): no VIEW= line
+    lines.extend(header_lines)
     lines.append("FORMAT=32-bit_rle_rgbe")
     head = ("\n".join(lines) + f"\n\n-Y {rows} +X {cols}\n").encode("latin-1", "replace")
     with atomic_path(path) as temp, open(temp, "wb") as fh:
@@ -321,4 +331,5 @@ __all__ = [
     "read_hdr_rgb",
     "rgbe_to_float",
     "write_hdr",
+    "write_hdr_rgb",
 ]

@@ -24,9 +24,11 @@ import math
 import numpy as np
 
 from .._validation import check_choice
+from ..errors import BadInputError
 from .ugr import ugr_sum
 
-__all__ = ["DGP_COEFFICIENTS", "dgp_Wienold2006", "dgi_Hopkinson1972", "dgi_mod_Fisekis2003",
+__all__ = ["DGP_COEFFICIENTS", "dgp_coefficients", "dgp_Wienold2006", "dgi_Hopkinson1972",
+           "dgi_mod_Fisekis2003",
            "ugr_exp_Fisekis2003", "ugp_Hirning2014", "ugp2_Hirning2016", "dgr_Guth1963",
            "vcp_Guth1963", "cgi_Einhorn1979"]
 
@@ -36,6 +38,31 @@ DGP_COEFFICIENTS = {
     "evalglare": (2.0, 1.0, 1.87, 2.0, 1.0, 5.87e-5, 0.092, 0.159),
     "Wienold2006": (2.0, 1.0, 1.87, 2.0, 1.0, 5.87e-5, 9.18e-2, 0.16),
 }
+
+
+def dgp_coefficients(coefficients):
+    """DGP coefficients (a1, a2, a3, a4, a5, c1, c2, c3) of a named set or given explicitly.
+
+    ``coefficients`` is a name of :data:`DGP_COEFFICIENTS` or eight finite numbers, as
+    evalglare's ``-w a1 a2 a3 a4 a5 c1 c2 c3``.
+
+    Examples
+    --------
+    >>> dgp_coefficients("Wienold2006")[6]
+    0.0918
+    """
+    if isinstance(coefficients, str):
+        check_choice(coefficients, "DGP coefficient set", tuple(DGP_COEFFICIENTS))
+        return DGP_COEFFICIENTS[coefficients]
+    try:
+        values = tuple(float(c) for c in coefficients)
+    except (TypeError, ValueError):
+        values = ()
+    if len(values) != 8 or not all(math.isfinite(v) for v in values):
+        raise BadInputError("DGP coefficients must be a set name "
+                            f"({', '.join(DGP_COEFFICIENTS)}) or eight numbers a1,a2,a3,a4,a5,"
+                            f"c1,c2,c3, got {coefficients!r}")
+    return values
 
 
 def _arrays(luminance, solid_angle, position_index):
@@ -58,8 +85,7 @@ def dgp_Wienold2006(vertical_illuminance, luminance, solid_angle, position_index
     >>> round(dgp_Wienold2006(2000.0, [], [], []), 6)
     0.2764
     """
-    check_choice(coefficients, "DGP coefficient set", tuple(DGP_COEFFICIENTS))
-    a1, a2, a3, a4, a5, c1, c2, c3 = DGP_COEFFICIENTS[coefficients]
+    a1, a2, a3, a4, a5, c1, c2, c3 = dgp_coefficients(coefficients)
     e_v = float(vertical_illuminance)
     if not e_v > 0:
         return math.nan

@@ -34,17 +34,22 @@ from .glare_indices import (
 )
 from .grouping import group_sources_evalglare
 from .quality import q_Budak2021
+from .regions import region_statistics
+from .statistics import luminance_statistics
 from .ugr import ugr_CIE117, ugr_from_sum
+from .veiling import veiling_luminance_CIE146, veiling_luminance_Poynter
 
-__all__ = ["Metric", "QUANTITIES", "FIELD", "INDICES", "OTHER", "METRICS", "metric",
+__all__ = ["Metric", "QUANTITIES", "FIELD", "INDICES", "OTHER", "ANALYSES", "METRICS", "metric",
            "evaluate_indices"]
 
 #: Quantities an index may take as ``inputs``: ``sources`` expands to the per-source arrays
 #: (L_s [cd·m⁻²], ω_s [sr], P_s [–]); ``pixel_ugr_sum`` is ΣL²ω/P² over the source pixels
 #: [cd²·m⁻⁴·sr]; the field quantities are those of :data:`FIELD`; and every index listed
 #: earlier in :data:`INDICES`.
+#: ``dgp_illuminance`` is the E_v DGP uses [lx]: the map's, or an external one (evalglare
+#: ``-i``/``-I``).
 QUANTITIES = ("sources", "pixel_ugr_sum", "vertical_illuminance", "direct_illuminance",
-              "background_luminance", "mean_luminance")
+              "background_luminance", "mean_luminance", "dgp_illuminance")
 
 
 @dataclass(frozen=True)
@@ -118,10 +123,11 @@ INDICES = (
            "Budak et al. (seed paper) §4; Scheir et al. 2015; CIE 117 eq. (1) over pixels",
            inputs=("pixel_ugr_sum", "background_luminance"), digits=2),
     Metric("dgp", dgp_Wienold2006, "–", "DGP", "Wienold & Christoffersen 2006",
-           inputs=("vertical_illuminance", "sources"),
-           options=(("coefficients", "dgp_coefficients"),)),
+           inputs=("dgp_illuminance", "sources"),
+           options=(("coefficients", "dgp_coefficients"),
+                    ("low_light_correction", "low_light_correction"))),
     Metric("dgp_low_light", dgp_Wienold2006, "–", "DGP with low-light correction",
-           "Wienold 2009; evalglare -C", inputs=("vertical_illuminance", "sources"),
+           "Wienold 2009; evalglare -C", inputs=("dgp_illuminance", "sources"),
            options=(("coefficients", "dgp_coefficients"),),
            fixed=(("low_light_correction", True),)),
     Metric("dgi", dgi_Hopkinson1972, "–", "DGI", "Hopkinson 1972",
@@ -151,8 +157,21 @@ OTHER = (
            "evalglare omega_sources", digits=4),
 )
 
+#: Scalars of evalglare 3.06's analyses (:mod:`~lsadphoto.metrics.analyses`), in every score.
+ANALYSES = (
+    Metric("veiling_luminance_poynter", veiling_luminance_Poynter, "cd/m²",
+           "veiling luminance (Poynter)", "evalglare Lveil (get_disability)", digits=2),
+    Metric("veiling_luminance_cie", veiling_luminance_CIE146, "cd/m²",
+           "veiling luminance (CIE Stiles–Holladay)", "CIE 146:2002; evalglare Lveil_cie",
+           digits=2),
+    Metric("task_luminance", region_statistics, "cd/m²", "task luminance L_t",
+           "evalglare -t (L_t; the mean luminance without a task)", digits=2),
+    Metric("max_luminance", luminance_statistics, "cd/m²", "maximum luminance",
+           "evalglare Max_Lum", digits=0),
+)
+
 #: Every metric by name, in the order of the score record.
-METRICS = {m.name: m for m in FIELD + INDICES + OTHER}
+METRICS = {m.name: m for m in FIELD + INDICES + OTHER + ANALYSES}
 
 
 def metric(name):

@@ -35,8 +35,12 @@ from ..errors import BadInputError
 from ..geometry import ObserverFrame, position_index
 from ..geometry.field import pixel_geometry, visual_field
 from ..geometry.position_index import METHODS as POSITION_INDEX_METHODS
+from .analyses import centre_direction, evalglare_analyses, zone_split
+from .checkfile import check_checkfile_path, check_picture, write_checkfile
+from .corrections import fill_rows_evalglare
 from .field import BACKGROUND_METHODS, field_sums, noise_moments
-from .glare_indices import DGP_COEFFICIENTS
+from .glare_indices import dgp_coefficients as dgp_coefficients_of
+from .glare_indices import dgp_Wienold2006
 from .grouping import (
     DEFAULT_PEAK_LUMINANCE,
     DEFAULT_SEARCH_ANGLE,
@@ -44,6 +48,8 @@ from .grouping import (
     group_sources_evalglare,
     position_pixel_evalglare,
 )
+from .grouping import _describe as describe_sources
+from .grouping_options import regroup_sources
 from .quality import q_Budak2021, q_sweep
 from .registry import evaluate_indices
 from .sources import SOURCE_METHODS, select_source_pixels
@@ -111,6 +117,10 @@ class Score:
     uncertainty_noise: dict = field(default_factory=dict)
     noise_bias: dict = field(default_factory=dict)
     noise_bias_standard_error: dict = field(default_factory=dict)
+    #: evalglare 3.06's optional analyses (band, zones, mask, task) and the per-source
+    #: ``-d`` columns, in the order of ``sources`` (:mod:`~lsadphoto.metrics.analyses`).
+    analyses: dict = field(default_factory=dict)
+    source_details: list = field(default_factory=list)
 
     def to_dict(self):
         """JSON-ready record: every metric at the top level (None where undefined)."""
@@ -131,9 +141,12 @@ class Score:
              "tau_deg": s.tau_deg, "max_luminance": s.max_luminance,
              "min_luminance": s.min_luminance, "n_pixels": s.n_pixels, "peak": s.peak,
              "position_direction": list(s.position_direction),
-             "position_pixel": None if s.position_pixel is None else list(s.position_pixel)}
-            for s in self.sources
+             "position_pixel": None if s.position_pixel is None else list(s.position_pixel),
+             **{k: clean(v) if k != "zone" else v for k, v in detail.items()}}
+            for s, detail in zip(self.sources, self.source_details or [{}] * len(self.sources),
+                                 strict=True)
         ]
+        out.update(_clean_record(self.analyses, clean))
         out["statistics"] = self.statistics
         if self.q_sweep is not None:
             out["q_sweep"] = self.q_sweep
@@ -141,6 +154,17 @@ class Score:
         out["provenance"] = self.provenance
         out["notes"] = list(self.notes)
         return out
+
+
+def _clean_record(record, clean):
+    """Floats of a nested record through ``clean`` (None where not finite)."""
+    if isinstance(record, dict):
+        return {k: _clean_record(v, clean) for k, v in record.items()}
+    if isinstance(record, list):
+        return [_clean_record(v, clean) for v in record]
+    if isinstance(record, float):
+        return clean(record)
+    return record
 
 
 @dataclass(frozen=True)
@@ -333,7 +357,10 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
               size_arcmin=10.0, q_weight_exponent=1, q_threshold="Adrian1989",
               q_cutoff="difference", dgp_coefficients="evalglare", vcp_constant=6.374,
               sweep=None, noise_samples=DEFAULT_NOISE_SAMPLES,
-              q_noise_samples=DEFAULT_Q_NOISE_SAMPLES, seed=DEFAULT_NOISE_SEED):
+              q_noise_samples=DEFAULT_Q_NOISE_SAMPLES, seed=DEFAULT_NOISE_SEED,
+              band_deg=None, zone_centre=None, zone_opening_deg=None, mask=None, age=None,
+              illuminance=None, illuminance_fill=None, low_light_correction=False,
+              checkfile=None, smooth=False, patch_deg=None):
     """Score a luminance map with every metric (see the module notes).
 
     Parameters
@@ -347,8 +374,10 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         Glare-source rule (:func:`~lsadphoto.metrics.sources.select_source_pixels`).
     source_threshold : float, optional
         Threshold [cd·m⁻²] (fixed) or factor (task, mean).
-    task_direction : array_like, shape (3,), optional
-        Task direction for the task rule (default: the line of sight).
+    task_direction : array_like, shape (3,) or (2,), optional
+        Task direction for the task rule (default: the line of sight), or an image point
+        (row, col); when given, the record holds ``task`` (evalglare ``-t``: its mean
+        luminance L_t) whatever the source rule.
     task_opening_deg : float
         Full opening angle of the task cone [deg].
     search_angle : float
@@ -367,7 +396,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         Restrict the evaluation to Guth's total (1) or central (2) field of view.
     n_thresholds, size_arcmin, q_weight_exponent, q_threshold, q_cutoff
         Options of the Q criterion (and N, α of the contrast source rule).
-    dgp_coefficients : {"evalglare", "Wienold2006"}
+    dgp_coefficients : {"evalglare", "Wienold2006"} or 8 numbers
+        evalglare ``-w``: a set name or (a1, a2, a3, a4, a5, c1, c2, c3).
     vcp_constant : float
         6.374 as published and in evalglare ≥ 2.07 (6.347 before its fix).
     sweep : sequence of float, optional
@@ -379,6 +409,34 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         Resampled maps for Q's noise (each a full Q evaluation); 0 switches it off.
     seed : int
         Seed of the noise resampling (the same draws in every run).
+    band_deg : float, optional
+        evalglare ``-B``: half-width [deg] of the horizontal band about the middle row;
+        gives ``band`` (:mod:`~lsadphoto.metrics.regions`).
+    zone_centre, zone_opening_deg : optional
+        evalglare ``-l``/``-L``: zone centre (direction X,Y,Z or image point (row, col)) and
+        one or two full opening angles [deg]; gives ``zones`` and splits the sources at
+        the zone borders (every index follows), each source with its ``zone``.
+    mask : ndarray or LuminanceMap, optional
+        evalglare ``-A``: a picture of the map's size, pixels above 0.1 cd·m⁻² selected (or
+        a boolean array); gives ``mask`` with PGSV, PGSV_sat and PGSV_con.
+    age : float, optional
+        Observer age [years]: CIE 146 age factor of the veiling luminance Lveil_cie.
+    illuminance : float, optional
+        evalglare ``-i``: external vertical illuminance [lx] used for DGP.
+    illuminance_fill : (float, int, int), optional
+        evalglare ``-I``: (E_v [lx], row_max, row_min), filling cut rows first
+        (:func:`~lsadphoto.metrics.corrections.fill_rows_evalglare`).
+    low_light_correction : bool
+        evalglare ``-C l+``: DGP with the low-light correction (off by default, as evalglare).
+    checkfile : path, optional
+        evalglare ``-c``: write the check picture there (:mod:`~lsadphoto.metrics.checkfile`)
+        once everything is computed.
+    smooth : bool
+        evalglare ``-s``: smoothing adds pixels around sources
+        (:mod:`~lsadphoto.metrics.grouping_options`).
+    patch_deg : float, optional
+        evalglare ``-z patch_deg 1``: sources are fixed patches of this size [deg] (angular
+        fisheye only).
 
     Returns
     -------
@@ -391,7 +449,19 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     check_choice(background_method, "background luminance method", BACKGROUND_METHODS)
     check_choice(position_index_method, "position index method", POSITION_INDEX_METHODS)
     check_choice(source_position, "source position", SOURCE_POSITIONS)
-    check_choice(dgp_coefficients, "DGP coefficient set", tuple(DGP_COEFFICIENTS))
+    coefficients = dgp_coefficients_of(dgp_coefficients)
+    region_mask = mask  # the evalglare -A mask (``mask`` below is the glare-source mask)
+    if checkfile is not None:
+        checkfile = check_checkfile_path(checkfile)
+    if illuminance_fill is not None:
+        if illuminance is not None:
+            raise BadInputError("give either illuminance (-i) or illuminance_fill (-I), not both")
+        if len(illuminance_fill) != 3:
+            raise BadInputError("illuminance_fill is (E_v, row_max, row_min), got "
+                                f"{illuminance_fill!r}")
+        illuminance = illuminance_fill[0]
+    if illuminance is not None:
+        illuminance = check_positive(illuminance, "external vertical illuminance")
     if guth_field not in (None, 1, 2):
         raise BadInputError(f"guth_field must be 1, 2 or None, got {guth_field!r}")
     frame = _frame(lmap, line_of_sight, up)
@@ -405,7 +475,11 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         evaluated = geometry.valid & guth_field_mask(vf.sigma, vf.tau, kind=guth_field)
     # One pass: the valid pixels (in the evaluated part of the picture, finite luminance, in
     # front of the observer), the luminance (NaN elsewhere) and solid angle (0 elsewhere).
-    valid, luminance, omega = _field_inputs(np.asarray(lmap.luminance), evaluated,
+    image = np.asarray(lmap.luminance)
+    if illuminance_fill is not None:
+        image = fill_rows_evalglare(image, geometry.valid & (vf.cos_sigma >= 0),
+                                    row_max=illuminance_fill[1], row_min=illuminance_fill[2])
+    valid, luminance, omega = _field_inputs(image, evaluated,
                                             geometry.solid_angle, vf.cos_sigma)
     pindex = vf.position_index
     notes = []
@@ -417,9 +491,13 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         "source_position": source_position,
         "guth_field": guth_field, "n_thresholds": float(n_thresholds),
         "size_arcmin": float(size_arcmin), "q_weight_exponent": q_weight_exponent,
-        "q_threshold": q_threshold, "q_cutoff": q_cutoff, "dgp_coefficients": dgp_coefficients,
-        "vcp_constant": float(vcp_constant),
+        "q_threshold": q_threshold, "q_cutoff": q_cutoff,
+        "dgp_coefficients": dgp_coefficients if isinstance(dgp_coefficients, str) else
+        list(coefficients), "vcp_constant": float(vcp_constant), "illuminance": illuminance,
+        "low_light_correction": bool(low_light_correction),
     }
+    if task_direction is not None:
+        task_direction = centre_direction(task_direction, lmap.projection, "task centre")
     task = None
     if source_method == "task":
         task = frame.axes()[0] if task_direction is None else task_direction
@@ -435,8 +513,28 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     groups, labels = group_sources_evalglare(luminance, geometry.directions, omega, mask,
                                              search_angle=search_angle,
                                              peak_luminance=peak_luminance)
-    sources = _scored_sources(groups, geometry, frame, position_index_method=position_index_method,
-                              source_position=source_position, notes=notes)
+    if smooth or patch_deg is not None:
+        groups, labels = regroup_sources(luminance, geometry.directions, omega, mask, valid,
+                                         projection=lmap.projection, search_angle=search_angle,
+                                         peak_luminance=peak_luminance, smooth=smooth,
+                                         patch_deg=patch_deg)
+    sources = unsplit_sources = _scored_sources(
+        groups, geometry, frame, position_index_method=position_index_method,
+        source_position=source_position, notes=notes)
+    zones = source_zones = None
+    if zone_opening_deg is not None or zone_centre is not None:
+        if zone_opening_deg is None or zone_centre is None:
+            raise BadInputError("zones need both a centre and opening angles")
+        zones, labels, parent, source_zones = zone_split(
+            labels, directions=geometry.directions, valid=valid, projection=lmap.projection,
+            zone_centre=zone_centre, zone_opening_deg=zone_opening_deg)
+        groups = describe_sources(labels, len(parent), luminance, geometry.directions, omega,
+                                  [groups[k].peak for k in parent])
+        sources = _scored_sources(groups, geometry, frame,
+                                  position_index_method=position_index_method,
+                                  source_position=source_position, notes=[])
+        settings["zones"] = {"centre": list(np.asarray(zone_centre, dtype=float)),
+                             "opening_deg": list(np.atleast_1d(zone_opening_deg).astype(float))}
     s_l = np.array([s.luminance for s in sources])
     s_w = np.array([s.solid_angle for s in sources])
     s_p = np.array([s.position_index for s in sources])
@@ -446,9 +544,23 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     def indices(field, source_luminance):
         quantities = field.quantities(background_method)
         quantities["sources"] = (source_luminance, s_w, s_p)
+        quantities["dgp_illuminance"] = quantities["vertical_illuminance"] if illuminance is \
+            None else illuminance
         return evaluate_indices(quantities, settings)
 
     values = indices(sums, s_l)
+    analyses, details, regions, extra = evalglare_analyses(
+        luminance=luminance, solid_angle=omega, directions=geometry.directions,
+        cos_sigma=vf.cos_sigma, valid=valid, projection=lmap.projection,
+        labels=labels, sources=sources, unsplit_sources=unsplit_sources,
+        values=dict(values, dgp_raw=dgp_Wienold2006(values["vertical_illuminance"], s_l, s_w,
+                                                    s_p, coefficients=coefficients)),
+        dgp_coefficients=coefficients, zones=zones, source_zones=source_zones,
+        band_deg=band_deg, mask=region_mask, task_direction=task_direction,
+        task_opening_deg=task_opening_deg, age=age)
+    values.update(extra)
+    settings.update(band_deg=band_deg, mask=region_mask is not None, age=age, smooth=bool(smooth),
+                    patch_deg=patch_deg)
     quality = q_Budak2021(luminance, geometry.directions, omega, pindex,
                           n_thresholds=n_thresholds, size_arcmin=size_arcmin,
                           weight_exponent=q_weight_exponent, threshold=q_threshold,
@@ -521,9 +633,17 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     provenance.update({"map": lmap.provenance, "calibration_factor": lmap.calibration_factor,
                        "calibration_uncertainty": lmap.calibration_uncertainty,
                        "calibrated": lmap.calibrated, "projection": lmap.projection.to_dict()})
+    statistics = luminance_statistics(luminance, omega, vf.cos_sigma)
+    # evalglare's Max_Lum: the largest luminance of the evaluated field [cd·m⁻²].
+    values["max_luminance"] = statistics["field"]["max"] if statistics["field"]["max"] \
+        is not None else math.nan
+    if checkfile is not None:
+        write_checkfile(checkfile, check_picture(luminance, labels=labels, zones=zones,
+                                                 **regions), projection=lmap.projection)
     return Score(values=values, uncertainty=uncertainty, sources=sources, source_mask=mask,
                  source_labels=labels, contrast=quality.contrast,
-                 statistics=luminance_statistics(luminance, omega, vf.cos_sigma),
+                 statistics=statistics,
                  settings=settings, provenance=provenance, notes=notes, q_sweep=sweep_record,
                  uncertainty_calibration=calibration, uncertainty_noise=noise, noise_bias=bias,
-                 noise_bias_standard_error=bias_error)
+                 noise_bias_standard_error=bias_error, analyses=analyses,
+                 source_details=details)

@@ -191,8 +191,8 @@ def read_exposure_metadata(path, raw=None):
     yres, _ = _exif_number(tags, "FocalPlaneYResolution")
     unit_tag = tags.get("EXIF FocalPlaneResolutionUnit") or tags.get("Image FocalPlaneResolutionUnit")
     if xres and yres and unit_tag is not None:
-        unit = int(unit_tag.values[0])
-        per_mm = {2: 1 / 25.4, 3: 1 / 10.0, 4: 1.0}.get(unit)
+        values = unit_tag.values if isinstance(unit_tag.values, list) else []  # empty in a corrupt file
+        per_mm = {2: 1 / 25.4, 3: 1 / 10.0, 4: 1.0}.get(values[0] if values else None)
         if per_mm:
             meta.focal_plane_resolution = (xres * per_mm, yres * per_mm)
     for name in ("camera", "lens", "time"):

@@ -13,6 +13,6 @@ from .._lazy import lazy_exports
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
     ".figures": ["write_glare_source_png", "write_contrast_png", "write_ratio_png"],
-    ".html": ["write_survey_report", "write_comparison_report"],
+    ".html": ["write_survey_report", "write_comparison_report", "check_survey_folder"],
     ".plots": ["figure_ratings_vs_metric", "figure_r_vs_n", "figure_q_vs_ugr"],
 })

@@ -38,21 +38,12 @@ import numpy as np
 from .._version import __version__
 from .._atomic import atomic_text
 
-__all__ = ["write_survey_report", "write_comparison_report", "KEY_METRICS"]
+__all__ = ["write_survey_report", "write_comparison_report", "check_survey_folder", "KEY_METRICS"]
 
-#: Scalar metrics shown in the summary tables: (column of metrics.csv, label, unit).
-KEY_METRICS = (
-    ("ugr_pixel", "UGR, pixel-wise", "–"),
-    ("ugr_grouped", "UGR, grouped sources", "–"),
-    ("q", "Q", "–"),
-    ("dgp", "DGP", "–"),
-    ("vertical_illuminance", "vertical illuminance", "lx"),
-    ("background_luminance", "background luminance", "cd/m²"),
-)
-
-#: Further metrics of the comparison table (keys of Comparison.metrics).
-_OTHER_METRICS = {"mean_luminance": ("mean luminance", "cd/m²"), "dgi": ("DGI", "–"),
-                  "ugp": ("UGP", "–"), "cgi": ("CGI", "–")}
+#: Scalar metrics shown in the summary tables (columns of metrics.csv); their labels and
+#: units come from :data:`lsadphoto.metrics.registry.METRICS`.
+KEY_METRICS = ("ugr_pixel", "ugr_grouped", "q", "dgp", "vertical_illuminance",
+               "background_luminance")
 
 #: Columns naming the view in metrics.csv, in order of preference.
 _ID_COLUMNS = ("view", "scene")
@@ -295,10 +286,8 @@ class _Survey:
         self.columns, self.rows, self.id_column = [], [], None
         self.metrics_sha256 = None
         self.failures = []
-        self.rating_sem = {}
         self._read_metrics()
         self._read_failures()
-        self._read_ratings()
 
     def _read_metrics(self):
         path = self.directory / "metrics.csv"
@@ -335,25 +324,6 @@ class _Survey:
                 view, sep, reason = line.partition(": ")
                 self.failures.append((view, reason) if sep else ("", line))
 
-    def _read_ratings(self):
-        """Standard error of the mean rating per view, from ratings.csv (if any)."""
-        path = self.directory / "ratings.csv"
-        if not path.is_file():
-            return
-        by_view = {}
-        try:
-            with open(path, newline="", encoding="utf-8-sig") as handle:
-                for row in csv.DictReader(handle):
-                    value = _number(row.get("rating"))
-                    if value is not None:
-                        by_view.setdefault((row.get("scene") or "").strip(), []).append(value)
-        except (OSError, UnicodeDecodeError, csv.Error) as error:
-            self.notes.append(f"ratings.csv could not be read: {error}")
-            return
-        for view, values in by_view.items():
-            if len(values) > 1:
-                self.rating_sem[view] = float(np.std(values, ddof=1) / math.sqrt(len(values)))
-
     def ids(self):
         if self.id_column is None:
             return [f"row {i + 1}" for i in range(len(self.rows))]
@@ -370,36 +340,30 @@ class _Survey:
     def rating_column(self):
         return next((c for c in _RATING_COLUMNS if self.has(c)), None)
 
-    def sweep(self):
-        """[(N, column)] of the Q(N) sweep columns, sorted by N."""
-        found = []
-        for column in self.columns:
-            if column.startswith(_SWEEP_PREFIX):
-                n = _number(column[len(_SWEEP_PREFIX):])
-                if n is not None:
-                    found.append((n, column))
-        return sorted(found)
+    def _outputs(self, view):
+        """``{kind: Path}`` of a view's files, as its done marker lists them (the survey's
+        :class:`~lsadphoto.survey.ViewLayout` names them; the report only reads the marker)."""
+        root = (self.directory / "views").resolve()
+        try:
+            folder = (root / view).resolve()
+            marker = json.loads((folder / f"{view}-done.json").read_text(encoding="utf-8"))
+            names = marker["outputs"]
+            paths = {kind: (folder / name).resolve() for kind, name in names.items()}
+        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+            return {}
+        # Only files inside the view's folder (a marker is data, and data may be hostile).
+        return {k: p for k, p in paths.items() if p.parent == folder and p.is_file()}
 
     def view_file(self, view, kind):
-        """Path of views/<id>/<id>-<kind>.png if it is a file inside views/, else None."""
-        root = (self.directory / "views").resolve()
-        try:
-            path = (root / view / f"{view}-{kind}.png").resolve()
-        except (OSError, ValueError):
-            return None
-        if root not in path.parents or not path.is_file():
-            return None
-        return path
+        """Path of the view's output of this kind (e.g. ``sources``) if it is there, else None."""
+        return self._outputs(view).get(kind)
 
     def score_record(self, view):
-        root = (self.directory / "views").resolve()
+        path = self.view_file(view, "score")
         try:
-            path = (root / view / f"{view}-score.json").resolve()
-            if root in path.parents and path.is_file():
-                return json.loads(path.read_text(encoding="utf-8"))
+            return None if path is None else json.loads(path.read_text(encoding="utf-8"))
         except (OSError, ValueError):
             return None
-        return None
 
 
 def _study_dict(study):
@@ -412,6 +376,34 @@ def _study_dict(study):
         return study
     raise TypeError(f"study must be a StudyResult, its to_dict() or None, got "
                     f"{type(study).__name__}")
+
+
+def _survey_study(survey, study):
+    """The study record the report shows, why there is none, and a note if it was made here.
+
+    Every statistic of the report comes from :func:`lsadphoto.study.run_study`: the one
+    given, or, without one, a run on the survey's own ``ratings.csv`` and ``metrics.csv``
+    (without the jitter and bootstrap checks, which take the study command's options).
+    """
+    if study is not None:
+        return _study_dict(study), None, None
+    ratings, metrics = survey.directory / "ratings.csv", survey.directory / "metrics.csv"
+    if not ratings.is_file():
+        return None, ("no observer ratings (the survey folder has no ratings.csv: views get "
+                      "ratings in the manifest) and no study result was given"), None
+    if not metrics.is_file():
+        return None, "no metrics.csv (no view was processed)", None
+    from ..errors import BadInputError
+    from ..study import run_study
+
+    try:
+        result = run_study(ratings, metrics, n_jitter=0, n_bootstrap=0)
+    except BadInputError as error:
+        return None, f"the observer study could not be computed: {error}", None
+    return result.to_dict(), None, (
+        "Computed here by lsadphoto.study from the survey's ratings.csv and metrics.csv, "
+        "without the rating-jitter and bootstrap checks: `lsadphoto study ratings.csv "
+        "metrics.csv --report FOLDER` adds them.")
 
 
 def _floats(values):
@@ -439,10 +431,10 @@ def _summary_section(survey, study):
                                   "no view finished" + (" — every view failed (see Failures)"
                                                         if survey.failures else "")))
         return _section("summary", "Summary", *parts)
-    metrics = [(c, label, unit) for c, label, unit in KEY_METRICS if c in survey.columns]
+    metrics = [(c, *_label_unit(c)) for c in KEY_METRICS if c in survey.columns]
     if not metrics:
         parts.append(_note("metrics.csv has none of the key metric columns ("
-                           + ", ".join(c for c, _, _ in KEY_METRICS) + ")"))
+                           + ", ".join(KEY_METRICS) + ")"))
     headers = ["view"] + [f"{label} [{unit}]" for _, label, unit in metrics]
     numeric = set(range(1, len(headers) + 1))
     if rating_column:
@@ -480,112 +472,57 @@ def _summary_section(survey, study):
     return _section("summary", "Summary", *parts)
 
 
-def _fig1(survey, study):
+def _fig1(study, why_no_study):
     from .plots import figure_ratings_vs_metric
 
+    what = "Fig. 1 (ratings against Q)"
+    if study is None or not study.get("scenes"):
+        return _unavailable(what, why_no_study)
     caption = ("Fig. 1 — mean observer rating against the quality criterion, one point per "
                "scene, error bars the standard error of the mean rating, red the "
                "least-squares line.")
-    if study is not None and study.get("scenes"):
-        metric = study.get("metric") or "q"
-        scenes = study["scenes"]
-        x = _floats([s.get(metric) for s in scenes])
-        y = _floats([s.get("mean") for s in scenes])
-        sem = _floats([s.get("sem") for s in scenes])
-        stats = (study.get("correlations") or {}).get(metric) or {}
-        png, why = _draw(figure_ratings_vs_metric, x, y, sem=sem,
-                         labels=[s.get("scene") for s in scenes],
-                         metric_name=_metric_label(metric).replace(" [–]", ""),
-                         r=_number(stats.get("pearson_r")))
-        source = f"Data: the observer study (metric {metric!r}, {len(scenes)} scenes)."
-    else:
-        rating_column = survey.rating_column()
-        if rating_column is None:
-            return _unavailable("Fig. 1 (ratings against Q)",
-                                "no observer ratings — metrics.csv has no rating_mean column "
-                                "with values and no study result was given")
-        if not survey.has("q"):
-            return _unavailable("Fig. 1 (ratings against Q)", "metrics.csv has no Q values")
-        ids = survey.ids()
-        x, y = survey.column("q"), survey.column(rating_column)
-        ok = np.isfinite(x) & np.isfinite(y)
-        if ok.sum() < 2:
-            return _unavailable("Fig. 1 (ratings against Q)",
-                                f"only {int(ok.sum())} view(s) have both Q and ratings")
-        sem = np.array([survey.rating_sem.get(v, np.nan) for v in ids])
-        png, why = _draw(figure_ratings_vs_metric, x[ok], y[ok], sem=sem[ok],
-                         labels=[v for v, k in zip(ids, ok) if k], metric_name="Q")
-        source = (f"Data: metrics.csv columns q and {rating_column} ({int(ok.sum())} views)"
-                  + ("; standard errors from ratings.csv." if survey.rating_sem else
-                     "; no ratings.csv, so no error bars."))
+    metric = study.get("metric") or "q"
+    scenes = study["scenes"]
+    x = _floats([s.get(metric) for s in scenes])
+    y = _floats([s.get("mean") for s in scenes])
+    sem = _floats([s.get("sem") for s in scenes])
+    stats = (study.get("correlations") or {}).get(metric) or {}
+    png, why = _draw(figure_ratings_vs_metric, x, y, sem=sem,
+                     labels=[s.get("scene") for s in scenes],
+                     metric_name=_metric_label(metric).replace(" [–]", ""),
+                     r=_number(stats.get("pearson_r")))
     if png is None:
-        return _unavailable("Fig. 1 (ratings against Q)", why)
-    return _figure_html(png, f"{caption} {source}")
+        return _unavailable(what, why)
+    return _figure_html(png, f"{caption} Data: the observer study (metric {metric!r}, "
+                             f"{len(scenes)} scenes).")
 
 
-def _survey_sweep(survey):
-    """r(N) from the survey's sweep columns and mean ratings, or (None, reason)."""
-    from ..study.correlation import fisher_interval_Fisher1921, pearson_r
-
-    sweep = survey.sweep()
-    rating_column = survey.rating_column()
-    if rating_column is None:
-        return None, "no observer ratings (no rating_mean column and no study result)"
-    if not sweep:
-        return None, f"metrics.csv has no Q(N) sweep columns ({_SWEEP_PREFIX}1 … {_SWEEP_PREFIX}100)"
-    y = survey.column(rating_column)
-    x = np.column_stack([survey.column(c) for _, c in sweep])
-    ok = np.isfinite(y) & np.all(np.isfinite(x), axis=1)
-    n = int(ok.sum())
-    if n < 3:
-        return None, f"only {n} view(s) have ratings and a complete sweep; r needs 3"
-    with np.errstate(invalid="ignore", divide="ignore"):
-        r = np.array([float(pearson_r(x[ok, j], y[ok])) for j in range(x.shape[1])])
-    intervals = [fisher_interval_Fisher1921(v, n) if math.isfinite(v) else (math.nan, math.nan)
-                 for v in r]
-    finite = np.isfinite(r)
-    best = int(np.nanargmax(np.where(finite, r, -np.inf))) if finite.any() else None
-    return {"n": [v for v, _ in sweep], "r": r, "ci_low": [lo for lo, _ in intervals],
-            "ci_high": [hi for _, hi in intervals], "views": n,
-            "best": None if best is None else {"n": sweep[best][0], "r": r[best],
-                                                 "ci": intervals[best]}}, None
-
-
-def _fig2(survey, study):
+def _fig2(study, why_no_study):
     from .plots import figure_r_vs_n
 
     what = "Fig. 2 (r against N)"
+    if study is None:
+        return _unavailable(what, why_no_study)
+    sweep = study.get("sweep")
+    if not sweep:
+        return _unavailable(what, "the study has no sweep (no q_n<N> columns in its metrics "
+                                  "table)")
     caption = ("Fig. 2 — Pearson r between Q(N) and the mean ratings against the number of "
                "thresholds N; shaded the 95 % Fisher-z band, dashed the best N.")
-    if study is not None and study.get("sweep"):
-        sweep = study["sweep"]
-        best = sweep.get("best") or {}
-        loo = (study.get("leave_one_out") or {}).get("chosen_n")
-        confidence = (study.get("provenance") or {}).get("arguments", {}).get("confidence", 0.95)
-        png, why = _draw(figure_r_vs_n, _floats(sweep.get("n", [])), _floats(sweep.get("r", [])),
-                         ci_low=_floats(sweep.get("ci_low", [])),
-                         ci_high=_floats(sweep.get("ci_high", [])),
-                         best_n=_number(best.get("n")), best_r=_number(best.get("r")),
-                         loo_chosen_n=loo, confidence=_number(confidence) or 0.95)
-        source = (f"Data: the observer study ({len(sweep.get('n', []))} values of N, best N "
-                  f"chosen as the {sweep.get('direction', 'positive')} extreme; green ticks: "
-                  "N chosen in each leave-one-scene-out fold).")
-    else:
-        if study is not None:
-            reason = "the study has no sweep (no q_n<N> columns in its metrics table)"
-            data, why = None, reason
-        else:
-            data, why = _survey_sweep(survey)
-        if data is None:
-            return _unavailable(what, why)
-        best = data["best"] or {}
-        png, why = _draw(figure_r_vs_n, data["n"], data["r"], ci_low=data["ci_low"],
-                         ci_high=data["ci_high"], best_n=best.get("n"), best_r=best.get("r"))
-        source = (f"Data: metrics.csv sweep columns and mean ratings ({data['views']} views); "
-                  "best N = largest r.")
+    best = sweep.get("best") or {}
+    loo = (study.get("leave_one_out") or {}).get("chosen_n")
+    confidence = (study.get("provenance") or {}).get("arguments", {}).get("confidence", 0.95)
+    png, why = _draw(figure_r_vs_n, _floats(sweep.get("n", [])), _floats(sweep.get("r", [])),
+                     ci_low=_floats(sweep.get("ci_low", [])),
+                     ci_high=_floats(sweep.get("ci_high", [])),
+                     best_n=_number(best.get("n")), best_r=_number(best.get("r")),
+                     loo_chosen_n=loo, confidence=_number(confidence) or 0.95)
     if png is None:
         return _unavailable(what, why)
-    return _figure_html(png, f"{caption} {source}")
+    return _figure_html(png, f"{caption} Data: the observer study ({len(sweep.get('n', []))} "
+                             f"values of N, best N chosen as the "
+                             f"{sweep.get('direction', 'positive')} extreme; green ticks: N "
+                             "chosen in each leave-one-scene-out fold).")
 
 
 def _fig4(survey):
@@ -615,8 +552,9 @@ def _fig4(survey):
                              f"metrics.csv columns {ugr} and q ({int(ok.sum())} views).")
 
 
-def _figures_section(survey, study):
-    parts = [_Html('<div class="figures">'), _fig1(survey, study), _fig2(survey, study),
+def _figures_section(survey, study, why_no_study):
+    parts = [_Html('<div class="figures">'), _fig1(study, why_no_study),
+             _fig2(study, why_no_study),
              _fig4(survey), _Html("</div>")]
     n_sources = sum(1 for v in survey.ids() if survey.view_file(v, "sources"))
     parts.append(_tag("p", f"Fig. 3 — the glare-source maps — is drawn per view: "
@@ -638,7 +576,8 @@ def _gallery_section(survey, max_views):
                            f"(max_gallery_views={max_views})"))
     for view, row in zip(shown, survey.rows):
         facts = [f"{label} {_fmt_pm(row.get(c), row.get(f'{c}_u'))}"
-                 for c, label, _ in KEY_METRICS[:4] if _number(row.get(c)) is not None]
+                 for c, (label, _) in ((c, _label_unit(c)) for c in KEY_METRICS[:4])
+                 if _number(row.get(c)) is not None]
         cells = []
         for kind, caption in _GALLERY:
             path = survey.view_file(view, kind) if survey.id_column else None
@@ -651,8 +590,9 @@ def _gallery_section(survey, max_views):
             if png is not None and png.startswith(_PNG_SIGNATURE):
                 cells.append(_figure_html(png, caption))
             else:
-                cells.append(_Html("<figure>" + _unavailable(caption, f"no {view}-{kind}.png")
-                                   + "</figure>"))
+                cells.append(_Html("<figure>" + _unavailable(
+                    caption, "not among the view's outputs (none listed by its done marker)")
+                    + "</figure>"))
         parts.append(_Html('<div class="view">' + _tag("h3", view)
                            + (_tag("p", "; ".join(facts)) if facts else "")
                            + '<div class="triple">' + "".join(cells) + "</div></div>"))
@@ -681,47 +621,10 @@ def _correlation_table(correlations, confidence):
                   numeric={1, 2, 3, 4, 6, 7, 8, 9})
 
 
-def _study_section(survey, study):
+def _study_section(study, why_no_study, computed_here):
     if study is None:
-        parts = [_note("No observer-study result was given: the table below is computed here "
-                       "from metrics.csv; jitter, bootstrap and the leave-one-out choice of N "
-                       "need `lsadphoto study` (or write_survey_report(..., study=...)).")]
-        rating_column = survey.rating_column()
-        if rating_column is None:
-            return _section("study", "Observer-study statistics",
-                            _unavailable("Observer-study statistics", "no observer ratings"))
-        from ..errors import BadInputError
-        from ..study.correlation import correlate
-
-        y = survey.column(rating_column)
-        correlations = {}
-        for column in [c for c, _, _ in KEY_METRICS] + [c for c in survey.columns
-                                                          if c in _OTHER_METRICS]:
-            if not survey.has(column):
-                continue
-            x = survey.column(column)
-            ok = np.isfinite(x) & np.isfinite(y)
-            if ok.sum() < 3:
-                continue
-            try:
-                with warnings.catch_warnings():
-                    warnings.simplefilter("ignore")
-                    correlations[column] = correlate(x[ok], y[ok])
-            except BadInputError:
-                continue
-        if not correlations:
-            parts.append(_unavailable("The correlation table",
-                                      "fewer than 3 views have both a metric and ratings"))
-        else:
-            parts.append(_tag("h3", f"Correlation with the mean rating ({rating_column})"))
-            parts.append(_correlation_table(correlations, 0.95))
-        data, _ = _survey_sweep(survey)
-        if data is not None and data["best"]:
-            b = data["best"]
-            parts.append(_tag("p", f"Best N (largest r over the sweep): N = {_fmt(b['n'])}, "
-                                   f"r = {_fmt_r(b['r'])}, 95 % CI {_fmt_ci(b['ci'])}."))
-        return _section("study", "Observer-study statistics", *parts)
-
+        return _section("study", "Observer-study statistics",
+                        _unavailable("Observer-study statistics", why_no_study))
     from ..study.correlation import chaddock_label
 
     arguments = (study.get("provenance") or {}).get("arguments") or {}
@@ -729,6 +632,8 @@ def _study_section(survey, study):
     metric = study.get("metric")
     parts = [_tag("p", f"Metric analysed in detail: {metric}; {len(study.get('scenes') or [])} "
                        f"scenes; intervals at {100 * confidence:g} %.")]
+    if computed_here:
+        parts.insert(0, _note(computed_here))
     parts += [_note(n) for n in study.get("notes") or []]
     correlations = study.get("correlations") or {}
     parts.append(_tag("h3", "Correlation of each metric with the mean rating"))
@@ -849,6 +754,28 @@ def _provenance_section(survey, study, extra):
 # --------------------------------------------------------------------------- entry points
 
 
+def check_survey_folder(survey_dir, *, option=None):
+    """The survey output folder ``survey_dir`` as a Path; one-line error if it is no folder.
+
+    A folder without ``metrics.csv`` is accepted (its report says that nothing was
+    processed); a path that does not exist is a typo, not an empty survey.
+
+    Parameters
+    ----------
+    survey_dir : path-like
+    option : str, optional
+        The command-line option that gave the folder, named in the message.
+    """
+    survey_dir = Path(survey_dir)
+    if not survey_dir.is_dir():
+        from ..errors import BadInputError
+
+        state = "is not a folder" if survey_dir.exists() else "does not exist"
+        given = f" ({option} takes the output folder of `lsadphoto survey`)" if option else ""
+        raise BadInputError(f"survey folder {survey_dir} {state}{given}")
+    return survey_dir
+
+
 def write_survey_report(survey_dir, path=None, *, study=None, title=None,
                         max_gallery_views=None):
     """Write one self-contained HTML report of a survey folder (and its observer study).
@@ -870,8 +797,9 @@ def write_survey_report(survey_dir, path=None, *, study=None, title=None,
         HTML file to write (atomically); default ``survey_dir/report.html``.
     study : StudyResult or dict, optional
         Result of :func:`lsadphoto.study.run_study` or its ``to_dict()``: Figures 1–2 and
-        the statistics then come from it. Without one, Figures 1–2 and a correlation table
-        are computed from ``metrics.csv`` where it has ratings.
+        the statistics come from it. Without one, :func:`~lsadphoto.study.run_study` is run
+        here on the folder's ``ratings.csv`` and ``metrics.csv`` (without the jitter and
+        bootstrap checks); the report never computes a statistic itself.
     title : str, optional
         Heading (default: "Survey report — <folder name>").
     max_gallery_views : int, optional
@@ -887,7 +815,7 @@ def write_survey_report(survey_dir, path=None, *, study=None, title=None,
     ----------
     Budak, V. P. et al. (2020), GraphiCon 2020, CEUR Vol-2744 short35, Figures 1–4.
     """
-    survey_dir = Path(survey_dir)
+    survey_dir = check_survey_folder(survey_dir)
     path = Path(path) if path is not None else survey_dir / "report.html"
     if max_gallery_views is not None and (isinstance(max_gallery_views, bool)
                                           or int(max_gallery_views) != max_gallery_views
@@ -896,17 +824,17 @@ def write_survey_report(survey_dir, path=None, *, study=None, title=None,
 
         raise BadInputError(f"max_gallery_views must be a non-negative integer or None, got "
                             f"{max_gallery_views!r}")
-    study_dict = _study_dict(study)
     survey = _Survey(survey_dir)
+    study_dict, why_no_study, computed_here = _survey_study(survey, study)
     title = title or f"Survey report — {survey_dir.resolve().name}"
     generated = _now()
     extra = {"generated": generated, "survey folder": str(survey_dir.resolve()),
              "metrics.csv sha256": survey.metrics_sha256 or "—"}
     sections = [_summary_section(survey, study_dict),
-                _figures_section(survey, study_dict),
+                _figures_section(survey, study_dict, why_no_study),
                 _gallery_section(survey, max_gallery_views),
                 _failures_section(survey),
-                _study_section(survey, study_dict),
+                _study_section(study_dict, why_no_study, computed_here),
                 _provenance_section(survey, study_dict, extra)]
     nav = [("summary", "Summary"), ("figures", "Figures"), ("gallery", "Views"),
            ("failures", "Failures"), ("study", "Study statistics"),
@@ -917,11 +845,16 @@ def write_survey_report(survey_dir, path=None, *, study=None, title=None,
     return path
 
 
+def _label_unit(key):
+    """Label and unit of a metric from the registry (the key itself if it is not listed)."""
+    from ..metrics.registry import METRICS
+
+    entry = METRICS.get(key)
+    return (entry.label, entry.unit) if entry is not None else (key, "")
+
+
 def _metric_label(key):
-    for column, label, unit in KEY_METRICS:
-        if column == key:
-            return f"{label} [{unit}]"
-    label, unit = _OTHER_METRICS.get(key, (key, None))
+    label, unit = _label_unit(key)
     return f"{label} [{unit}]" if unit else label
 
 

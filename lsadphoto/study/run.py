@@ -140,20 +140,23 @@ class StudyResult:
         plot = self._plot
         written = []
         stats = self.correlations[self.metric]
+        r = stats["pearson_r"]
+        # Undefined correlations (a constant metric or constant ratings) are drawn, and said.
+        strength = "r undefined" if math.isnan(r) else f"r = {r:.3f} ({stats['chaddock']})"
         path = outdir / f"scatter_{self.metric}.png"
         write_scatter_png(plot["metric"], plot["mean"], path, sem=plot["sem"],
                           labels=plot["scenes"], metric_name=self.metric,
-                          title=f"{self.metric}: r = {stats['pearson_r']:.3f} "
-                                f"({stats['chaddock']}), n = {stats['n']}", dpi=dpi)
+                          title=f"{self.metric}: {strength}, n = {stats['n']}", dpi=dpi)
         written.append(path)
         if self.sweep is not None:
             path = outdir / "r_vs_n.png"
             best = self.sweep["best"]
             loo = None if self.leave_one_out is None else self.leave_one_out["chosen_n"]
+            title = ("r(N): no best N (every r undefined)" if best is None else
+                     f"r(N): best N = {best['n']}, r = {best['r']:.3f}")
             write_sweep_png(self.sweep["n"], plot["sweep_r"], path, ci_low=plot["sweep_low"],
-                            ci_high=plot["sweep_high"], best_n=best["n"], loo_chosen_n=loo,
-                            title=f"r(N): best N = {best['n']}, r = {best['r']:.3f}",
-                            dpi=dpi)
+                            ci_high=plot["sweep_high"], best_n=None if best is None else best["n"],
+                            loo_chosen_n=loo, title=title, dpi=dpi)
             written.append(path)
         return written
 
@@ -249,6 +252,10 @@ def run_study(ratings_csv, metrics_csv, *, metric="q", sweep_prefix="q_n", jitte
     metrics, unrated = rated_scenes_only(read_metrics(metrics_csv), ratings)
     summary = scene_ratings(ratings, metrics)
     n_scenes = len(metrics.scenes)
+    if n_scenes < MIN_SCENES and unrated:  # the ratings cover too few of the scenes
+        raise BadInputError(f"{ratings.path}: rates {n_scenes} of the "
+                            f"{n_scenes + len(unrated)} scene(s) of {metrics.path}; a "
+                            f"correlation needs at least {MIN_SCENES} rated scenes")
     if n_scenes < MIN_SCENES:
         raise BadInputError(f"{metrics.path}: {n_scenes} scene(s); a correlation needs at "
                             f"least {MIN_SCENES}")
@@ -264,6 +271,10 @@ def run_study(ratings_csv, metrics_csv, *, metric="q", sweep_prefix="q_n", jitte
                      f"out: {', '.join(unrated)}")
     if n_scenes < 4:
         notes.append("fewer than 4 scenes: no Fisher interval and no leave-one-out check")
+    constant_ratings = bool(np.ptp(summary.mean) == 0)
+    if constant_ratings:
+        notes.append(f"the mean rating is the same for every scene ({summary.mean[0]:g}): "
+                     "every correlation with the ratings is undefined (null)")
 
     # 1–2. Scenes and correlations of every (non-sweep) metric column.
     scenes = [{"scene": s, "mean": summary.mean[i], "sd": summary.sd[i], "n": summary.n[i],
@@ -299,7 +310,9 @@ def run_study(ratings_csv, metrics_csv, *, metric="q", sweep_prefix="q_n", jitte
                      for r in r_sweep]
         best = int(best_index(r_sweep, direction=direction))
         if best < 0:
-            notes.append("every sweep column is constant: no best N")
+            notes.append("no best N: r(N) is undefined for every N ("
+                         + ("the ratings are constant)" if constant_ratings
+                            else "every sweep column is constant)"))
         sweep_result = {
             "prefix": sweep_prefix,
             "direction": direction,

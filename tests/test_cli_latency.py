@@ -1,0 +1,55 @@
+"""What a ``lsadphoto score`` process loads: only what scoring needs.
+
+A user waits for the whole process; a heavy library imported but unused costs every run
+(docs/performance.md, "Latency of a whole score process"). The process below is the console
+script's (``main()`` reading ``sys.argv``), on a Radiance fisheye picture, and must not import
+any module that scoring does not use. Before the package's names were imported lazily it
+loaded every module listed here.
+"""
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+
+from lsadphoto.datasets import disk_sources_scene
+from lsadphoto.geometry import IdealFisheyeProjection
+from lsadphoto.io import write_hdr
+from lsadphoto.luminance_map import LuminanceMap
+
+#: Modules a score run without figure options has no use for: RAW decoding and its metadata
+#: readers, OpenEXR (the input is HDR), plotting, the k-d tree and other SciPy subpackages
+#: (numba itself loads scipy.linalg for its BLAS bindings), survey executors, and the
+#: package's own stages that scoring does not touch.
+UNUSED = ["rawpy", "tifffile", "exifread", "OpenEXR", "matplotlib", "PIL", "colour", "dask",
+          "pandas", "scipy.spatial", "scipy.sparse", "scipy.ndimage", "scipy.stats",
+          "scipy.optimize", "lsadphoto.raw.decode", "lsadphoto.calibrate", "lsadphoto.report",
+          "lsadphoto.solver", "lsadphoto.study", "lsadphoto.survey", "lsadphoto.luminance",
+          "lsadphoto.datasets", "lsadphoto.io.exr"]
+
+SCRIPT = """
+import json, sys
+from lsadphoto.cli import main
+code = main()
+print(json.dumps(sorted(sys.modules)), file=sys.stderr)
+sys.exit(code)
+"""
+
+
+def test_score_process_imports_only_what_it_uses(tmp_path):
+    cam = IdealFisheyeProjection("equidistant", 99.5, 99.5, 100.0, 180.0, 200, 200)
+    up = np.array([0.0, -math.sin(0.5), math.cos(0.5)])
+    L = disk_sources_scene(cam.directions(*cam.pixel_grid()), background=90.0,
+                           sources=[(up, 0.08, 25000.0)])
+    path = tmp_path / "view.hdr"
+    write_hdr(LuminanceMap(L, projection=cam, calibrated=True), path)
+    done = subprocess.run([sys.executable, "-c", SCRIPT, "score", str(path), "--json"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout)["n_sources"] == 1  # it did score the picture
+    loaded = set(json.loads(done.stderr.strip().splitlines()[-1]))
+    assert "lsadphoto.metrics.score" in loaded
+    unused = [m for m in UNUSED if m in loaded]
+    assert unused == [], f"lsadphoto score imported {unused}"
