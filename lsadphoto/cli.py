@@ -432,6 +432,7 @@ def cmd_view(args):
     output = Path(args.output)
     if output.suffix.lower() not in (".html", ".htm"):
         raise BadInputError(f"output {args.output} must end in .html")
+    plan = _plan({"html": output})
     first = read_map(args.map)
     second = read_map(args.map2) if args.map2 else None
     if second is not None:
@@ -442,8 +443,9 @@ def cmd_view(args):
                   for m in (first, second)]
     names = (args.name or Path(args.map).stem,
              args.name2 or (Path(args.map2).stem if args.map2 else "second"))
-    write_viewer(first, output, second=second, score=scores[0], second_score=scores[1],
-                 names=names, title=args.title)
+    with plan.write() as temps:
+        write_viewer(first, temps["html"], second=second, score=scores[0], second_score=scores[1],
+                     names=names, title=args.title)
     record = {"output": str(output), "bytes": output.stat().st_size,
               "maps": [str(args.map)] + ([str(args.map2)] if args.map2 else []),
               "scored": [s is not None for s in scores[:1 + (second is not None)]]}

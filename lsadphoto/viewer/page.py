@@ -51,7 +51,7 @@ from .._version import __version__
 from ..errors import BadInputError
 from ..geometry import ObserverFrame, pixel_geometry, visual_field
 from ..geometry.observer import _ON_AXIS  # τ's on-axis rule, as ObserverFrame.angles has it
-from ..io._atomic import atomic_text
+from .._atomic import atomic_text
 from ..io.falsecolour import false_colour_range
 from ..luminance_map import LuminanceMap
 
