@@ -317,6 +317,10 @@ def _line_of_sight(text, lmap):
             row, col = (float(v) for v in text[3:].split(","))
         except ValueError:
             raise BadInputError(f"--line-of-sight px:ROW,COL needs two numbers, got {text!r}") from None
+        rows, cols = lmap.shape
+        if not (-0.5 <= row <= rows - 0.5 and -0.5 <= col <= cols - 0.5):
+            raise BadInputError(f"--line-of-sight {text}: the point is off the image ({rows}×{cols} px: "
+                                f"ROW 0…{rows - 1}, COL 0…{cols - 1})")
         direction = lmap.projection.directions(row, col)
         if not np.all(np.isfinite(direction)):
             raise BadInputError(f"--line-of-sight {text}: the point is outside the image's valid area")
@@ -400,6 +404,14 @@ def cmd_score(args):
     plan = _plan({"sources": args.sources_png, "contrast": args.contrast_png, "json": args.output_json})
     lmap = read_map(args.map)
     if lmap.projection is None:
+        view = (lmap.provenance or {}).get("radiance_view")
+        if view:
+            from .io.hdr import parse_view, projection_from_view
+
+            try:
+                projection_from_view(parse_view(view), lmap.shape[1], lmap.shape[0])
+            except BadInputError as exc:
+                raise BadInputError(f"{args.map}: VIEW= line {view.strip()!r}: {exc}") from None
         raise BadInputError(f"{args.map} has no camera geometry (no VIEW= line or lsadphoto metadata)")
     method = args.source_method
     score = score_map(
@@ -559,8 +571,8 @@ def cmd_view(args):
     names = (args.name or Path(args.map).stem,
              args.name2 or (Path(args.map2).stem if args.map2 else "second"))
     with plan.write() as temps:
-        write_viewer(first, temps["html"], second=second, score=scores[0],
-                     second_score=scores[1], names=names, title=args.title)
+        write_viewer(first, temps["html"], second=second, score=scores[0], second_score=scores[1],
+                     names=names, title=args.title)
     record = {"output": str(output), "bytes": output.stat().st_size,
               "maps": [str(args.map)] + ([str(args.map2)] if args.map2 else []),
               "scored": [s is not None for s in scores[:1 + (second is not None)]]}
@@ -714,7 +726,9 @@ def _render_pose(args, scene):
         if not args.size:
             raise BadInputError("--view needs --size WxH")
         width, height = _size(args.size)
-        view = parse_view(args.view)
+        view = parse_view(args.view, strict=True)
+        if "vp" not in view:
+            raise BadInputError(f"--view {args.view!r} gives no eye position (-vp X Y Z [m])")
         projection = projection_from_view(view, width, height)
         position = view.get("vp", [0.0, 0.0, 0.0])
         rotation = camera_to_world(view.get("vd", [0.0, 1.0, 0.0]), view.get("vu", [0.0, 0.0, 1.0]))
@@ -836,6 +850,21 @@ def _add_cache_options(sub):
                      help="node draws per surface-cache point (default 8192)")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, with a hint where a value that starts with '-' was taken for an option."""
+
+    #: The arguments being parsed (set by :func:`main`), to quote the value in the hint.
+    argv = ()
+
+    def error(self, message):
+        if message.startswith("argument ") and "expected one argument" in message:
+            option = message.split()[1].rstrip(":").split("/")[-1]
+            argv = list(_Parser.argv)
+            value = next((argv[i + 1] for i, a in enumerate(argv[:-1]) if a == option), "-VALUE")
+            message += f" (a value that starts with '-' must be attached with '=': {option}={value})"
+        super().error(message)
+
+
 def build_parser():
     _Choices.building = True
     try:
@@ -848,7 +877,7 @@ def _build_parser():
     from .constants import LS100_ACCEPTANCE_ANGLE
 
     demosaic = _Choices("lsadphoto.raw.methods", "DEMOSAIC_METHODS")
-    parser = argparse.ArgumentParser(prog=PROG, description="Calibrated luminance maps from RAW photographs.")
+    parser = _Parser(prog=PROG, description="Calibrated luminance maps from RAW photographs.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -1122,6 +1151,7 @@ def main(argv=None):
     if whole_process:
         gc.set_threshold(*_COMMAND_GC_THRESHOLD)
     parser = build_parser()
+    _Parser.argv = tuple(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     warnings.showwarning = _warning_line
     try:

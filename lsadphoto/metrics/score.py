@@ -641,8 +641,19 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if not math.isfinite(quality.q):
         notes.append(f"Q undefined: {quality.reason}")
     settings["q"] = quality.settings
+    negative = int(np.count_nonzero(lmap.luminance < 0))
+    if negative:
+        notes.append(f"{negative} pixel(s) have negative luminance (noise about zero in a signed map): "
+                     "field sums keep them, which keeps the means unbiased; percentiles count them "
+                     "as the lowest values")
     if lmap.calibrated is False:
-        notes.append("map is uncalibrated: absolute metrics carry the exposure-equation scale")
+        if "calibration_method" in (lmap.provenance or {}):  # our photo pipeline, no spot reading
+            notes.append("map is not spot-calibrated: absolute metrics rest on the exposure equation "
+                         "and the profile's calibration constant")
+        else:
+            notes.append("map carries no lsadphoto calibration (a foreign file, e.g. a Radiance "
+                         "rendering): its values are taken as cd/m² as written, and absolute metrics "
+                         "are only as right as that scale")
     overflow = (lmap.provenance or {}).get("overflow")
     if overflow and overflow.get("repair"):
         notes.append(f"metrics rest on a luminous-overflow repair ({overflow['repair']}): "
