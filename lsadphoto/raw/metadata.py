@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import exifread
 
 from ..errors import MetadataWarning, MissingMetadataError
+from ._quiet import quiet_loggers
 
 _FIELDS = ("exposure_time", "f_number", "iso", "focal_length")
 _UNITS = {"exposure_time": "s", "f_number": "", "iso": "", "focal_length": "mm"}
@@ -88,7 +89,7 @@ def _ratio(tag):
 
 def _exif(path):
     try:
-        with open(path, "rb") as fh:
+        with quiet_loggers("exifread"), open(path, "rb") as fh:
             return exifread.process_file(fh, details=False)
     except Exception:  # exifread raises assorted errors on non-TIFF data
         return {}
