@@ -51,7 +51,13 @@ def test_render_view_equals_python_render_and_scores(store_path, tmp_path):
     assert lmap.projection == proj
     code, stdout, err = cli("score", out, "--json")
     assert code == 0, err
-    assert json.loads(stdout)["vertical_illuminance"] > 0
+    # E_v of the rendered map is Σ L·ω·cos θ over its pixels (the definition; cos θ about the
+    # optical axis, the default line of sight), with ω and θ from the camera model.
+    grid = proj.pixel_grid()
+    omega, d = proj.solid_angles(*grid), proj.directions(*grid)
+    known = np.isfinite(lmap.luminance) & (omega > 0)
+    e_v = float(np.sum(np.asarray(lmap.luminance, np.float64)[known] * omega[known] * np.clip(d[known][:, 2], 0, None)))
+    assert json.loads(stdout)["vertical_illuminance"] == pytest.approx(e_v, rel=1e-9)
 
 
 def test_render_scene_view_and_profile_pose(store_path, tmp_path):

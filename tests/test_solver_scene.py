@@ -133,7 +133,7 @@ BAD = {
 [[surfaces]]
 type = "polygon"
 vertices = [[0,0,0],[1,0,0],[0,1,0]]
-""", "missing required field 'material'"),
+""", "surfaces[0]: missing required key 'material'"),
     "unknown material": (ROOM.replace('material = "wall"', 'material = "wood"'), "unknown material 'wood'"),
     "reflectance one": (ROOM.replace("0.5", "1.0"), "reflectance must be in [0, 1)"),
     "negative reflectance": (ROOM.replace("0.5", "-0.1"), "reflectance must be in [0, 1)"),
@@ -149,13 +149,13 @@ type = "polygon"
 material = "wall"
 vertices = [[0,0,0],[1,0,0],[1,1,0.5],[0,1,0]]
 """, "not coplanar"),
-    "unknown shape": (ROOM.replace('type = "box"', 'type = "cone"'), "unknown shape type 'cone'"),
+    "unknown shape": (ROOM.replace('type = "box"', 'type = "cone"'), "surfaces[0].type must be one of 'polygon', 'box', 'disc', 'sphere', 'mesh', got 'cone'"),
     "box max below min": (ROOM.replace("max = [2, 2, 2]", "max = [2, -1, 2]"), "max must exceed min"),
     "no luminaires": (ROOM.split("[[luminaires]]")[0], "no luminaires"),
     "both flux and intensity": (ROOM + "flux = 5\n", "exactly one of"),
-    "not toml": ("[[surfaces]\ntype=", "not valid TOML"),
-    "unknown top-level key": (ROOM + "\n[lights]\nx = 1\n", "unknown field 'lights'"),
-    "bad vector": (ROOM.replace("position = [1, 1, 1]", "position = [1, 1]"), "3 finite numbers"),
+    "not toml": ("[[surfaces]\ntype=", "not a valid TOML scene"),
+    "unknown top-level key": (ROOM + "\n[lights]\nx = 1\n", "unknown key 'lights'; valid: scene, materials, surfaces, luminaires, views"),
+    "bad vector": (ROOM.replace("position = [1, 1, 1]", "position = [1, 1]"), "luminaires[0].position must have 3 elements, got 2"),
     "bad view": (ROOM + """
 [[views]]
 position = [1, 1, 1]

@@ -16,6 +16,7 @@ G. Ward, "Real pixels", *Graphics Gems II* (1991) 80–83. Radiance ``src/common
 (setcolr, colr_color, fwritecolrs, freadcolrs) and ``src/common/header.c``.
 """
 
+import math
 import re
 
 import numpy as np
@@ -93,28 +94,56 @@ def _encode_scanlines(rgbe):
 # --- header ----------------------------------------------------------------------------------
 
 
-def parse_view(text):
-    """Parse Radiance view options (``-vtv -vh 60 …``) into a dict; the type under ``"type"``."""
+_VIEW_COUNTS = {"vp": 3, "vd": 3, "vu": 3, "vh": 1, "vv": 1, "vs": 1, "vl": 1, "vo": 1, "va": 1}
+
+
+def parse_view(text, *, strict=False):
+    """Parse Radiance view options (``-vtv -vh 60 …``) into a dict; the type under ``"type"``.
+
+    With ``strict`` (views typed by a user, e.g. ``render --view``) anything that is not a
+    view option, and an unknown view type, is a :class:`BadInputError`; file headers are
+    read leniently (other words are skipped).
+
+    References
+    ----------
+    Radiance ``rpict`` manual page (view options ``-vt? -vp -vd -vu -vh -vv -vs -vl -vo
+    -va``).
+
+    Examples
+    --------
+    >>> parse_view("-vta -vp 1 2 1.2 -vh 180")
+    {'type': 'a', 'vp': [1.0, 2.0, 1.2], 'vh': 180.0}
+    >>> parse_view("banana", strict=True)
+    Traceback (most recent call last):
+    ...
+    lsadphoto.errors.BadInputError: 'banana' in view 'banana' is not a Radiance view option; valid: -vt[vlcahs], -vp X Y Z, -vd X Y Z, -vu X Y Z, -vh, -vv, -vs, -vl, -vo, -va
+    """
     options = {"type": "v"}
     tokens = text.split()
+    error = BadInputError if strict else UnsupportedFileError
+    valid = "-vt[" + "".join(RADIANCE_VIEW_NAMES) + "], " + ", ".join(
+        f"-{k} X Y Z" if n == 3 else f"-{k}" for k, n in _VIEW_COUNTS.items())
     i = 0
-    counts = {"vp": 3, "vd": 3, "vu": 3}
     while i < len(tokens):
         token = tokens[i]
         if token.startswith("-vt") and len(token) == 4:
+            if strict and token[3] not in RADIANCE_VIEW_NAMES:
+                raise error(f"unknown Radiance view type {token} in view {text!r}; valid: {valid}")
             options["type"] = token[3]
             i += 1
-        elif token.startswith("-v") and token[1:] in ("vp", "vd", "vu", "vh", "vv", "vs", "vl", "vo", "va"):
+        elif token.startswith("-v") and token[1:] in _VIEW_COUNTS:
             key = token[1:]
-            k = counts.get(key, 1)
+            k = _VIEW_COUNTS[key]
             try:
                 values = [float(t) for t in tokens[i + 1 : i + 1 + k]]
             except ValueError:
-                raise UnsupportedFileError(f"bad view option {token} in {text!r}") from None
-            if len(values) != k:
-                raise UnsupportedFileError(f"bad view option {token} in {text!r}")
+                raise error(f"bad view option {token} in {text!r}: needs {k} number(s)") from None
+            if len(values) != k or not all(math.isfinite(v) for v in values):
+                raise error(f"bad view option {token} in {text!r}: needs {k} finite number(s)")
             options[key] = values if k > 1 else values[0]
             i += 1 + k
+        elif strict:
+            raise error(f"{token!r} in view {text!r} is not a Radiance view option; valid: {valid}")
         else:
             i += 1
     return options
@@ -244,7 +273,10 @@ def read_hdr(path):
                     fields["projection"] = projection_from_view(view, cols, rows)
             except BadInputError as exc:
                 raise UnsupportedFileError(f"{path}: unusable VIEW= line ({exc})") from None
-    return LuminanceMap(luminance, **fields)
+    try:
+        return LuminanceMap(luminance, **fields)
+    except BadInputError as exc:  # e.g. metadata of a projection of another size
+        raise UnsupportedFileError(f"{path}: {exc}") from None
 
 
 def write_hdr(lmap, path):
