@@ -51,7 +51,7 @@ import numpy as np
 from .._version import __version__
 from ..errors import BadInputError, LsadError
 from ..geometry import ObserverFrame, pixel_geometry, visual_field
-from ..geometry.observer import _ON_AXIS  # τ's on-axis rule, as ObserverFrame.angles has it
+from ..geometry.observer import ON_AXIS  # τ's on-axis rule, as ObserverFrame.angles has it
 from .._atomic import atomic_text
 from ..io.falsecolour import false_colour_range
 from ..luminance_map import LuminanceMap
@@ -260,7 +260,7 @@ def _geometry(lmap, score, arrays):
             "valid": arrays.add("geometry.valid", valid, np.uint8),
             "interpolation_error": _json_safe(largest), "position_index_method": method,
             "axes": [np.asarray(a, dtype=np.float64).tolist() for a in frame.axes()],
-            "on_axis": _ON_AXIS, "projection": lmap.projection.to_dict()}
+            "on_axis": ON_AXIS, "projection": lmap.projection.to_dict()}
 
 
 def _json_safe(value):
