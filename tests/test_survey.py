@@ -255,6 +255,21 @@ def test_survey_values_match_the_single_view_pipeline(surveyed):
                                            {"observer": "boris", "rating": 7.5}]
     assert record["model_comparison"]["metrics"]["ugr_grouped"]["photo"] == record["ugr_grouped"]
     assert record["survey"]["note"] == "one frame, one spot"
+    # The model columns are what compare_maps gives for the two maps the view wrote (read
+    # back from their EXR files, float32 as in memory: the same numbers, so rel 1e-12 allows
+    # only the BLAS summation order), with the view's score options.
+    from lsadphoto.compare import compare_maps
+
+    single = next(r for r in result.table if r["view"] == "single")
+    folder = outdir / "views" / "single"
+    comparison = compare_maps(read_exr(folder / "single.exr"), read_exr(folder / "single-model.exr"),
+                              n_thresholds=50, size_arcmin=10)
+    assert single["model_ratio_median"] == pytest.approx(comparison.field["median_ratio"], rel=1e-12)
+    assert single["model_rms_relative_error"] == pytest.approx(
+        comparison.field["rms_relative_error"], rel=1e-12)
+    assert single["model_q"] == pytest.approx(comparison.metrics["q"]["model"], rel=1e-12)
+    assert single["model_mc_uncertainty"] == pytest.approx(
+        comparison.uncertainty["model_monte_carlo_relative"], rel=1e-12)
     assert record["settings"]["line_of_sight"] == pytest.approx(
         [0.0, 0.1 / np.hypot(0.1, 1.0), 1.0 / np.hypot(0.1, 1.0)])
 
@@ -410,6 +425,8 @@ BAD_MANIFESTS = [
     ("model without scene", ('scene = "model.toml"\n', ""), "[view[1].model] missing required key 'scene'"),
     ("missing model scene", ('scene = "model.toml"', 'scene = "gone.toml"'),
      "view 'single': model.scene: scene model "),
+    ("bad model scene", ('scene = "model.toml"', 'scene = "camera.toml"'),
+     "view 'single': model.scene: "),
     ("wrong schema", ('schema = "lsadphoto.survey/1"', 'schema = "lsadphoto.survey/9"'),
      "schema must be one of 'lsadphoto.survey/1', got 'lsadphoto.survey/9'"),
     ("bad demosaic", ('name = "test survey"\n', 'demosaic = "magic"\n'),
@@ -611,3 +628,15 @@ def test_interrupted_rerun_keeps_the_earlier_failures(surveyed, tmp_path, monkey
     assert (copy / "failures.log").read_text() == before
     assert [r["view"] for r in read_csv(copy / "metrics.csv")] == GOOD
     assert not (copy / LOCK_NAME).exists()  # released on the way out
+
+
+def test_unreachable_dask_scheduler_is_one_error_and_leaves_no_folder(tmp_path):
+    """Connected before the output folder is made; distributed's own timeout (2 s here)."""
+    dask = pytest.importorskip("dask")
+    pytest.importorskip("distributed")
+    path = make_survey(tmp_path, CORRUPT_ONLY)
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+        with pytest.raises(BadInputError, match="cannot connect to the Dask scheduler at "
+                                                "tcp://127.0.0.1:1: "):
+            run_survey(path, tmp_path / "out", dask_address="tcp://127.0.0.1:1", progress=False)
+    assert not (tmp_path / "out").exists()

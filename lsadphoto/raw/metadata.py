@@ -62,8 +62,9 @@ class ExposureMetadata:
         if missing:
             where = f"{path}: " if path else ""
             raise MissingMetadataError(
-                f"{where}missing exposure metadata ({', '.join(missing)}); "
-                "give a spot reading or the values in a sidecar"
+                f"{where}missing exposure metadata ({', '.join(missing)}); a single frame can be "
+                "calibrated with a spot reading (--spot) instead, a bracket needs the values in its "
+                "files (e.g. exiftool -ExposureTime=1/125 -FNumber=4 -ISO=100 FILE)"
             )
         return self.exposure_time * self.iso / self.f_number**2
 
