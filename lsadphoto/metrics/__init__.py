@@ -25,6 +25,19 @@ _EXPORTS = {
     "cgi_Einhorn1979": "glare_indices",
     "q_Budak2021": "quality", "q_sweep": "quality",
     "luminance_statistics": "statistics",
+    "dgp_coefficients": "glare_indices",
+    # evalglare 3.06's analyses
+    "region_statistics": "regions", "band_region": "regions", "zone_map": "regions",
+    "zone_statistics": "regions", "mask_region": "regions", "split_sources_at_zones": "regions",
+    "pgsv_Tokura1996": "regions", "pgsv_saturation": "regions", "pgsv_evalglare": "regions",
+    "veiling_luminance_Poynter": "veiling", "veiling_luminance_CIE146": "veiling",
+    "age_factor_CIE146": "veiling",
+    "source_columns": "contributions", "source_illuminance": "contributions",
+    "fill_rows_evalglare": "corrections", "low_light_correction_on": "corrections",
+    "regroup_sources": "grouping_options", "smoothing_labels": "grouping_options",
+    "patch_labels": "grouping_options",
+    "check_picture": "checkfile", "write_checkfile": "checkfile",
+    "evalglare_analyses": "analyses",
 }
 
 __all__ = sorted(_EXPORTS)

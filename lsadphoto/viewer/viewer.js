@@ -114,6 +114,8 @@
       this.colourMap = this.meta.colour_maps[0];
       this.layout = this.meta.maps.length > 1 ? "side" : "single";
       this.showSources = true;
+      this.showBand = true;
+      this.showZones = true;
       this.exposure = 0;
       this.tables = {};
       for (const [k, v] of Object.entries(this.meta.colour_tables)) this.tables[k] = colourTable(v);
@@ -137,6 +139,8 @@
           const score = m.score;
           entry.labels = score && score.labels ? await decodeArray(this.container, score.labels) : null;
           entry.contrast = null; // decoded when first shown (loadContrast)
+          entry.band = score && score.band ? await decodeArray(this.container, score.band) : null;
+          entry.zones = score && score.zones ? await decodeArray(this.container, score.zones) : null;
           this.maps.push(entry);
         }
         const g = this.meta.geometry;
@@ -248,6 +252,18 @@
       return i < 0 || !m.labels ? 0 : m.labels[i];
     }
 
+    /** 1 where pixel (row, col) is in evalglare's band of the score (-B), else 0. */
+    bandAt(row, col, which) {
+      const m = this.maps[which || 0], i = this.index(row, col);
+      return i < 0 || !m.band ? 0 : m.band[i];
+    }
+
+    /** Zone (1, 2; 0 outside) of pixel (row, col) in the score's evalglare zones (-l/-L). */
+    zoneAt(row, col, which) {
+      const m = this.maps[which || 0], i = this.index(row, col);
+      return i < 0 || !m.zones ? 0 : m.zones[i];
+    }
+
     contrastAt(row, col, which) {
       const m = this.maps[which || 0], i = this.index(row, col);
       return i < 0 || !m.contrast ? NaN : halfToFloat()[m.contrast[i]];
@@ -293,7 +309,15 @@
         max: max, illuminance: geometric ? sumE : NaN };
     }
 
+    /** Statistics of a region of map `which` (cached on the region: the maps never change). */
     regionStats(region, which) {
+      const k = which || 0;
+      region.cache = region.cache || {};
+      if (!(k in region.cache)) region.cache[k] = this.computeRegionStats(region, k);
+      return region.cache[k];
+    }
+
+    computeRegionStats(region, which) {
       if (region.shape === "circle") {
         const [row, col, radius] = [region.row, region.col, region.radius];
         const r2 = radius * radius;
@@ -422,18 +446,21 @@
       exposure.addEventListener("input", () => { this.exposure = parseFloat(exposure.value); if (this.mode === "tone") this.render(); });
       exposureWrap.appendChild(exposure);
       controls.appendChild(exposureWrap);
-      if (meta.maps.some((m) => m.score)) {
+      const checkbox = (label, key) => {
         const wrap = el("label", null, "");
         const box = el("input", { type: "checkbox" });
-        box.checked = this.showSources;
-        box.addEventListener("change", () => { this.showSources = box.checked; this.render(); });
+        box.checked = this[key];
+        box.addEventListener("change", () => { this[key] = box.checked; this.render(); });
         wrap.appendChild(box);
-        wrap.appendChild(document.createTextNode(" glare sources"));
+        wrap.appendChild(document.createTextNode(" " + label));
         controls.appendChild(wrap);
-      }
+      };
+      if (meta.maps.some((m) => m.score)) checkbox("glare sources", "showSources");
+      if (meta.maps.some((m) => m.score && m.score.band)) checkbox("band (-B)", "showBand");
+      if (meta.maps.some((m) => m.score && m.score.zones)) checkbox("zones (-l/-L)", "showZones");
       this.toolSelect = select("tool", [["probe", "probe / pin (click), pan (drag)"], ["circle", "circle region (drag)"],
         ["polygon", "polygon region (click vertices, double-click to close)"]], this.tool,
-      (v) => { this.tool = v; this.draft = null; this.drawOverlay(); });
+      (v) => this.setTool(v));
       button("fit", () => this.fit(), "fit the map to the panel");
       button("export CSV", () => this.download(), "points and regions as CSV");
       button("clear", () => { this.points = []; this.regions = []; this.updateTables(); this.drawOverlay(); },
@@ -494,6 +521,14 @@
         case "b": return [{ kind: "map", which: 1, label: names[1] }];
         default: return [{ kind: "map", which: 0, label: names[0] }];
       }
+    }
+
+    /** The mouse's tool: "probe" (click pins, drag pans), "circle" or "polygon". */
+    setTool(tool) {
+      this.tool = tool;
+      this.draft = null;
+      if (this.toolSelect) this.toolSelect.value = tool;
+      this.drawOverlay();
     }
 
     /** Show "false" (false colour), "tone" (tone mapped) or "contrast" (the Q contrast map K). */
@@ -603,7 +638,12 @@
       const span = hi - lo;
       const key = 0.18 * Math.pow(2, this.exposure) / m.meta.log_average;
       const labels = this.showSources && panel.kind === "map" ? m.labels : null;
+      const band = this.showBand && panel.kind === "map" ? m.band : null;
+      const zones = this.showZones && panel.kind === "map" ? m.zones : null;
       const palette = this.tables.sources;
+      // Band: a magenta veil; zone 1 a white, zone 2 a yellow one (a quarter each).
+      const veil = (colour, r, g, b) => pack(((colour & 255) * 3 + r) >> 2,
+        ((((colour >> 8) & 255) * 3) + g) >> 2, ((((colour >> 16) & 255) * 3) + b) >> 2);
       for (let y = 0; y < h; y++) {
         const r = rowIndex[y], line = y * w;
         if (r < 0) { out.fill(background, line, line + w); continue; }
@@ -630,6 +670,8 @@
               colour = pack(g, g, g);
             }
           }
+          if (zones && zones[i]) colour = zones[i] === 1 ? veil(colour, 255, 255, 255) : veil(colour, 255, 214, 0);
+          if (band && band[i]) colour = veil(colour, 255, 0, 255);
           if (labels) {
             const label = labels[i];
             if (label > 0) {
@@ -815,6 +857,8 @@
         add(m.meta.name + " L [cd/m²]", fmt(L, 5) + (Number.isFinite(U) ? " ± " + fmt(U, 2) : ""));
         const label = this.sourceLabelAt(row, col, k);
         if (label > 0) add(m.meta.name + " glare source", "#" + label);
+        if (m.zones) add(m.meta.name + " zone", this.zoneAt(row, col, k) ? String(this.zoneAt(row, col, k)) : "outside");
+        if (m.band) add(m.meta.name + " band", this.bandAt(row, col, k) ? "inside" : "outside");
         if (m.contrast) add(m.meta.name + " K [1/rad]", fmt(this.contrastAt(row, col, k), 3));
       });
       if (this.maps.length > 1) add("ratio " + this.maps[1].meta.name + " / " + this.maps[0].meta.name,
@@ -868,6 +912,13 @@
           fmt(s.row, 5) + ", " + fmt(s.col, 5)]);
         table("Glare sources of " + m.meta.name + " (lsadphoto score)", ["#", "L [cd/m²]", "ω [sr]", "P", "σ [°]", "τ [°]",
           "pixels", "centre row, col"], rows);
+        const regionRow = (name, r) => [name, fmt(r.solid_angle, 4), fmt(r.mean, 4), fmt(r.median, 4),
+          fmt(r.max, 4), r.illuminance === undefined ? "—" : fmt(r.illuminance, 4), String(r.n_pixels)];
+        const analysed = [];
+        if (score.band_stats) analysed.push(regionRow("band ±" + fmt(score.band_deg, 3) + "°", score.band_stats));
+        (score.zone_stats || []).forEach((z, k) => analysed.push(regionRow("zone " + (k + 1), z)));
+        table("Band and zones of " + m.meta.name + " (lsadphoto score)", ["region", "ω [sr]", "mean [cd/m²]",
+          "median [cd/m²]", "max [cd/m²]", "E [lx]", "pixels"], analysed);
         const v = score.values, u = score.uncertainty || {};
         const keys = [["ugr_pixel", "UGR pixel"], ["ugr_grouped", "UGR grouped"], ["q", "Q"], ["dgp", "DGP"],
           ["vertical_illuminance", "E_v [lx]"], ["background_luminance", "L_b [cd/m²]"]];
