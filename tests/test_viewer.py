@@ -126,6 +126,31 @@ def test_value_at_returns_the_embedded_float32_values(browser, pages):
     assert _severe(browser) == []
 
 
+@pytest.mark.slow
+def test_arrays_in_many_parts_are_decoded_by_workers_losslessly(browser, folder, monkeypatch):
+    # Parts of 100 000 elements: the test map's luminance (941 941 px) and the geometry's
+    # validity become 10 parts each, decoded by the page's Workers and joined in order; the
+    # values must still be the map's own float32 at every sampled pixel (parts' ends too).
+    from lsadphoto.viewer import page
+
+    monkeypatch.setattr(page, "PART_ITEMS", 100_000)
+    lmap = _synthetic_map()
+    path = page.write_viewer(lmap, folder / "parts.html")
+    assert path.read_text().count('data-array="map0.luminance"') == 10
+    _open(browser, path)
+    assert browser.execute_script("return window.lsadViewer.decodeWorkers;") >= 1
+    luminance = lmap.luminance
+    flat = np.concatenate([np.arange(k * 100_000 - 2, k * 100_000 + 2) for k in range(1, 10)]
+                          + [np.random.default_rng(2).integers(0, luminance.size, 300)])
+    rows, cols = np.unravel_index(flat, luminance.shape)
+    got = browser.execute_script(
+        "return arguments[0].map((r, k) => window.lsadViewer.valueAt(r, arguments[1][k]));",
+        rows.tolist(), cols.tolist())
+    got = np.array([np.nan if v is None else v for v in got], dtype=np.float64)
+    np.testing.assert_array_equal(got, luminance[rows, cols].astype(np.float64))
+    assert _severe(browser) == []
+
+
 def _reference_mean(lmap, row, col, radius):
     """ω-weighted mean of the pixels with centres within ``radius`` px, from the exact
     per-pixel solid angles of the geometry (not the page's interpolated ones)."""

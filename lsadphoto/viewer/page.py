@@ -5,10 +5,12 @@ browser script (``viewer.js``) only decodes, draws and sums.
 
 Embedded arrays
 ---------------
-Each array is stored little-endian, its bytes regrouped into planes (all first bytes, then
+Each array is stored little-endian in parts of at most :data:`PART_ITEMS` elements (in flat
+order; one part for all but the largest arrays), each part's bytes regrouped into planes (all first bytes, then
 all second bytes, …), each byte replaced by its difference from the previous one (mod 256),
 compressed with zlib (RFC 1950, what the browser's ``DecompressionStream("deflate")``
-reads) and written as base64 into a ``<script type="application/octet-stream">`` element.
+reads) and written as base64 into a ``<script type="application/octet-stream">`` element of
+its own, so that the page decodes the parts in parallel, off its main thread.
 This is lossless; the regrouping and differencing are the OpenEXR ZIP predictor's idea
 (neighbouring floats share their high bytes) and make the payload 0.7–0.8 of the OpenEXR
 file's size on the real maps of ``docs/performance.md``.
@@ -69,6 +71,9 @@ GEOMETRY_STRIDE = 8
 #: exactly on the real fisheye of docs/performance.md).
 GEOMETRY_TOLERANCE = {"solid_angle_relative": 1e-4, "direction_deg": 0.01,
                       "position_index": 0.05}
+#: Elements per embedded part [items]: the page decodes the parts of its arrays in parallel
+#: (Web Workers), so a 24 MP map's luminance is six parts of 4 Mi floats (16 MiB).
+PART_ITEMS = 1 << 22
 #: zlib level: 6 is zlib's default (level 9 gains < 1 % here at twice the time).
 _ZLIB_LEVEL = 6
 #: Colour maps offered for the false-colour view (matplotlib names), then the fixed ones of
@@ -78,24 +83,31 @@ _OVERLAY_MAPS = {"ratio": "RdBu_r", "contrast": "magma"}
 
 
 def _encode(array, dtype):
-    """The array as the page stores it (see the module notes): (description, base64 text)."""
+    """The array as the page stores it (see the module notes): (description, base64 texts),
+    one text per part of at most :data:`PART_ITEMS` elements (in flat order)."""
     a = np.ascontiguousarray(array, dtype=np.dtype(dtype).newbyteorder("<"))
-    planes = a.view(np.uint8).reshape(-1, a.itemsize).T.reshape(-1)
-    delta = np.diff(planes, prepend=np.uint8(0))
-    text = base64.b64encode(zlib.compress(delta.tobytes(), _ZLIB_LEVEL)).decode("ascii")
-    return {"dtype": np.dtype(dtype).name, "shape": list(a.shape)}, text
+    flat = a.reshape(-1)
+    texts = []
+    for start in range(0, max(flat.size, 1), PART_ITEMS):
+        part = flat[start:start + PART_ITEMS]
+        planes = part.view(np.uint8).reshape(-1, a.itemsize).T.reshape(-1)
+        delta = np.diff(planes, prepend=np.uint8(0))
+        texts.append(base64.b64encode(zlib.compress(delta.tobytes(), _ZLIB_LEVEL))
+                     .decode("ascii"))
+    return {"dtype": np.dtype(dtype).name, "shape": list(a.shape), "parts": len(texts),
+            "part_items": PART_ITEMS}, texts
 
 
 class _Arrays:
-    """Collects the encoded arrays of one viewer; each becomes a ``<script>`` element."""
+    """Collects the encoded arrays of one viewer; each part becomes a ``<script>`` element."""
 
     def __init__(self):
         self.scripts = []
 
     def add(self, name, array, dtype):
-        description, text = _encode(array, dtype)
-        self.scripts.append(f'<script type="application/octet-stream" data-array="{name}">'
-                            f"{text}</script>")
+        description, texts = _encode(array, dtype)
+        self.scripts.extend(f'<script type="application/octet-stream" data-array="{name}">'
+                            f"{text}</script>" for text in texts)
         return dict(description, name=name)
 
 

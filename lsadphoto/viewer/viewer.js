@@ -31,21 +31,16 @@
 
   const ITEM_SIZE = { float32: 4, float16: 2, uint8: 1, uint16: 2, uint32: 4 };
 
-  /** A byte stream of base64 text: the browser's own decoder (Uint8Array.fromBase64), else
-   * a data: URL read back with fetch (both without a network). */
-  async function base64Stream(text) {
-    if (typeof Uint8Array.fromBase64 === "function") return new Blob([Uint8Array.fromBase64(text)]).stream();
-    const response = await fetch("data:application/octet-stream;base64," + text);
-    return (await response.blob()).stream();
-  }
-
-  async function decodeArray(container, desc) {
-    const element = container.querySelector('script[data-array="' + desc.name + '"]');
-    if (!element) throw new Error("missing embedded array " + desc.name);
-    const stream = (await base64Stream(element.textContent)).pipeThrough(new DecompressionStream("deflate"));
+  /** The bytes of one embedded part (base64 → zlib → byte differences and planes undone;
+   * `k` bytes per element). Runs in a decoding Worker, whose source is this function's
+   * text, or here where a page cannot start Workers. base64 is read by the browser's own
+   * decoder (Uint8Array.fromBase64), else by fetch of a data: URL (no network either way). */
+  async function decodePart(text, k) {
+    const raw = typeof Uint8Array.fromBase64 === "function" ? new Blob([Uint8Array.fromBase64(text)])
+      : await (await fetch("data:application/octet-stream;base64," + text)).blob();
+    const stream = raw.stream().pipeThrough(new DecompressionStream("deflate"));
     const planes = new Uint8Array(await new Response(stream).arrayBuffer());
     // Undo the byte differences (a running sum mod 256) and the byte planes in one pass.
-    const k = ITEM_SIZE[desc.dtype];
     const n = planes.length / k;
     const bytes = k > 1 ? new Uint8Array(planes.length) : planes;
     let sum = 0;
@@ -55,6 +50,75 @@
         sum = (sum + planes[offset + i]) & 0xff;
         bytes[j] = sum;
       }
+    }
+    return bytes;
+  }
+
+  const WORKER_SOURCE = "const decodePart = " + decodePart.toString() + ";\n" +
+    "onmessage = async (event) => { const job = event.data; try { const bytes = await decodePart(job.text, job.k);" +
+    " postMessage({ id: job.id, bytes: bytes }, [bytes.buffer]); } catch (error) {" +
+    " postMessage({ id: job.id, error: String((error && error.message) || error) }); } };";
+
+  /** Decoding Workers (one per core, at most 4) built from a Blob URL, and their queue. Parts
+   * go to the first idle Worker in the order asked for; where Workers cannot start (or one
+   * fails to load) the parts are decoded on the page's own thread. */
+  const pool = { workers: null, queue: [], next: 0 };
+  function startWorkers() {
+    pool.workers = [];
+    let url;
+    try {
+      url = URL.createObjectURL(new Blob([WORKER_SOURCE], { type: "text/javascript" }));
+    } catch (error) { return; }
+    const count = Math.max(1, Math.min(4, navigator.hardwareConcurrency || 2));
+    for (let n = 0; n < count; n++) {
+      let worker;
+      try { worker = new Worker(url); } catch (error) { break; }
+      const slot = { worker: worker, job: null };
+      worker.onmessage = (event) => {
+        const job = slot.job; slot.job = null;
+        if (event.data.error) job.reject(new Error(event.data.error)); else job.resolve(event.data.bytes);
+        dispatch();
+      };
+      worker.onerror = (event) => {
+        event.preventDefault();
+        pool.workers = pool.workers.filter((s) => s !== slot);
+        if (slot.job) pool.queue.unshift(slot.job);
+        slot.job = null;
+        dispatch();
+      };
+      pool.workers.push(slot);
+    }
+  }
+  function dispatch() {
+    if (!pool.workers.length) {
+      for (const job of pool.queue.splice(0)) decodePart(job.text, job.k).then(job.resolve, job.reject);
+      return;
+    }
+    for (const slot of pool.workers) {
+      if (slot.job || !pool.queue.length) continue;
+      slot.job = pool.queue.shift();
+      slot.worker.postMessage({ id: pool.next++, text: slot.job.text, k: slot.job.k });
+    }
+  }
+  function decodeBytes(text, k) {
+    if (!pool.workers) startWorkers();
+    return new Promise((resolve, reject) => {
+      pool.queue.push({ text: text, k: k, resolve: resolve, reject: reject });
+      dispatch();
+    });
+  }
+
+  /** An embedded array (its parts decoded in parallel and joined) as a typed array. */
+  async function decodeArray(container, desc) {
+    const elements = container.querySelectorAll('script[data-array="' + desc.name + '"]');
+    if (!elements.length || elements.length !== (desc.parts || 1)) throw new Error("missing embedded array " + desc.name);
+    const k = ITEM_SIZE[desc.dtype];
+    const parts = await Promise.all(Array.from(elements, (element) => decodeBytes(element.textContent, k)));
+    let bytes = parts[0];
+    if (parts.length > 1) {
+      bytes = new Uint8Array(parts.reduce((total, part) => total + part.length, 0));
+      let offset = 0;
+      for (const part of parts) { bytes.set(part, offset); offset += part.length; }
     }
     const buffer = bytes.buffer;
     switch (desc.dtype) {
@@ -132,28 +196,30 @@
     async load() {
       const t0 = performance.now();
       try {
-        this.maps = [];
-        for (const m of this.meta.maps) {
-          const entry = { meta: m, L: await decodeArray(this.container, m.luminance) };
-          entry.U = m.uncertainty ? await decodeArray(this.container, m.uncertainty) : null;
-          const score = m.score;
-          entry.labels = score && score.labels ? await decodeArray(this.container, score.labels) : null;
-          entry.contrast = null; // decoded when first shown (loadContrast)
-          entry.band = score && score.band ? await decodeArray(this.container, score.band) : null;
-          entry.zones = score && score.zones ? await decodeArray(this.container, score.zones) : null;
-          this.maps.push(entry);
-        }
+        // Every array's parts are asked for at once (luminance first): the Workers decode
+        // them in parallel while this thread waits.
+        const decode = (desc) => (desc ? decodeArray(this.container, desc) : Promise.resolve(null));
+        const maps = Promise.all(this.meta.maps.map(async (m) => {
+          const score = m.score || {};
+          const [L, U, labels, band, zones] = await Promise.all([decode(m.luminance), decode(m.uncertainty),
+            decode(score.labels), decode(score.band), decode(score.zones)]);
+          // The Q contrast map is decoded when first shown (loadContrast).
+          return { meta: m, L: L, U: U, labels: labels, contrast: null, band: band, zones: zones };
+        }));
         const g = this.meta.geometry;
-        if (g) {
-          this.geometry = { meta: g, fields: {}, exact: {}, valid: await decodeArray(this.container, g.valid),
-            exactIndex: await decodeArray(this.container, g.exact_index),
+        const geometry = g ? (async () => {
+          const keys = Object.keys(g.fields);
+          const [valid, exactIndex, fields, exact] = await Promise.all([decode(g.valid), decode(g.exact_index),
+            Promise.all(keys.map((key) => decode(g.fields[key]))), Promise.all(keys.map((key) => decode(g.exact[key])))]);
+          const out = { meta: g, fields: {}, exact: {}, valid: valid, exactIndex: exactIndex,
             nodeRows: g.node_rows, nodeCols: g.node_cols };
-          for (const [k, desc] of Object.entries(g.fields)) {
-            this.geometry.fields[k] = await decodeArray(this.container, desc);
-            this.geometry.exact[k] = await decodeArray(this.container, g.exact[k]);
-          }
-        }
+          keys.forEach((key, n) => { out.fields[key] = fields[n]; out.exact[key] = exact[n]; });
+          return out;
+        })() : Promise.resolve(undefined);
+        [this.maps, this.geometry] = await Promise.all([maps, geometry]);
         this.decodeMs = performance.now() - t0;
+        // Workers that decoded the data (0: decoded on the page's own thread).
+        this.decodeWorkers = pool.workers.length;
         this.isReady = true;
         this.status.textContent = "";
         this.fit();
