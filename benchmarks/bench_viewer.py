@@ -78,7 +78,8 @@ def open_in_browser(page, lmap):
         loaded = time.perf_counter() - start
         state = session.execute_async_script(
             "const done = arguments[0]; const wait = () => window.lsadViewer ? "
-            "window.lsadViewer.ready.then((v) => done({decode: v.decodeMs, render: v.renderMs}),"
+            "window.lsadViewer.ready.then((v) => done({decode: v.decodeMs, render: v.renderMs,"
+            " workers: v.decodeWorkers}),"
             "(e) => done({error: String(e)})) : setTimeout(wait, 20); wait();")
         ready = time.perf_counter() - start
         cpu = browser_cpu_seconds(profile)

@@ -6,15 +6,18 @@ needs ../shared/realdata, Debian's chromium and chromium-driver, and selenium).
 1. docs/viewer-single.png: `lsadphoto view` of the real Radiance rendering
    ../shared/realdata/hdr/raytraverse_rendered_desk_vta.hdr (180° fisheye, sun in view),
    with its glare sources, a circle and a polygon region, a pinned point and the probe.
-2. docs/viewer-pair.png: the synthetic photo/model pair of tests/test_viewer.py side by side
-   (the model 10 % brighter), and docs/viewer-ratio.png: their ratio map.
+2. docs/viewer-pair.png: the synthetic photo of tests/test_viewer.py and a "model" of it that
+   errs from −15 % to +25 % across the view, side by side, and docs/viewer-ratio.png: their
+   ratio map.
 """
 
+import dataclasses
 import shutil
 import sys
 import tempfile
 from pathlib import Path
 
+import numpy as np
 from PIL import Image
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
@@ -52,7 +55,7 @@ def save(session, name, *, height):
     image = Image.open(raw).convert("RGB")
     image = image.crop((0, 0, image.width, min(height, image.height)))
     image = image.resize((image.width * 3 // 4, image.height * 3 // 4), Image.LANCZOS)
-    image.quantize(colors=192, method=Image.Quantize.MEDIANCUT).save(ROOT / "docs" / name,
+    image.quantize(colors=256, method=Image.Quantize.FASTOCTREE).save(ROOT / "docs" / name,
                                                                     optimize=True)
 
 
@@ -73,7 +76,11 @@ def run():
                  "--title", "raytraverse desk (Radiance rendering, 180° fisheye)"]) == 0
     photo, model = folder / "photo.exr", folder / "model.hdr"
     write_exr(_synthetic_map(), photo)
-    write_hdr(_synthetic_map(1.1), model)
+    photo_map = _synthetic_map()
+    cols = np.arange(photo_map.shape[1]) / photo_map.shape[1]
+    # A model that errs from −15 % on the left to +25 % on the right of the view.
+    write_hdr(dataclasses.replace(photo_map, luminance=photo_map.luminance
+                                  * (0.85 + 0.4 * cols)[None, :].astype(np.float32)), model)
     assert main(["view", str(photo), str(model), "-o", str(folder / "pair.html"),
                  "--title", "synthetic photo and model of one view"]) == 0
     session = browser(folder / "profile")

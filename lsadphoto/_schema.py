@@ -2,8 +2,9 @@
 
 A schema is a tree of :class:`Table` (a TOML table with declared keys), :class:`Key` (one
 value: its type, whether it is required, its default, range and choices), :class:`ArrayOf`
-(an array of tables, e.g. ``[[luminaire]]``) and :class:`Variants` (a table whose keys depend
-on a discriminator such as ``model = "opencv-fisheye"``). :func:`validate` checks a parsed
+(an array of tables, e.g. ``[[luminaire]]``), :class:`MapOf` (a table of named entries, e.g.
+``[materials.wall]``) and :class:`Variants` (a table whose keys depend on a discriminator
+such as ``model = "opencv-fisheye"``). :func:`validate` checks a parsed
 document against it and returns a copy with the defaults filled in; :func:`read_toml` reads a
 file and validates it. Every problem is a :class:`~lsadphoto.errors.BadInputError` with one
 line naming the file, the table and the key — and, for an unknown key, the closest valid name
@@ -28,7 +29,7 @@ import tomllib
 from ._validation import check_file
 from .errors import BadInputError
 
-__all__ = ["Key", "Table", "ArrayOf", "Variants", "validate", "read_toml"]
+__all__ = ["Key", "Table", "ArrayOf", "MapOf", "Variants", "validate", "read_toml"]
 
 _MISSING = object()
 _TYPE_NAMES = {str: "a string", int: "an integer", float: "a number", bool: "true or false",
@@ -147,6 +148,19 @@ class ArrayOf:
         if len(value) < self.min_items:
             raise BadInputError(f"{where} needs at least {self.min_items} entries, got {len(value)}")
         return [self.table.check(v, f"{where}[{i}]") for i, v in enumerate(value)]
+
+
+class MapOf:
+    """A table whose keys are names chosen by the user (``[materials.wall]``,
+    ``[materials.floor]``), each value checked against ``table``."""
+
+    def __init__(self, table, *, required=False, doc=""):
+        self.table, self.required, self.doc = table, required, doc
+
+    def check(self, value, where):
+        if not isinstance(value, dict):
+            raise BadInputError(f"{where} must be a table of named entries, got {_describe(value)}")
+        return {name: self.table.check(v, f"{where}.{name}") for name, v in value.items()}
 
 
 class Variants:

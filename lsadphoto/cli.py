@@ -97,8 +97,15 @@ def cmd_luminance(args):
     angle = {} if args.acceptance_angle_deg is None else {"acceptance_angle": np.deg2rad(args.acceptance_angle_deg)}
     spots = [SpotReading.parse(s, **angle) for s in args.spot or []]
     dark = read_dark_frame(args.dark_frame) if args.dark_frame else None
+    illuminance = None
+    if args.illuminance is not None:
+        from .calibrate.illuminance import IlluminanceReading
+
+        illuminance = IlluminanceReading(args.illuminance, **(
+            {} if args.illuminance_uncertainty is None else {"relative_uncertainty": args.illuminance_uncertainty}))
     result = luminance_from_raw(
         args.raw, spots=spots, profile=_load_profile(args.profile), dark_frame=dark,
+        illuminance=illuminance, nd_filter=args.nd_filter,
         **_given(demosaic=args.demosaic, colour_method=args.colour_method),
     )
     writers = {"exr": write_exr, "hdr": write_hdr, "png": write_false_colour_png}
@@ -115,16 +122,73 @@ def cmd_luminance(args):
             f"± {100 * summary['calibration_uncertainty']:.1f} %{flag}, "
             f"saturated {100 * summary['saturated_fraction']:.2f} %"
         )
+        if summary["nominal"]:
+            print(f"  camera profile {summary['profile']!r}: nominal (not measured) "
+                  f"{', '.join(summary['nominal'])}; see --json camera_values")
     return 0
 
 
+def cmd_calibrate_profile(args):
+    from .calibrate.consistency import check_profile_frames
+    from .calibrate.draft import draft_profile
+    from .calibrate.profile import save_profile
+
+    plan = _plan({"profile": args.output})
+    profile = draft_profile(args.raw[0])
+    if args.id:
+        profile.id = args.id
+    check_profile_frames(profile, args.raw[1:])
+    with plan.write() as temps:
+        save_profile(profile, temps["profile"])
+    record = {"output": args.output, "id": profile.id, "sources": profile.sources,
+              "nominal": profile.nominal_values(), "notes": profile.notes, "frames": [str(p) for p in args.raw]}
+    if args.json:
+        _print_json(record)
+    else:
+        print(f"wrote {args.output}: {profile.camera or 'unknown camera'}, {profile.lens or 'unknown lens'}")
+        for key, source in profile.sources.items():
+            print(f"  {key}: {source}")
+        for note in profile.notes:
+            print(f"  note: {note}")
+        if record["nominal"]:
+            print(f"  nominal, to calibrate: {', '.join(record['nominal'])}")
+    return 0
+
+
+def _rotation_vignetting(args):
+    """The rotation method: (model, record) from --rotation frames and --target."""
+    from .calibrate.vignetting import fit_vignetting_rotation
+    from .raw.decode import decode_raw
+
+    if not args.target:
+        raise BadInputError("--rotation needs --target ROW,COL (the target in the first frame, sensor px)")
+    try:
+        target = tuple(float(v) for v in args.target.split(","))
+    except ValueError:
+        target = ()
+    if len(target) != 2:
+        raise BadInputError(f"--target must be ROW,COL, got {args.target!r}")
+    frames = [decode_raw(p, **_given(demosaic=args.demosaic)) for p in args.rotation]
+    f_numbers = {f.metadata.f_number for f in frames}
+    if len(f_numbers) > 1:
+        raise BadInputError(f"rotation frames mix apertures {sorted(f_numbers)}: fit one aperture at a time")
+    model, samples = fit_vignetting_rotation(
+        [f.rgb.sum(axis=-1) for f in frames], target, frames[0].sensor_shape, binning=frames[0].binning,
+        **_given(degree=args.degree), saturated=[f.saturated.any(axis=-1) for f in frames], f_number=f_numbers.pop())
+    model.focal_length = frames[0].metadata.focal_length
+    return model, {"method": "rotation", "samples": samples, "frames": [str(p) for p in args.rotation]}
+
+
 def cmd_calibrate_vignetting(args):
-    from ._provenance import timestamp
-    from .calibrate.profile import CameraProfile, save_profile
     from .calibrate.vignetting import fit_vignetting_polynomial
     from .raw.decode import decode_raw
 
+    if bool(args.flat) == bool(args.rotation):
+        raise BadInputError("give flat-field frames or --rotation frames (one of them)")
     plan = _plan({"profile": args.output})
+    if args.rotation:
+        model, record = _rotation_vignetting(args)
+        return _save_vignetting(args, plan, model, record)
     frames = [decode_raw(p, **_given(demosaic=args.demosaic)) for p in args.flat]
     shape = frames[0].sensor_shape
     for f in frames[1:]:
@@ -134,20 +198,77 @@ def cmd_calibrate_vignetting(args):
     saturated = np.any([f.saturated.any(axis=-1) for f in frames], axis=0)
     model = fit_vignetting_polynomial(rgb.sum(axis=-1), shape, binning=frames[0].binning,
                                       saturated=saturated, **_given(degree=args.degree))
+    model.f_number, model.focal_length = frames[0].metadata.f_number, frames[0].metadata.focal_length
+    return _save_vignetting(args, plan, model, {"method": "flat-field", "frames": [str(p) for p in args.flat]})
+
+
+def _save_vignetting(args, plan, model, record):
+    from ._provenance import timestamp
+    from .calibrate.profile import CameraProfile, save_profile
+
     profile = _load_profile(args.profile) or CameraProfile(id=args.id or "vignetting-fit")
     profile.vignetting = model
-    profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__}, {timestamp()}: from "
-                              + ", ".join(Path(p).name for p in args.flat))
+    profile.provenance = dict(profile.provenance, vignetting_fit=f"lsadphoto {__version__}, {timestamp()}, "
+                              f"{record['method']}: from " + ", ".join(Path(p).name for p in record["frames"]))
+    profile.sources = dict(profile.sources, vignetting=f"{record['method']} fit, {len(record['frames'])} frames")
+    profile.nominal = [n for n in profile.nominal if n != "vignetting"]
     with plan.write() as temps:
         save_profile(profile, temps["profile"])
-    record = {"output": args.output, "coefficients": model.coefficients, "rms_residual": model.rms_residual,
-              "frames": [str(p) for p in args.flat]}
+    record = dict(record, output=args.output, coefficients=model.coefficients, rms_residual=model.rms_residual,
+                  uncertainty=model.uncertainty, f_number=model.f_number)
     if args.json:
         _print_json(record)
     else:
         coeffs = ", ".join(f"{c:.5g}" for c in model.coefficients)
-        print(f"wrote {args.output}: V = 1 + Σ a_k r^2k with a = [{coeffs}], RMS residual "
-              f"{100 * model.rms_residual:.2f} %")
+        extra = "" if model.uncertainty is None else f", uncertainty ≤ {100 * model.uncertainty:.2f} %"
+        print(f"wrote {args.output}: V = 1 + Σ a_k r^2k with a = [{coeffs}] ({record['method']}), RMS residual "
+              f"{100 * model.rms_residual:.2f} %{extra}")
+    return 0
+
+
+def cmd_calibrate_noise(args):
+    from .calibrate.noise import fit_photon_transfer
+    from .calibrate.profile import CameraProfile, save_profile
+    from .raw.bracket import NoiseModel
+    from .raw.decode import decode_raw
+
+    if len(args.flat) % 2 or len(args.flat) < 6:
+        raise BadInputError(f"give flat frames in pairs (two per exposure level, at least three levels), "
+                            f"got {len(args.flat)}")
+    if args.dark and len(args.dark) != 2:
+        raise BadInputError(f"--dark takes two dark frames, got {len(args.dark)}")
+    plan = _plan({"profile": args.output})
+    frames = [decode_raw(p) for p in args.flat]
+    isos = {f.metadata.iso for f in frames}
+    if len(isos) != 1 or None in isos:
+        raise BadInputError(f"flat frames must share one recorded ISO, got {sorted(map(str, isos))}")
+    pairs = []
+    for a, b in zip(frames[0::2], frames[1::2]):
+        if a.metadata.exposure_time != b.metadata.exposure_time:
+            raise BadInputError(f"{a.path} and {b.path} form a pair but differ in exposure time "
+                                f"({a.metadata.exposure_time} s, {b.metadata.exposure_time} s)")
+        pairs.append((a.rgb[..., [0, 2]], b.rgb[..., [0, 2]]))
+    dark = None
+    if args.dark:
+        d = [decode_raw(p) for p in args.dark]
+        dark = (d[0].rgb[..., [0, 2]], d[1].rgb[..., [0, 2]])
+    fit = fit_photon_transfer(pairs, iso=isos.pop(), dark_pair=dark)
+    profile = _load_profile(args.profile) or CameraProfile(id=args.id or "noise-fit")
+    profile.noise = NoiseModel(full_well=fit.full_well, read_noise=fit.read_noise)
+    profile.noise_measured = True
+    profile.sources = dict(profile.sources, noise=(
+        f"photon transfer, {len(pairs)} pairs at ISO {fit.iso:g}, read noise from the {fit.read_noise_source}"))
+    profile.nominal = [n for n in profile.nominal if n != "noise"]
+    with plan.write() as temps:
+        save_profile(profile, temps["profile"])
+    record = {"output": args.output, "full_well_electrons": fit.full_well, "read_noise_electrons": fit.read_noise,
+              "gain_electrons": fit.gain, "iso": fit.iso, "rms_residual": fit.rms_residual,
+              "read_noise_source": fit.read_noise_source, "points": fit.points}
+    if args.json:
+        _print_json(record)
+    else:
+        print(f"wrote {args.output}: full well {fit.full_well:.4g} e⁻ at ISO 100, read noise {fit.read_noise:.3g} e⁻ "
+              f"({fit.read_noise_source}); RMS residual {100 * fit.rms_residual:.1f} %")
     return 0
 
 
@@ -196,6 +317,10 @@ def _line_of_sight(text, lmap):
             row, col = (float(v) for v in text[3:].split(","))
         except ValueError:
             raise BadInputError(f"--line-of-sight px:ROW,COL needs two numbers, got {text!r}") from None
+        rows, cols = lmap.shape
+        if not (-0.5 <= row <= rows - 0.5 and -0.5 <= col <= cols - 0.5):
+            raise BadInputError(f"--line-of-sight {text}: the point is off the image ({rows}×{cols} px: "
+                                f"ROW 0…{rows - 1}, COL 0…{cols - 1})")
         direction = lmap.projection.directions(row, col)
         if not np.all(np.isfinite(direction)):
             raise BadInputError(f"--line-of-sight {text}: the point is outside the image's valid area")
@@ -279,6 +404,14 @@ def cmd_score(args):
     plan = _plan({"sources": args.sources_png, "contrast": args.contrast_png, "json": args.output_json})
     lmap = read_map(args.map)
     if lmap.projection is None:
+        view = (lmap.provenance or {}).get("radiance_view")
+        if view:
+            from .io.hdr import parse_view, projection_from_view
+
+            try:
+                projection_from_view(parse_view(view), lmap.shape[1], lmap.shape[0])
+            except BadInputError as exc:
+                raise BadInputError(f"{args.map}: VIEW= line {view.strip()!r}: {exc}") from None
         raise BadInputError(f"{args.map} has no camera geometry (no VIEW= line or lsadphoto metadata)")
     method = args.source_method
     score = score_map(
@@ -420,18 +553,26 @@ def cmd_view(args):
     output = Path(args.output)
     if output.suffix.lower() not in (".html", ".htm"):
         raise BadInputError(f"output {args.output} must end in .html")
+    plan = _plan({"html": output})
     first = read_map(args.map)
     second = read_map(args.map2) if args.map2 else None
     if second is not None:
         check_same_geometry(first, second, names=(str(args.map), str(args.map2)))
+    options = {}
+    if args.band_deg is not None:
+        options["band_deg"] = args.band_deg
+    if args.zones:
+        options["zone_centre"], options["zone_opening_deg"] = _centre_and_angles(args.zones,
+                                                                                 "--zones")
     scores = [None, None]
     if not args.no_score:
-        scores = [score_map(m) if m is not None and m.projection is not None else None
-                  for m in (first, second)]
+        scores = [score_map(m, **options) if m is not None and m.projection is not None
+                  else None for m in (first, second)]
     names = (args.name or Path(args.map).stem,
              args.name2 or (Path(args.map2).stem if args.map2 else "second"))
-    write_viewer(first, output, second=second, score=scores[0], second_score=scores[1],
-                 names=names, title=args.title)
+    with plan.write() as temps:
+        write_viewer(first, temps["html"], second=second, score=scores[0], second_score=scores[1],
+                     names=names, title=args.title)
     record = {"output": str(output), "bytes": output.stat().st_size,
               "maps": [str(args.map)] + ([str(args.map2)] if args.map2 else []),
               "scored": [s is not None for s in scores[:1 + (second is not None)]]}
@@ -569,7 +710,8 @@ def _build_cache(store, args):
 
     callback, close = progress_callback("surface cache", enabled=False if args.quiet else None)
     try:
-        return build_surface_cache(store, spacing=args.cache_spacing, nodes=args.cache_nodes,
+        return build_surface_cache(store, spacing=args.cache_spacing,
+                                   **({} if args.cache_nodes is None else {"nodes": args.cache_nodes}),
                                    seed=args.seed, workers=os.cpu_count() or 1, progress=callback)
     finally:
         close()
@@ -584,7 +726,9 @@ def _render_pose(args, scene):
         if not args.size:
             raise BadInputError("--view needs --size WxH")
         width, height = _size(args.size)
-        view = parse_view(args.view)
+        view = parse_view(args.view, strict=True)
+        if "vp" not in view:
+            raise BadInputError(f"--view {args.view!r} gives no eye position (-vp X Y Z [m])")
         projection = projection_from_view(view, width, height)
         position = view.get("vp", [0.0, 0.0, 0.0])
         rotation = camera_to_world(view.get("vd", [0.0, 1.0, 0.0]), view.get("vu", [0.0, 0.0, 1.0]))
@@ -640,9 +784,20 @@ def cmd_render(args):
     plan = _plan({"exr": args.output, "hdr": args.hdr})
     outputs = plan.files
     source = Path(args.source)
+    cache_options = [o for o, v in (("--cache-spacing", args.cache_spacing),
+                                    ("--cache-nodes", args.cache_nodes)) if v is not None]
+    if cache_options and args.estimator != "cache":
+        raise BadInputError(f"{', '.join(cache_options)} apply to --estimator cache only")
     if source.suffix.lower() == ".npz":
         store_or_scene = load_store(source)
         scene = store_or_scene.scene
+        if args.samples is not None:
+            raise BadInputError(f"--samples applies when rendering a scene directly; the store "
+                                f"{source} holds {store_or_scene.chains} chains (simulate again for more)")
+        if cache_options and store_or_scene.surface_cache is not None:
+            raise BadInputError(f"{', '.join(cache_options)} cannot apply: the store {source} already holds "
+                                f"a surface cache (spacing {store_or_scene.surface_cache.spacing:.3g} m); "
+                                "build another with simulate --surface-cache")
     else:
         store_or_scene = scene = _load_any_scene(source)
     projection, position, rotation = _render_pose(args, scene)
@@ -691,8 +846,23 @@ def cmd_render(args):
 def _add_cache_options(sub):
     sub.add_argument("--cache-spacing", type=float, metavar="M",
                      help="surface-cache point spacing [m] (default 1/24 of the scene's diagonal)")
-    sub.add_argument("--cache-nodes", type=int, default=8192, metavar="N",
+    sub.add_argument("--cache-nodes", type=int, metavar="N",
                      help="node draws per surface-cache point (default 8192)")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, with a hint where a value that starts with '-' was taken for an option."""
+
+    #: The arguments being parsed (set by :func:`main`), to quote the value in the hint.
+    argv = ()
+
+    def error(self, message):
+        if message.startswith("argument ") and "expected one argument" in message:
+            option = message.split()[1].rstrip(":").split("/")[-1]
+            argv = list(_Parser.argv)
+            value = next((argv[i + 1] for i, a in enumerate(argv[:-1]) if a == option), "-VALUE")
+            message += f" (a value that starts with '-' must be attached with '=': {option}={value})"
+        super().error(message)
 
 
 def build_parser():
@@ -707,7 +877,7 @@ def _build_parser():
     from .constants import LS100_ACCEPTANCE_ANGLE
 
     demosaic = _Choices("lsadphoto.raw.methods", "DEMOSAIC_METHODS")
-    parser = argparse.ArgumentParser(prog=PROG, description="Calibrated luminance maps from RAW photographs.")
+    parser = _Parser(prog=PROG, description="Calibrated luminance maps from RAW photographs.")
     parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -719,7 +889,14 @@ def _build_parser():
     lum.add_argument("--acceptance-angle-deg", type=float,
                      help=f"spot meter acceptance angle, full cone [deg] (default: LS-100, "
                           f"{np.rad2deg(LS100_ACCEPTANCE_ANGLE):g})")
-    lum.add_argument("--profile", help="camera profile (TOML)")
+    lum.add_argument("--profile", help="camera profile (TOML); default: drafted from the file (EXIF, lensfun)")
+    lum.add_argument("--illuminance", type=float, metavar="LUX",
+                     help="illuminance at the lens, meter facing along the optical axis (hemispherical maps): "
+                          "calibrates the map, or cross-checks the spots")
+    lum.add_argument("--illuminance-uncertainty", type=float, metavar="REL",
+                     help="relative standard uncertainty of the illuminance meter (default 0.043: DIN 5032-7 class B)")
+    lum.add_argument("--nd-filter", type=float, nargs="+", metavar="STOPS",
+                     help="neutral-density filter of each frame in stops, in the order of the RAW files (0 for none)")
     lum.add_argument("--demosaic", choices=demosaic, help="demosaicing (default: the first)")
     lum.add_argument("--colour-method", choices=_Choices("lsadphoto.raw.colour", "COLOUR_METHODS"),
                      help="camera RGB → XYZ source (default: the first)")
@@ -732,8 +909,13 @@ def _build_parser():
 
     cal = sub.add_parser("calibrate", help="camera calibration")
     calsub = cal.add_subparsers(dest="what", required=True)
-    vig = calsub.add_parser("vignetting", help="fit a vignetting polynomial from flat-field RAW frames")
-    vig.add_argument("flat", nargs="+", help="flat-field RAW frames (uniform diffuse field, same settings)")
+    vig = calsub.add_parser("vignetting", help="fit a vignetting polynomial from flat-field RAW frames or a "
+                            "rotation sequence")
+    vig.add_argument("flat", nargs="*", help="flat-field RAW frames (uniform diffuse field, same settings)")
+    vig.add_argument("--rotation", nargs="+", metavar="RAW",
+                     help="rotation method: RAW frames of a fixed, uniformly lit target while the camera turns "
+                          "about its entrance pupil (one aperture)")
+    vig.add_argument("--target", metavar="ROW,COL", help="the target's position in the first --rotation frame [sensor px]")
     vig.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
     vig.add_argument("--profile", help="profile to start from (its other sections are kept)")
     vig.add_argument("--id", help="profile id when no --profile is given")
@@ -741,6 +923,22 @@ def _build_parser():
     vig.add_argument("--demosaic", choices=demosaic, help="demosaicing (default: the first)")
     vig.add_argument("--json", action="store_true")
     vig.set_defaults(func=cmd_calibrate_vignetting)
+    noi = calsub.add_parser("noise", help="measure the noise model ([noise]) by photon transfer from pairs of "
+                            "flat frames at several exposures")
+    noi.add_argument("flat", nargs="+", help="flat frames in pairs: two per exposure level, three levels or more")
+    noi.add_argument("--dark", nargs=2, metavar="RAW", help="two dark frames (lens cap on, same settings)")
+    noi.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
+    noi.add_argument("--profile", help="profile to start from (its other sections are kept)")
+    noi.add_argument("--id", help="profile id when no --profile is given")
+    noi.add_argument("--json", action="store_true")
+    noi.set_defaults(func=cmd_calibrate_noise)
+    prof = calsub.add_parser("profile", help="draft a camera profile from RAW files (EXIF and the lensfun "
+                             "database), to edit and calibrate further")
+    prof.add_argument("raw", nargs="+", help="RAW file(s) of one camera, lens, focal length and aperture")
+    prof.add_argument("-o", "--output", required=True, help="camera profile to write (TOML)")
+    prof.add_argument("--id", help="profile id (default: 'drafted from FILE')")
+    prof.add_argument("--json", action="store_true")
+    prof.set_defaults(func=cmd_calibrate_profile)
     geo = calsub.add_parser("geometry", help="calibrate the camera geometry from chessboard or ChArUco images (OpenCV)")
     geo.add_argument("images", nargs="+", help="images of a chessboard or ChArUco board (8-bit, any format OpenCV reads)")
     geo.add_argument("--pattern", required=True, metavar="PATTERN",
@@ -789,11 +987,11 @@ def _build_parser():
     sc.add_argument("--q-weight-exponent", type=int, choices=(0, 1, 2), default=1,
                     help="Q weight w = P^-m (default m = 1)")
     sc.add_argument("--sweep", action="store_true", help="also compute Q(N) for N = 1…100 in one pass")
-    sc.add_argument("--noise-samples", type=int, default=256,
+    sc.add_argument("--noise-samples", type=int, default=64,
                     help="draws of the field sums for the per-pixel noise of maps that carry a "
-                         "per-pixel uncertainty (0: off; default 256)")
-    sc.add_argument("--q-noise-samples", type=int, default=4,
-                    help="resampled maps for Q's noise and bias (0: off; default 4)")
+                         "per-pixel uncertainty (0: off; default 64)")
+    sc.add_argument("--q-noise-samples", type=int, default=8,
+                    help="resampled maps for Q's noise and bias (0: off; default 8)")
     eg = sc.add_argument_group("evalglare 3.06 analyses (angles in degrees, evalglare's radians × 180/π)")
     eg.add_argument("--band-deg", type=float, metavar="A",
                     help="evalglare -B: statistics of the horizontal band of half-width A about the "
@@ -860,6 +1058,10 @@ def _build_parser():
     vw.add_argument("--name2", help="name of the second map (default: its file name)")
     vw.add_argument("--no-score", action="store_true",
                     help="leave out the metrics overlays (glare sources, Q contrast map)")
+    vw.add_argument("--band-deg", type=float, metavar="A",
+                    help="also show evalglare's band (-B) of half-width A, as for score")
+    vw.add_argument("--zones", metavar="px:ROW,COL,DEG1[,DEG2]|X,Y,Z,DEG1[,DEG2]",
+                    help="also show evalglare's zones (-l/-L), as for score")
     vw.add_argument("--json", action="store_true", help="print a JSON summary")
     vw.set_defaults(func=cmd_view)
 
@@ -949,6 +1151,7 @@ def main(argv=None):
     if whole_process:
         gc.set_threshold(*_COMMAND_GC_THRESHOLD)
     parser = build_parser()
+    _Parser.argv = tuple(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     warnings.showwarning = _warning_line
     try:

@@ -6,8 +6,8 @@ statistics over the field and in regions (σ rings around the line of sight and 
 grid of image blocks), and every metric of :func:`~lsadphoto.metrics.score.score_map` for
 both maps with its difference and the combined standard uncertainty.
 
-Uncertainties: the photo's is its calibration factor's (a common scale); the model's is its
-Monte Carlo error. Monte Carlo errors of neighbouring pixels are correlated (they share the
+Uncertainties: the photo's is its calibration factor's (a common scale) and its per-pixel
+noise (:func:`score_map` propagates both); the model's is its Monte Carlo error. Monte Carlo errors of neighbouring pixels are correlated (they share the
 same light chains), so the model's scale uncertainty is taken as the fully correlated bound
 Σ u_j·ω_j / Σ L_j·ω_j from its per-pixel standard errors — conservative — unless the model
 map states a relative ``calibration_uncertainty`` of its own. Metric uncertainties of both
@@ -40,7 +40,9 @@ COMPARED_METRICS = tuple(m.name for m in FIELD + INDICES) + ("q",)
 
 @dataclass
 class Comparison:
-    """Result of :func:`compare_maps` (see the module notes); ``ratio`` is model/photo."""
+    """Result of :func:`compare_maps` (see the module notes); ``ratio`` is model/photo,
+    ``scores`` the two :class:`~lsadphoto.metrics.score.Score` results (photo, model), for
+    the report's viewer overlays."""
 
     ratio: np.ndarray
     field: dict
@@ -48,6 +50,7 @@ class Comparison:
     metrics: dict
     uncertainty: dict
     settings: dict = field(default_factory=dict)
+    scores: tuple = ()
 
     def to_dict(self):
         """JSON-ready record (None for undefined values)."""
@@ -166,10 +169,14 @@ def compare_maps(photo, model, *, line_of_sight=None, up=None, grid=(4, 4),
     options = dict(score_options, line_of_sight=frame.line_of_sight, up=frame.up)
     score_p = score_map(photo, **options)
     u_model = model_scale_uncertainty(model)
+    model_options = dict(options)
     if u_model > 0 and model.calibration_uncertainty == 0:
-        # The model's Monte Carlo scale uncertainty enters its metrics like a calibration's.
+        # The model's Monte Carlo scale uncertainty enters its metrics like a calibration's;
+        # taken as fully correlated, its pixel errors are not propagated again as
+        # independent noise.
         model = dataclasses.replace(model, calibration_uncertainty=u_model)
-    score_m = score_map(model, **options)
+        model_options.update(noise_samples=0, q_noise_samples=0)
+    score_m = score_map(model, **model_options)
     metrics = {}
     for key in COMPARED_METRICS:
         a, b = score_p.values.get(key), score_m.values.get(key)
@@ -187,4 +194,4 @@ def compare_maps(photo, model, *, line_of_sight=None, up=None, grid=(4, 4),
                 "floor_luminance": float(floor_luminance), "score": score_p.settings}
     return Comparison(ratio=np.where(ok, ratio, np.nan), field=field_stats,
                       regions={"rings": rings, "blocks": blocks}, metrics=metrics,
-                      uncertainty=uncertainty, settings=settings)
+                      uncertainty=uncertainty, settings=settings, scores=(score_p, score_m))

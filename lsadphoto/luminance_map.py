@@ -25,7 +25,7 @@ class LuminanceMap:
         unbiased; ``uncertainty`` says where a pixel is noise.
     uncertainty : array_like, shape (rows, cols), optional
         Standard uncertainty of each pixel's luminance [cd·m⁻²] (calibration and noise
-        combined); NaN where unknown.
+        combined), ≥ 0; NaN where unknown.
     projection : Projection, optional
         Camera geometry mapping each pixel to a direction; ``None`` when unknown.
     line_of_sight : array_like, shape (3,), optional
@@ -62,6 +62,10 @@ class LuminanceMap:
             self.uncertainty = check_array(
                 self.uncertainty, "uncertainty", shape=self.luminance.shape, dtype=STORAGE_DTYPE
             )
+            negative = int(np.count_nonzero(self.uncertainty < 0))
+            if negative:
+                raise BadInputError(f"uncertainty map has {negative} negative value(s): a standard "
+                                    "uncertainty is ≥ 0 [cd/m²]")
         if self.projection is not None and tuple(self.projection.shape) != self.luminance.shape:
             raise BadInputError(
                 f"projection is for {self.projection.shape} pixels but the map has "

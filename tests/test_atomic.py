@@ -96,18 +96,20 @@ def _commands(tmp_path, bad):
         "study figures": ["study", missing + ".csv", missing + ".csv", "--figures", str(tmp_path / "f.txt")],
         "simulate": ["simulate", missing + ".toml", "-o", bad],
         "render": ["render", missing + ".toml", "-o", bad],
+        "view": ["view", missing + ".exr", "-o", str(tmp_path / "taken.html")],
     }
 
 
 def test_every_command_checks_outputs_before_work(tmp_path, capsys):
     bad = tmp_path / "taken.exr"
     bad.mkdir()
+    (tmp_path / "taken.html").mkdir()
     (tmp_path / "f.txt").write_text("a file where a folder is wanted")
     for name, argv in _commands(tmp_path, str(bad)).items():
         assert main(argv) == 2, name
         line = _one_error_line(capsys)
-        assert ("taken.exr is an existing folder" in line or "f.txt is an existing file" in line), (name, line)
-    assert _files(tmp_path) == ["f.txt", "taken.exr"]
+        assert ("is an existing folder" in line or "f.txt is an existing file" in line), (name, line)
+    assert _files(tmp_path) == ["f.txt", "taken.exr", "taken.html"]
 
 
 def test_oserror_while_writing_is_one_line_and_keeps_targets(tmp_path):

@@ -2,6 +2,7 @@
 
 import json
 import math
+import re
 import subprocess
 import sys
 
@@ -71,8 +72,36 @@ def test_score_bad_inputs_are_one_line(tmp_path, fisheye_map):
         (good, "--line-of-sight", "0,0,0"),
         (good, "--line-of-sight", "px:0,0"),  # outside the image circle
         (good, "--N", "-3"),
+        (good, "--noise-samples", "-1"),
     ]
     for args in cases:
         code, out, err = run_cli("score", *args)
         assert code == 2, (args, err)
         assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, (args, err)
+
+
+def test_source_position_and_noise_in_the_text_output(tmp_path, fisheye_map):
+    noisy = LuminanceMap(fisheye_map.luminance, uncertainty=0.1 * fisheye_map.luminance,
+                         projection=fisheye_map.projection, calibrated=True,
+                         calibration_uncertainty=0.02)
+    path = tmp_path / "noisy.exr"
+    write_exr(noisy, path)
+    code, out, err = run_cli("score", path, "--source-position", "direction", "--json",
+                             "--q-noise-samples", "4")
+    assert code == 0, err
+    record = json.loads(out)
+    assert record["settings"]["source_position"] == "direction"
+    assert record["sources"][0]["position_pixel"] is None
+    assert record["sources"][0]["position_direction"] == record["sources"][0]["direction"]
+    # Calibration (2 %) and noise parts combine in quadrature into "uncertainty".
+    for key in ("ugr_grouped", "dgp", "q"):
+        assert record["uncertainty"][key] == pytest.approx(math.hypot(
+            record["uncertainty_calibration"][key], record["uncertainty_noise"][key]), rel=1e-9)
+    code, out, err = run_cli("score", path, "--q-noise-samples", "4")
+    assert code == 0, err
+    # Values to their uncertainty's two significant digits; Q's noise bias (noise adds
+    # gradients to a flat background) is printed.
+    shown = re.search(r"grouped (\d+)\.(\d+) ± 0\.(0*)([1-9]\d)\b", out)
+    assert shown is not None, out
+    assert len(shown.group(2)) == len(shown.group(3)) + 2
+    assert "bias from pixel noise" in out and "Q +" in out

@@ -51,7 +51,13 @@ def test_render_view_equals_python_render_and_scores(store_path, tmp_path):
     assert lmap.projection == proj
     code, stdout, err = cli("score", out, "--json")
     assert code == 0, err
-    assert json.loads(stdout)["vertical_illuminance"] > 0
+    # E_v of the rendered map is Σ L·ω·cos θ over its pixels (the definition; cos θ about the
+    # optical axis, the default line of sight), with ω and θ from the camera model.
+    grid = proj.pixel_grid()
+    omega, d = proj.solid_angles(*grid), proj.directions(*grid)
+    known = np.isfinite(lmap.luminance) & (omega > 0)
+    e_v = float(np.sum(np.asarray(lmap.luminance, np.float64)[known] * omega[known] * np.clip(d[known][:, 2], 0, None)))
+    assert json.loads(stdout)["vertical_illuminance"] == pytest.approx(e_v, rel=1e-9)
 
 
 def test_render_scene_view_and_profile_pose(store_path, tmp_path):
@@ -115,3 +121,64 @@ def test_render_through_the_nominal_demo_profile(store_path, tmp_path):
     direct = render(load_store(store_path), expected, position=[1, 2, 1.2],
                     rotation=camera_to_world([1, 0, 0], [0, 0, 1]), nodes_per_pixel=4)
     np.testing.assert_array_equal(lmap.luminance, direct.luminance)
+
+
+def _radiance_tool(name):
+    pyradiance = pytest.importorskip("pyradiance")
+    import os
+
+    path = os.path.join(os.path.dirname(pyradiance.__file__), "bin", name)
+    if not os.path.exists(path):
+        pytest.skip(f"pyradiance ships no {name} binary on this platform")
+    return path
+
+
+@pytest.mark.parametrize("view", [
+    "-vta -vp 1 2 1.2 -vd 1 0 0 -vu 0 0 1 -vh 180 -vv 150",
+    "-vtv -vp 4.5 1.5 1.6 -vd -1 0.5 -0.2 -vu 0 0 1 -vh 60 -vv 45",
+])
+def test_rendered_hdr_view_is_the_rendered_view(store_path, tmp_path, view):
+    """Issue 13: the VIEW= line of a render carries its pose; Radiance's vwrays on that line
+    gives the very rays the renderer traced (world directions of every pixel centre)."""
+    from lsadphoto.io import read_hdr
+    from lsadphoto.io.hdr import parse_view
+
+    hdr, exr = tmp_path / "m.hdr", tmp_path / "m.exr"
+    code, _, err = cli("render", store_path, f"--view={view}", "--size", "12x10", "-o", exr,
+                       "--hdr", hdr, "--quiet")
+    assert code == 0, err
+    line = next(t for t in hdr.read_bytes().split(b"\n\n", 1)[0].decode().splitlines()
+                if t.startswith("VIEW="))
+    written = parse_view(line[5:])
+    given = parse_view(view)
+    for key in ("vp", "vd", "vu"):
+        direction = np.asarray(given[key], float)
+        if key != "vp":
+            direction = direction / np.linalg.norm(direction)
+            if key == "vu":  # Radiance keeps only the part of vu orthogonal to vd
+                vd = np.asarray(given["vd"], float) / np.linalg.norm(given["vd"])
+                direction = direction - direction.dot(vd) * vd
+                direction /= np.linalg.norm(direction)
+        np.testing.assert_allclose(np.asarray(written[key], float), direction, atol=1e-12)
+    out = subprocess.run([_radiance_tool("vwrays"), "-fd", "-x", "12", "-y", "10", "-pa", "0",
+                          "-vf", str(hdr)], capture_output=True, check=True).stdout
+    rays = np.frombuffer(out, dtype=np.float64).reshape(10, 12, 6)  # scanlines from the top
+    lmap = read_hdr(hdr)
+    rows, cols = lmap.projection.pixel_grid()
+    d_cam = lmap.projection.directions(rows, cols).reshape(10, 12, 3)
+    rot = camera_to_world(given["vd"], given["vu"])
+    d_world = d_cam @ rot.T
+    ok = np.all(np.isfinite(d_world), axis=-1)
+    # Both evaluate closed forms in double precision from 17-digit view options.
+    np.testing.assert_allclose(rays[..., 3:][ok], d_world[ok], atol=1e-9)
+    np.testing.assert_allclose(rays[..., :3][ok], np.broadcast_to(given["vp"], d_world.shape)[ok], atol=1e-12)
+
+
+def test_options_that_cannot_apply_to_a_store_are_errors(store_path, tmp_path):
+    view = "-vta -vp 1 2 1.2 -vd 1 0 0 -vu 0 0 1 -vh 180 -vv 180"
+    out = tmp_path / "m.exr"
+    for extra, message in ((["--samples", "100"], "--samples applies when rendering a scene directly"),
+                           (["--cache-nodes", "64"], "--cache-nodes apply to --estimator cache only")):
+        code, _, err = cli("render", store_path, f"--view={view}", "--size", "8x8", "-o", out, *extra)
+        assert code == 2 and message in err and err.count("\n") == 1, err
+        assert not out.exists()

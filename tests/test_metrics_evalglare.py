@@ -146,3 +146,19 @@ def test_real_looking_scenes_agree_with_evalglare(tmp_path, camera, name):
         ours = min(score.sources, key=lambda s: (s.col - x) ** 2 + (s.row + 1 - y) ** 2)
         assert (ours.col, ours.row + 1) == pytest.approx((x, y), abs=1e-3)
         assert ours.position_index == pytest.approx(p, rel=1e-5)
+
+
+@pytest.mark.slow
+def test_real_rendering_with_the_sun_agrees_with_evalglare():
+    """A real Radiance rendering (raytraverse's office desk, 1000² -vta, sun in view): nine
+    sources, from the sun's disk to a 9-pixel glint, each at evalglare's position."""
+    from .conftest import realdata
+
+    path = realdata("hdr/raytraverse_rendered_desk_vta.hdr")
+    peer = run_evalglare(path)
+    score = score_map(read_hdr(path))
+    _agree(score.values, peer)
+    for x, y, p in peer["sources"]:
+        ours = min(score.sources, key=lambda s: (s.col - x) ** 2 + (s.row + 1 - y) ** 2)
+        assert (ours.col, ours.row + 1) == pytest.approx((x, y), abs=1e-3)
+        assert ours.position_index == pytest.approx(p, rel=1e-5)

@@ -90,6 +90,8 @@ def test_office_map_matches_the_true_scene(quickstart):
     np.testing.assert_allclose(hdr[known], lmap.luminance[known], rtol=2.0**-8 + 1e-6)
     for name in ("office.png", "sources.png", "contrast.png"):
         assert (clone / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+    if "office-view.html" in (clone / "README.md").read_text(encoding="utf-8"):
+        assert (clone / "office-view.html").read_text(encoding="utf-8").lstrip().lower().startswith("<!doctype html")
 
 
 @pytest.mark.slow

@@ -82,7 +82,8 @@ class Page(HTMLParser):
 
 
 def _check_self_contained(page, text):
-    assert "script" not in page.tags and "link" not in page.tags and "iframe" not in page.tags
+    # Scripts only inline (the interactive viewer's code and data; a src= would be a link).
+    assert "link" not in page.tags and "iframe" not in page.tags
     for link in page.links:
         assert not link.lower().startswith(("http:", "https:", "//", "file:")), link
     for link in page.links:
@@ -370,7 +371,8 @@ def test_comparison_report(maps, comparison, tmp_path):
     _check_self_contained(page, text)
     assert {"summary", "metrics", "maps", "ratios", "provenance"} <= page.ids
     assert "Station <1>" in page.text and "<photo>.dng" in page.text
-    assert len(page.images) == 3  # ratio map and both false-colour maps
+    # The ratio map, and the interactive viewer of both maps in place of their false colour.
+    assert len(page.images) == 1 and text.count('class="lsad-viewer"') == 1
     m = comparison.metrics["ugr_grouped"]
     assert f"{m['difference']:.2f}" in page.text  # difference ± u, GUM rounding
     assert "differ" in page.text  # 1.1 × is outside 2u for UGR
@@ -383,9 +385,9 @@ def test_comparison_report(maps, comparison, tmp_path):
     assert not page.images
     assert "no ratio map" in page.text and "no photo luminance map was given" in page.text
     # The to_dict() form with the maps: the ratio map is recomputed.
-    page = Page(write_comparison_report(comparison.to_dict(), tmp_path / "e.html", photo=photo,
-                                        model=model).read_text(encoding="utf-8"))
-    assert len(page.images) == 3
+    text = write_comparison_report(comparison.to_dict(), tmp_path / "e.html", photo=photo,
+                                   model=model).read_text(encoding="utf-8")
+    assert len(Page(text).images) == 1 and 'class="lsad-viewer"' in text
     # An empty record is still a report.
     page = Page(write_comparison_report({}, tmp_path / "f.html").read_text(encoding="utf-8"))
     assert "The metric table is not available" in page.text

@@ -71,3 +71,15 @@ def test_read_toml_reports_syntax_and_encoding(tmp_path):
     good = tmp_path / "good.toml"
     good.write_text('id = "c"\n[sensor]\nwidth_px = 640\n')
     assert read_toml(good, SCHEMA)["sensor"] == {"width_px": 640}
+
+
+def test_map_of_named_tables():
+    from lsadphoto._schema import MapOf
+
+    schema = Table({"materials": MapOf(Table({"reflectance": Key(float, required=True, minimum=0)}))})
+    out = validate({"materials": {"wall": {"reflectance": 1}}}, schema, source="s.toml")
+    assert out == {"materials": {"wall": {"reflectance": 1.0}}}
+    with pytest.raises(BadInputError, match=r"s.toml: \[materials.wall\] unknown key 'reflectence'"):
+        validate({"materials": {"wall": {"reflectence": 0.5}}}, schema, source="s.toml")
+    with pytest.raises(BadInputError, match="materials must be a table of named entries"):
+        validate({"materials": [1]}, schema, source="s.toml")

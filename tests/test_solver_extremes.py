@@ -116,7 +116,7 @@ photometry = "{name}"
     with pytest.raises(BadInputError) as exc:
         load_scene(tmp_path / "scene.toml")
     text = _one_line(exc)
-    assert text.startswith("luminaires[0]: ") and message in text
+    assert text.startswith(f"{tmp_path / 'scene.toml'}: luminaires[0]: ") and message in text
 
 
 # --- warnings, never hangs -----------------------------------------------------------------
@@ -124,12 +124,13 @@ photometry = "{name}"
 def test_unreachable_target_error_warns_and_stops():
     room = canonical_room(size=16)
     t0 = time.perf_counter()
-    with pytest.warns(SolverWarning, match=r"target_error 1e-05 not reached: achieved 0\.\d+ with 8192 chains"):
-        store = simulate(room, target_error=1e-5, max_samples=8192, samples=8192, seed=1)
+    # The smallest target allowed (MIN_TARGET_ERROR = 1e-4), beyond 8192 chains' reach.
+    with pytest.warns(SolverWarning, match=r"target_error 0.0001 not reached: achieved 0\.\d+ with 8192 chains"):
+        store = simulate(room, target_error=1e-4, max_samples=8192, samples=8192, seed=1)
     assert time.perf_counter() - t0 < 30
     p = store.provenance
     assert p["target_reached"] is False and p["chains"] == 8192
-    assert 1e-5 < p["achieved_relative_error"] < 0.01
+    assert 1e-4 < p["achieved_relative_error"] < 0.01
 
 
 def test_reached_target_error_does_not_warn():

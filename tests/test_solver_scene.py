@@ -133,7 +133,7 @@ BAD = {
 [[surfaces]]
 type = "polygon"
 vertices = [[0,0,0],[1,0,0],[0,1,0]]
-""", "missing required field 'material'"),
+""", "surfaces[0]: missing required key 'material'"),
     "unknown material": (ROOM.replace('material = "wall"', 'material = "wood"'), "unknown material 'wood'"),
     "reflectance one": (ROOM.replace("0.5", "1.0"), "reflectance must be in [0, 1)"),
     "negative reflectance": (ROOM.replace("0.5", "-0.1"), "reflectance must be in [0, 1)"),
@@ -149,13 +149,13 @@ type = "polygon"
 material = "wall"
 vertices = [[0,0,0],[1,0,0],[1,1,0.5],[0,1,0]]
 """, "not coplanar"),
-    "unknown shape": (ROOM.replace('type = "box"', 'type = "cone"'), "unknown shape type 'cone'"),
+    "unknown shape": (ROOM.replace('type = "box"', 'type = "cone"'), "surfaces[0].type must be one of 'polygon', 'box', 'disc', 'sphere', 'mesh', got 'cone'"),
     "box max below min": (ROOM.replace("max = [2, 2, 2]", "max = [2, -1, 2]"), "max must exceed min"),
     "no luminaires": (ROOM.split("[[luminaires]]")[0], "no luminaires"),
     "both flux and intensity": (ROOM + "flux = 5\n", "exactly one of"),
-    "not toml": ("[[surfaces]\ntype=", "not valid TOML"),
-    "unknown top-level key": (ROOM + "\n[lights]\nx = 1\n", "unknown field 'lights'"),
-    "bad vector": (ROOM.replace("position = [1, 1, 1]", "position = [1, 1]"), "3 finite numbers"),
+    "not toml": ("[[surfaces]\ntype=", "not a valid TOML scene"),
+    "unknown top-level key": (ROOM + "\n[lights]\nx = 1\n", "unknown key 'lights'; valid: scene, materials, surfaces, luminaires, views"),
+    "bad vector": (ROOM.replace("position = [1, 1, 1]", "position = [1, 1]"), "luminaires[0].position must have 3 elements, got 2"),
     "bad view": (ROOM + """
 [[views]]
 position = [1, 1, 1]
@@ -190,3 +190,63 @@ def test_bad_scene_files_give_one_line_errors(tmp_path, case):
 def test_missing_scene_file(tmp_path):
     with pytest.raises(BadInputError, match="does not exist"):
         load_scene(tmp_path / "none.toml")
+
+
+def test_emission_sampler_vectorised_over_luminaires():
+    """Issue 13: emission drawn in one pass over all luminaires — each luminaire in proportion
+    to its flux, triangles of an area luminaire in proportion to their area, point
+    luminaires' intensities per distinct table equal to each luminaire's own."""
+    from lsadphoto.solver.chains import EmissionSampler
+    from lsadphoto.solver.store import KIND_COSINE, KIND_POINT
+
+    table = [{"type": "point", "position": [1.0 + k, 1.0, 2.5], "intensity": 50.0, "multiplier": 1.0 + k,
+              "nadir": [0, 0.3 * k, -1]} for k in range(3)]
+    scene = scene_from_dict({
+        "materials": {"w": {"reflectance": 0.5}},
+        "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [6, 4, 3], "facing": "inward", "material": "w"}],
+        "luminaires": [
+            {"type": "area", "flux": 1000.0, "shape": {"type": "polygon", "vertices":
+             [[1, 1, 2.9], [1, 2, 2.9], [3, 2, 2.9], [3, 1, 2.9]]}},
+            {"type": "area", "flux": 3000.0, "shape": {"type": "polygon", "vertices":
+             [[4, 1, 2.9], [4, 1.5, 2.9], [5, 1.5, 2.9], [5, 1, 2.9]]}},
+            *table,
+            {"type": "point", "position": [5.0, 3.0, 2.5], "intensity": 80.0},
+        ],
+    })
+    sampler = EmissionSampler(scene)
+    n = 400_000
+    src = sampler.sample(np.random.default_rng(5), n)
+    flux = np.array([l.flux for l in scene.area_luminaires] + [l.flux for l in scene.point_luminaires])
+    counts = np.concatenate([np.bincount(src["luminaire"][src["kind"] == KIND_COSINE], minlength=2),
+                             np.bincount(src["luminaire"][src["kind"] == KIND_POINT], minlength=4)])
+    p = flux / flux.sum()
+    # binomial counts: within 4 standard deviations of n·p for each luminaire
+    assert np.all(np.abs(counts - n * p) <= 4 * np.sqrt(n * p * (1 - p)))
+    first = scene.area_luminaires[0].triangles
+    tri = src["triangle"][(src["kind"] == KIND_COSINE) & (src["luminaire"] == 0)]
+    share = np.array([(tri == t).mean() for t in first])
+    a = scene.areas[first] / scene.areas[first].sum()
+    assert np.all(np.abs(share - a) <= 4 * np.sqrt(a * (1 - a) / tri.size))
+    dirs = np.random.default_rng(1).normal(size=(60, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    which = np.arange(60) % 4
+    got = sampler.point_intensity(which, dirs)
+    want = [scene.point_luminaires[k].intensity(d[None])[0] for k, d in zip(which, dirs)]
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    assert len(sampler.tables) == 4  # isotropic tables are made per luminaire
+
+
+def test_luminaires_of_one_file_share_its_table(tmp_path):
+    from lsadphoto.solver.chains import EmissionSampler
+
+    ies = tmp_path / "a.ies"
+    from lsadphoto.datasets.design import write_ies_cosine
+
+    write_ies_cosine(ies, exponent=2, flux=1000.0, length=0.2, width=0.2)
+    scene = scene_from_dict({
+        "materials": {"w": {"reflectance": 0.5}},
+        "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [6, 4, 3], "facing": "inward", "material": "w"}],
+        "luminaires": [{"type": "point", "position": [1.0 + k, 2.0, 2.9], "photometry": "a.ies"} for k in range(5)],
+    }, base=tmp_path)
+    assert len({id(l.table) for l in scene.point_luminaires}) == 1
+    assert len(EmissionSampler(scene).tables) == 1

@@ -78,3 +78,20 @@ def test_binned_coordinates():
 def test_parse_rejects_bad_spots(text):
     with pytest.raises(BadInputError):
         SpotReading.parse(text)
+
+
+def test_cone_of_the_calibration_matches_direct_cone_sampling():
+    """The bundled spot readings (lsadphoto.datasets.samples.meter_reading) sample the meter's
+    cone directly (rings of equal solid angle, each direction read where it projects); the
+    calibration's pixel cone must give the same mean on the demo's true scene, so the factor
+    from each reading is 1 within the reading's 3-digit rounding (half a unit of the third
+    digit, relative to the value)."""
+    from lsadphoto.datasets.samples import DEMO_CAMERA, SPOT_POSITIONS, demo_projection, demo_scene, meter_reading
+
+    scene, projection = demo_scene(), demo_projection()
+    for fr, fc in SPOT_POSITIONS:
+        row, col = round(fr * DEMO_CAMERA.height), round(fc * DEMO_CAMERA.width)
+        reading = meter_reading(scene, projection, row, col)
+        result = calibrate_spots(scene, np.zeros(scene.shape, bool), projection, [SpotReading(row, col, reading)])
+        rounding = 0.5 * 10.0 ** (np.floor(np.log10(reading)) - 2) / reading
+        assert abs(result.factor - 1.0) <= rounding, (row, col, reading, result.factor)

@@ -192,9 +192,22 @@ def test_table_columns_metrics_sweep_ratings_and_provenance(surveyed):
     assert bracket["q_n50"] == pytest.approx(bracket["q"], rel=1e-12)
     assert bracket["rating_mean"] == 4.0 and bracket["rating_n"] == 3
     assert rows["single"]["rating_mean"] == 6.75 and rows["uncalibrated"]["rating_mean"] is None
-    # The model of the office view is a different room: the comparison runs and says so.
-    assert float(rows["single"]["model_ratio_median"]) > 0
-    assert float(rows["single"]["model_mc_uncertainty"]) > 0
+    # The model of the office view is a different room: the comparison runs and says so. Its
+    # table values, recomputed from the two maps the view wrote: the median ratio is the
+    # ω-weighted median of model/photo over the pixels both maps know above 1e-3 cd/m² (numpy's
+    # inverted-CDF quantile), the Monte Carlo uncertainty Σ u·ω / Σ L·ω of the model map.
+    from lsadphoto.io import read_exr
+
+    photo = read_exr(outdir / "views" / "single" / "single.exr")
+    model = read_exr(outdir / "views" / "single" / "single-model.exr")
+    omega = photo.projection.solid_angles(*photo.projection.pixel_grid())
+    L_p, L_m = (np.asarray(m.luminance, np.float64) for m in (photo, model))
+    both = np.isfinite(L_p) & np.isfinite(L_m) & (L_p > 1e-3) & (L_m > 1e-3) & (omega > 0)
+    median = np.quantile(L_m[both] / L_p[both], 0.5, weights=omega[both], method="inverted_cdf")
+    assert float(rows["single"]["model_ratio_median"]) == pytest.approx(median, rel=1e-6)
+    known = np.isfinite(L_m) & np.isfinite(model.uncertainty)
+    u_mc = np.sum(model.uncertainty[known] * omega[known]) / np.sum(L_m[known] * omega[known])
+    assert float(rows["single"]["model_mc_uncertainty"]) == pytest.approx(u_mc, rel=1e-6)
     assert bracket.get("model_ratio_median") is None
     assert bracket["calibrated"] is True and bracket["calibration_method"] == "spot"
     assert rows["uncalibrated"]["calibrated"] is False
@@ -397,6 +410,8 @@ BAD_MANIFESTS = [
     ("model without scene", ('scene = "model.toml"\n', ""), "[view[1].model] missing required key 'scene'"),
     ("missing model scene", ('scene = "model.toml"', 'scene = "gone.toml"'),
      "view 'single': model.scene: scene model "),
+    ("bad model scene", ('scene = "model.toml"', 'scene = "camera.toml"'),
+     "view 'single': model.scene: "),
     ("wrong schema", ('schema = "lsadphoto.survey/1"', 'schema = "lsadphoto.survey/9"'),
      "schema must be one of 'lsadphoto.survey/1', got 'lsadphoto.survey/9'"),
     ("bad demosaic", ('name = "test survey"\n', 'demosaic = "magic"\n'),
@@ -598,3 +613,15 @@ def test_interrupted_rerun_keeps_the_earlier_failures(surveyed, tmp_path, monkey
     assert (copy / "failures.log").read_text() == before
     assert [r["view"] for r in read_csv(copy / "metrics.csv")] == GOOD
     assert not (copy / LOCK_NAME).exists()  # released on the way out
+
+
+def test_unreachable_dask_scheduler_is_one_error_and_leaves_no_folder(tmp_path):
+    """Connected before the output folder is made; distributed's own timeout (2 s here)."""
+    dask = pytest.importorskip("dask")
+    pytest.importorskip("distributed")
+    path = make_survey(tmp_path, CORRUPT_ONLY)
+    with dask.config.set({"distributed.comm.timeouts.connect": "2s"}):
+        with pytest.raises(BadInputError, match="cannot connect to the Dask scheduler at "
+                                                "tcp://127.0.0.1:1: "):
+            run_survey(path, tmp_path / "out", dask_address="tcp://127.0.0.1:1", progress=False)
+    assert not (tmp_path / "out").exists()

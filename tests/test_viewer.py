@@ -95,10 +95,12 @@ def browser(folder):
 
 def _open(browser, page):
     browser.get(page.resolve().as_uri())
+    # A report's viewers decode when scrolled into sight: scroll to the first one.
     state = browser.execute_async_script(
         "const done = arguments[0];"
-        "const wait = () => window.lsadViewer ? window.lsadViewer.ready.then("
-        "() => done('ready'), (e) => done('failed: ' + e)) : setTimeout(wait, 20); wait();")
+        "const wait = () => { const v = window.lsadViewer; if (!v) return setTimeout(wait, 20);"
+        "  v.container.scrollIntoView();"
+        "  v.ready.then(() => done('ready'), (e) => done('failed: ' + e)); }; wait();")
     assert state == "ready"
 
 
@@ -121,6 +123,31 @@ def test_value_at_returns_the_embedded_float32_values(browser, pages):
     got = np.array([np.nan if v is None else v for v in got], dtype=np.float64)
     assert np.isnan(expected).any() and np.isfinite(expected).any()
     np.testing.assert_array_equal(got, expected.astype(np.float64))
+    assert _severe(browser) == []
+
+
+@pytest.mark.slow
+def test_arrays_in_many_parts_are_decoded_by_workers_losslessly(browser, folder, monkeypatch):
+    # Parts of 100 000 elements: the test map's luminance (941 941 px) and the geometry's
+    # validity become 10 parts each, decoded by the page's Workers and joined in order; the
+    # values must still be the map's own float32 at every sampled pixel (parts' ends too).
+    from lsadphoto.viewer import page
+
+    monkeypatch.setattr(page, "PART_ITEMS", 100_000)
+    lmap = _synthetic_map()
+    path = page.write_viewer(lmap, folder / "parts.html")
+    assert path.read_text().count('data-array="map0.luminance"') == 10
+    _open(browser, path)
+    assert browser.execute_script("return window.lsadViewer.decodeWorkers;") >= 1
+    luminance = lmap.luminance
+    flat = np.concatenate([np.arange(k * 100_000 - 2, k * 100_000 + 2) for k in range(1, 10)]
+                          + [np.random.default_rng(2).integers(0, luminance.size, 300)])
+    rows, cols = np.unravel_index(flat, luminance.shape)
+    got = browser.execute_script(
+        "return arguments[0].map((r, k) => window.lsadViewer.valueAt(r, arguments[1][k]));",
+        rows.tolist(), cols.tolist())
+    got = np.array([np.nan if v is None else v for v in got], dtype=np.float64)
+    np.testing.assert_array_equal(got, luminance[rows, cols].astype(np.float64))
     assert _severe(browser) == []
 
 
@@ -315,6 +342,23 @@ def test_page_of_a_real_map_is_at_most_twice_the_exr(tmp_path):
     assert (tmp_path / "desk.html").stat().st_size <= 2 * exr.stat().st_size
 
 
+def test_page_of_a_small_wide_map_is_at_most_twice_the_exr(tmp_path):
+    # A small wide-angle map (320 × 212 px, 98° across: a grid cell of 8 px spans 2.5°)
+    # with a per-pixel uncertainty, like the quickstart's office map: the page takes a finer
+    # geometry grid rather than storing most pixels exactly.
+    from lsadphoto.geometry import PinholeProjection
+
+    cam = PinholeProjection(140.0, 140.0, 159.5, 105.5, 320, 212)
+    rows, cols = cam.pixel_grid()
+    rng = np.random.default_rng(4)
+    L = (50.0 + 2.0 * cols + rows) * rng.normal(1.0, 0.02, rows.shape)
+    lmap = LuminanceMap(L.astype(np.float32), uncertainty=(0.012 * L).astype(np.float32),
+                        projection=cam, calibrated=True, calibration_uncertainty=0.012)
+    write_exr(lmap, tmp_path / "office.exr")
+    assert main(["view", str(tmp_path / "office.exr"), "-o", str(tmp_path / "v.html")]) == 0
+    assert (tmp_path / "v.html").stat().st_size <= 2 * (tmp_path / "office.exr").stat().st_size
+
+
 def test_bad_inputs_are_one_line_and_write_nothing(tmp_path, capsys):
     garbage = tmp_path / "bad.exr"
     garbage.write_bytes(b"not an exr file")
@@ -335,3 +379,141 @@ def test_bad_inputs_are_one_line_and_write_nothing(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "different camera geometries" in err
     assert not out.exists() and not list(tmp_path.glob(".v.*"))
+
+
+@pytest.mark.slow
+def test_comparison_report_embeds_the_viewer(browser, pages, folder):
+    from lsadphoto.compare import compare_maps
+    from lsadphoto.report import write_comparison_report
+
+    photo, model = pages["map"], read_map(folder / "model.hdr")
+    comparison = compare_maps(photo, model)
+    report = write_comparison_report(comparison, folder / "comparison.html", photo=photo,
+                                     model=model)
+    _open(browser, report)
+    rng = np.random.default_rng(3)
+    rows, cols = rng.integers(0, photo.shape[0], 50), rng.integers(0, photo.shape[1], 50)
+    got = browser.execute_script(
+        "const v = window.lsadViewer;"
+        "return arguments[0].map((r, k) => [v.valueAt(r, arguments[1][k], 0),"
+        "                                   v.valueAt(r, arguments[1][k], 1)]);",
+        rows.tolist(), cols.tolist())
+    for (a, b), r, c in zip(got, rows, cols, strict=True):
+        for value, lmap in ((a, photo), (b, model)):
+            expected = float(lmap.luminance[r, c])
+            assert (value is None and math.isnan(expected)) or value == expected
+    # The photo's glare sources are those of the comparison's score of the photo.
+    shown = browser.execute_script("return window.lsadViewer.sources(0)")
+    assert [s["luminance"] for s in shown] == [s.luminance for s in comparison.scores[0].sources]
+    assert _severe(browser) == []
+
+
+@pytest.mark.slow
+def test_survey_report_embeds_a_viewer_per_view(browser, pages, folder):
+    from lsadphoto.report import write_survey_report
+
+    survey = folder / "survey"
+    view = survey / "views" / "v1"
+    view.mkdir(parents=True)
+    (survey / "metrics.csv").write_text("view,ugr_pixel\nv1,12.5\n", encoding="utf-8")
+    shutil.copy(pages["exr"], view / "v1.exr")
+    (view / "v1-score.json").write_text(json.dumps(pages["score"]), encoding="utf-8")
+    # The view's done marker lists its files (lsadphoto.survey.ViewLayout).
+    (view / "v1-done.json").write_text(json.dumps(
+        {"outputs": {"exr": "v1.exr", "score": "v1-score.json"}}), encoding="utf-8")
+    report = write_survey_report(survey)
+    text = report.read_text(encoding="utf-8")
+    assert text.count('class="lsad-viewer"') == 1 and 'data-lazy="yes"' in text
+    _open(browser, report)
+    row, col = 630, 360
+    assert browser.execute_script("return window.lsadViewer.valueAt(arguments[0], arguments[1])",
+                                  row, col) == float(pages["map"].luminance[row, col])
+    shown = browser.execute_script("return window.lsadViewer.sources()")
+    assert len(shown) == pages["score"]["n_sources"]
+    assert _severe(browser) == []
+
+
+@pytest.mark.slow
+def test_mouse_draws_regions_pins_zooms_and_pans(browser, pages):
+    # The same actions a user takes, as real mouse events through chromedriver.
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
+
+    _open(browser, pages["view"])
+    canvas = browser.find_element("css selector", ".lv-panel .lv-over")
+    width, height = canvas.size["width"], canvas.size["height"]
+
+    def at(row, col):
+        """Offset from the canvas centre (selenium's origin) of pixel (row, col)."""
+        x, y = browser.execute_script("return window.lsadViewer.toScreen(arguments[0], "
+                                      "arguments[1])", row, col)
+        return int(round(x - width / 2)), int(round(y - height / 2))
+
+    scale = browser.execute_script("return window.lsadViewer.scale")  # screen px per pixel
+    browser.execute_script("window.lsadViewer.setTool('circle')")
+    x0, y0 = at(520, 315)
+    ActionChains(browser).move_to_element_with_offset(canvas, x0, y0).click_and_hold() \
+        .move_by_offset(20, 0).move_by_offset(40, 0).release().perform()
+    browser.execute_script("window.lsadViewer.setTool('polygon')")
+    corners = [(300, 300), (300, 600), (600, 600), (600, 300)]
+    chain = ActionChains(browser)
+    for row, col in corners[:-1]:
+        chain.move_to_element_with_offset(canvas, *at(row, col)).click()
+    chain.move_to_element_with_offset(canvas, *at(*corners[-1])).double_click().perform()
+    browser.execute_script("window.lsadViewer.setTool('probe')")
+    ActionChains(browser).move_to_element_with_offset(canvas, *at(630, 360)).click().perform()
+    regions, points = browser.execute_script(
+        "const v = window.lsadViewer; return [v.regions, v.points];")
+    assert [r["shape"] for r in regions] == ["circle", "polygon"]
+    circle, polygon = regions
+    # Mouse positions are whole screen pixels: within one screen pixel of the target.
+    tolerance = 1.0 / scale + 0.5
+    assert abs(circle["row"] - 520) <= tolerance and abs(circle["col"] - 315) <= tolerance
+    assert circle["radius"] == pytest.approx(60 / scale, abs=tolerance)
+    assert len(polygon["points"]) == 4
+    for (row, col), (r, c) in zip(corners, polygon["points"], strict=True):
+        assert abs(r - row) <= tolerance and abs(c - col) <= tolerance
+    assert len(points) == 1 and abs(points[0]["row"] - 630) <= tolerance
+    # The tables list them.
+    text = browser.find_element("css selector", ".lv-tables").text
+    assert "R1" in text and "R2" in text and "P1" in text
+    # Wheel: zoom about the cursor, the pixel under it stays put.
+    x, y = at(400, 500)
+    before = browser.execute_script("return window.lsadViewer.scale")
+    ActionChains(browser).scroll_from_origin(ScrollOrigin.from_element(canvas, x, y), 0, -100) \
+        .perform()
+    after = browser.execute_script("return window.lsadViewer.scale")
+    assert after == pytest.approx(1.25 * before)
+    assert at(400, 500) == pytest.approx((x, y), abs=1)
+    # Drag: pan by the mouse's movement.
+    ActionChains(browser).move_to_element_with_offset(canvas, x, y).click_and_hold() \
+        .move_by_offset(30, 20).move_by_offset(30, 20).release().perform()
+    assert at(400, 500) == pytest.approx((x + 60, y + 40), abs=1)
+    assert _severe(browser) == []
+
+
+@pytest.mark.slow
+def test_band_and_zone_overlays_match_the_score_json(browser, pages, folder):
+    options = ["--band-deg", "20", "--zones", "0.2,-0.3,0.93,30,60"]
+    page, record = folder / "regions.html", folder / "regions.json"
+    assert main(["view", str(pages["exr"]), "-o", str(page), *options]) == 0
+    assert main(["score", str(pages["exr"]), "--output-json", str(record), *options]) == 0
+    record = json.loads(record.read_text())
+    _open(browser, page)
+    sums = browser.execute_script(
+        "const v = window.lsadViewer, out = {band: [0, 0], zone1: [0, 0], zone2: [0, 0]};"
+        "for (let r = 0; r < v.rows; r++) for (let c = 0; c < v.cols; c++) {"
+        "  const b = v.bandAt(r, c), z = v.zoneAt(r, c); if (!b && !z) continue;"
+        "  const w = v.geometryAt(r, c).solidAngle;"
+        "  if (b) { out.band[0] += w; out.band[1] += 1; }"
+        "  if (z) { out['zone' + z][0] += w; out['zone' + z][1] += 1; } }"
+        "return out;")
+    expected = {"band": record["band"], "zone1": record["zones"][0], "zone2": record["zones"][1]}
+    for key, stats in expected.items():
+        omega, count = sums[key]
+        assert count == stats["n_pixels"], key
+        # ω from the page's interpolated geometry (within 10⁻⁴ per pixel).
+        assert omega == pytest.approx(stats["solid_angle"], rel=REGION_TOLERANCE), key
+    text = browser.find_element("css selector", ".lv-tables").text
+    assert "Band and zones" in text and "zone 2" in text
+    assert _severe(browser) == []

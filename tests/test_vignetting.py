@@ -51,9 +51,16 @@ def test_closed_loop_with_vignetting(shoot, profile_for):
 
 
 def test_flat_field_map_and_bad_models():
-    gain_map = np.linspace(0.6, 1.0, 12).reshape(3, 4).astype(np.float32)
+    # A gain map linear in row and column, 3 × 4 samples: resampled bilinearly to 30 × 40 it is
+    # the same linear function at each output pixel centre, taken at the input position
+    # (i + ½)·3/30 − ½ (pixel-centre alignment) and held at the edge samples beyond them.
+    rows, cols = np.mgrid[0:3, 0:4]
+    gain_map = (0.6 + 0.05 * rows + 0.02 * cols).astype(np.float32)
     gain = vignetting_gain(VignettingModel(kind="flat-field", gain_map=gain_map), (30, 40), (30, 40))
-    assert gain.shape == (30, 40) and 0.6 <= gain.min() and gain.max() <= 1.0
+    r_in = np.clip((np.arange(30) + 0.5) * 3 / 30 - 0.5, 0, 2)[:, None]
+    c_in = np.clip((np.arange(40) + 0.5) * 4 / 40 - 0.5, 0, 3)[None, :]
+    # float32 map and bilinear weights: a few ulps of 1 (≈ 1e-7); 1e-5 leaves margin.
+    np.testing.assert_allclose(gain, 0.6 + 0.05 * r_in + 0.02 * c_in, rtol=0, atol=1e-5)
     with pytest.raises(BadInputError, match="unknown vignetting model"):
         vignetting_gain(VignettingModel(kind="cosine4"), (3, 4), (3, 4))
     with pytest.raises(BadInputError, match="below 0.05"):

@@ -19,8 +19,11 @@ Schema (all sections optional except ``id``; lengths in mm, sizes in px)::
     [colour]      camera_to_xyz = [[…], […], […]]
     [photometric] calibration_constant          # C [cd·s·m⁻²]: L = C·Y·N²/(t·S)
                   calibration_constant_uncertainty   # relative standard uncertainty
-    [noise]       full_well_electrons, read_noise_electrons   # at ISO 100
-    [provenance]  free-form strings
+    [noise]       full_well_electrons, read_noise_electrons   # at ISO 100; absent: nominal
+    [provenance]  free-form strings; "source.NAME" says where value NAME came from,
+                  "nominal" lists the values that are not measured for this camera
+    f_number                                    # the f-number the profile belongs to
+    [vignetting]  focal_length_mm, f_number     # what the vignetting model belongs to
 
 A calibrated ``[lens_model]`` is tied to the sensor size in pixels: images of another size
 are refused (or use ``binning`` for superpixel maps).
@@ -38,6 +41,7 @@ from .._validation import check_file
 from ..errors import BadInputError
 from ..geometry.base import Projection, projection_from_dict
 from ..geometry.fisheye import KINDS as FISHEYE_KINDS
+from ..geometry.lensfun import DISTORTION_MODELS, LENS_KINDS
 from ..geometry.pinhole import PinholeProjection
 from ..raw.bracket import NoiseModel
 from .vignetting import MAX_VIGNETTING_TERMS, VignettingModel
@@ -57,11 +61,18 @@ def _focal_px():
             "fy": Key(float, required=True, **_POSITIVE, doc="focal length [px], y")}
 
 
+def _vignetting_setting():
+    return {"uncertainty": Key(float, minimum=0, doc="largest relative standard uncertainty of V"),
+            "focal_length_mm": Key(float, **_POSITIVE, doc="focal length the model belongs to [mm]"),
+            "f_number": Key(float, **_POSITIVE, doc="aperture the model belongs to")}
+
+
 #: The declared schema of a camera profile (lsadphoto._schema): unknown sections and keys are
 #: refused, every value is type- and range-checked, each problem is one line.
 PROFILE_SCHEMA = Table({
     "schema": Key(str, default=SCHEMA, choices=(SCHEMA,), doc="format identifier"),
     "id": Key(str, required=True, doc="profile id, recorded in every result"),
+    "f_number": Key(float, **_POSITIVE, doc="the aperture the profile belongs to (checked against each frame)"),
     "camera": Key(str, doc="camera body"),
     "lens": Key(str, doc="lens"),
     "sensor": Table({
@@ -85,6 +96,13 @@ PROFILE_SCHEMA = Table({
                                 **_centre(),
                                 "radius": Key(float, required=True, **_POSITIVE, doc="image radius [px] at fov_deg"),
                                 "fov_deg": Key(float, required=True, **_POSITIVE, doc="full field of view [deg]")}),
+        "lensfun": Table({"kind": Key(str, required=True, choices=LENS_KINDS, doc="ideal projection"),
+                          "distortion": Key(str, required=True, choices=tuple(DISTORTION_MODELS)),
+                          "terms": Key(list, required=True, items=float, length=(0, 1, 2, 3),
+                                       doc="k1 (poly3); k1, k2 (poly5); a, b, c (ptlens)"),
+                          "focal": Key(float, required=True, **_POSITIVE, doc="focal length [normalised units]"),
+                          "scale": Key(float, required=True, **_POSITIVE, doc="pixels per normalised unit"),
+                          **_centre()}),
     }, default="pinhole"),
     "vignetting": Variants("model", {
         "none": Table({}),
@@ -93,11 +111,13 @@ PROFILE_SCHEMA = Table({
                                 doc="a1, a2, … of V = 1 + Σ a_k r^2k, r over the half-diagonal"),
             "centre": Key(list, items=float, length=2, doc="optical centre (row, col) [sensor px]"),
             "rms_residual": Key(float, minimum=0, doc="RMS relative residual of the fit"),
+            **_vignetting_setting(),
         }),
         "flat-field": Table({
             "map": Key(str, required=True, doc="flat-field gain map (.npy), relative to the profile"),
             "centre": Key(list, items=float, length=2, doc="optical centre (row, col) [sensor px]"),
             "rms_residual": Key(float, minimum=0, doc="RMS relative residual"),
+            **_vignetting_setting(),
         }),
     }, default="none"),
     "colour": Table({
@@ -134,8 +154,22 @@ class CameraProfile:
     calibration_constant: float | None = None
     calibration_constant_uncertainty: float | None = None
     noise: NoiseModel = field(default_factory=NoiseModel)
+    noise_measured: bool = False
+    f_number: float | None = None
     provenance: dict = field(default_factory=dict)
     path: str | None = None
+    #: Where each value came from ("exif …", "lensfun …", "profile FILE", "nominal …").
+    sources: dict = field(default_factory=dict)
+    #: Values that are not a measurement of this camera (need calibration).
+    nominal: list = field(default_factory=list)
+    #: Disagreements between sources found while drafting.
+    notes: list = field(default_factory=list)
+    #: The RAW file a drafted profile was made from.
+    drafted_from: str | None = None
+
+    def nominal_values(self):
+        """Names of the values that are nominal (noise unless measured, plus ``nominal``)."""
+        return list(dict.fromkeys([*self.nominal, *([] if self.noise_measured else ["noise"])]))
 
     def projection(self, sensor_shape, *, binning=1, focal_length=None, focal_plane_resolution=None):
         """Nominal pinhole model for an image of ``sensor_shape`` seen through ``binning``.
@@ -162,8 +196,8 @@ class CameraProfile:
         missing = [n for n, v in (("focal length", f), ("sensor size", width_mm)) if not v]
         if missing:
             raise BadInputError(
-                f"camera geometry needs the {' and '.join(missing)}: give a camera profile with "
-                "[sensor] and [lens_model] sections"
+                f"camera geometry needs the {' and '.join(missing)}, which the file does not record: "
+                "give a camera profile with [sensor] and [lens_model] sections"
             )
         model = PinholeProjection.from_sensor(
             focal_length=f, sensor_width=width_mm, sensor_height=height_mm, width=cols, height=rows
@@ -192,9 +226,18 @@ class CameraProfile:
             out["photometric"] = {"calibration_constant": self.calibration_constant}
             if self.calibration_constant_uncertainty is not None:
                 out["photometric"]["calibration_constant_uncertainty"] = self.calibration_constant_uncertainty
-        out["noise"] = {"full_well_electrons": self.noise.full_well, "read_noise_electrons": self.noise.read_noise}
-        if self.provenance:
-            out["provenance"] = {k: str(v) for k, v in self.provenance.items()}
+        if self.f_number:
+            out["f_number"] = self.f_number
+        if self.noise_measured:
+            out["noise"] = {"full_well_electrons": self.noise.full_well,
+                            "read_noise_electrons": self.noise.read_noise}
+        provenance = {k: str(v) for k, v in self.provenance.items()}
+        provenance.update({f"source.{k}": str(v) for k, v in self.sources.items()})
+        nominal = self.nominal_values()
+        if nominal:
+            provenance["nominal"] = ", ".join(nominal)
+        if provenance:
+            out["provenance"] = provenance
         return out
 
 
@@ -214,7 +257,9 @@ def load_profile(path):
     kind = vig["model"]
     vignetting = VignettingModel(kind=kind, coefficients=list(vig.get("coefficients", [])),
                                  centre=tuple(vig["centre"]) if "centre" in vig else None,
-                                 rms_residual=vig.get("rms_residual"))
+                                 rms_residual=vig.get("rms_residual"),
+                                 uncertainty=vig.get("uncertainty"),
+                                 focal_length=vig.get("focal_length_mm"), f_number=vig.get("f_number"))
     if kind == "flat-field":
         map_path = check_file(path.parent / vig["map"], "flat-field map")
         try:
@@ -234,6 +279,14 @@ def load_profile(path):
     matrix = data.get("colour", {}).get("camera_to_xyz")
     photometric = data.get("photometric", {})
     noise = data.get("noise", {})
+    provenance = {k: v for k, v in data.get("provenance", {}).items()
+                  if not k.startswith("source.") and k != "nominal"}
+    sources = {k[len("source."):]: v for k, v in data.get("provenance", {}).items() if k.startswith("source.")}
+    for key in ("sensor", "lens_model", "vignetting", "colour", "photometric", "noise"):
+        if key in data:
+            sources[key] = f"profile {path.name}" + (f" ({sources[key]})" if key in sources else "")
+    nominal = [n.strip() for n in str(data.get("provenance", {}).get("nominal", "")).split(",") if n.strip()]
+    nominal = [n for n in nominal if n != "noise" or "noise" not in data]
     return CameraProfile(
         id=data["id"],
         camera=data.get("camera"),
@@ -250,7 +303,11 @@ def load_profile(path):
         calibration_constant_uncertainty=photometric.get("calibration_constant_uncertainty"),
         noise=NoiseModel(full_well=noise.get("full_well_electrons", NoiseModel.full_well),
                          read_noise=noise.get("read_noise_electrons", NoiseModel.read_noise)),
-        provenance={k: str(v) for k, v in data.get("provenance", {}).items()},
+        noise_measured="noise" in data,
+        f_number=data.get("f_number"),
+        provenance={k: str(v) for k, v in provenance.items()},
+        sources=sources,
+        nominal=nominal,
         path=str(path),
     )
 

@@ -24,6 +24,12 @@ from .._validation import check_positive
 from ..constants import LS100_ACCEPTANCE_ANGLE, LS100_RELATIVE_STANDARD_UNCERTAINTY, SPOT_CV_WARNING
 from ..errors import BadInputError, NonUniformSpotWarning
 
+#: Two spots whose factors differ by more than this ratio are reported. The LS-100 reads to
+#: ±2 % and the photo's relative luminance over a uniform 1° target is known to a few per
+#: cent (noise, residual vignetting), so readings that disagree by 20 % point at a wrong
+#: reading, a mis-aimed meter or a non-uniform target, not at measurement noise.
+SPOT_DISAGREEMENT_RATIO = 1.2
+
 
 @dataclass(frozen=True)
 class SpotReading:
@@ -43,6 +49,12 @@ class SpotReading:
     col: float
     luminance: float
     acceptance_angle: float = LS100_ACCEPTANCE_ANGLE
+
+    def __post_init__(self):
+        angle = self.acceptance_angle
+        if isinstance(angle, bool) or not isinstance(angle, (int, float, np.floating)) or not 0 < angle < np.pi:
+            shown = f"{np.degrees(angle):g}°" if isinstance(angle, (int, float, np.floating)) else repr(angle)
+            raise BadInputError(f"spot acceptance angle must be above 0° and below 180° (full cone), got {shown}")
 
     @classmethod
     def parse(cls, text, *, acceptance_angle=LS100_ACCEPTANCE_ANGLE):
@@ -79,9 +91,12 @@ class SpotCalibration:
     spots: list = field(default_factory=list)
 
 
-def spot_cone(projection, row, col, acceptance_angle):
+def spot_cone(projection, row, col, acceptance_angle, *, label=None):
     """Pixels of ``projection``'s image inside the cone of full angle ``acceptance_angle``
     around the direction of image point (row, col).
+
+    ``label`` names the spot in messages (default ``spot at (row, col)``, in this image's
+    pixels).
 
     Returns
     -------
@@ -94,8 +109,9 @@ def spot_cone(projection, row, col, acceptance_angle):
     Raises :class:`BadInputError` when the cone reaches outside the image.
     """
     rows, cols = projection.shape
+    label = label or f"spot at ({row:g}, {col:g})"
     if not (-0.5 <= row <= rows - 0.5 and -0.5 <= col <= cols - 0.5):
-        raise BadInputError(f"spot at ({row:g}, {col:g}) is off the image ({rows}×{cols} px)")
+        raise BadInputError(f"{label} is off the image ({rows}×{cols} px)")
     half = 0.5 * acceptance_angle
     axis = projection.directions(row, col)
     # Directions on the cone's rim: rotate the axis by `half` towards 16 azimuths.
@@ -107,11 +123,11 @@ def spot_cone(projection, row, col, acceptance_angle):
     rim = np.cos(half) * axis + np.sin(half) * (np.cos(phi) * e1 + np.sin(phi) * e2)
     rim_rows, rim_cols = projection.project(rim)
     if not (np.all(np.isfinite(rim_rows)) and np.all(np.isfinite(rim_cols))):
-        raise BadInputError(f"spot cone at ({row:g}, {col:g}) leaves the camera's field of view")
+        raise BadInputError(f"{label}: its cone leaves the camera's field of view")
     r0, r1 = int(np.floor(rim_rows.min())) - 1, int(np.ceil(rim_rows.max())) + 2
     c0, c1 = int(np.floor(rim_cols.min())) - 1, int(np.ceil(rim_cols.max())) + 2
     if rim_rows.min() < -0.5 or rim_cols.min() < -0.5 or rim_rows.max() > rows - 0.5 or rim_cols.max() > cols - 0.5:
-        raise BadInputError(f"spot cone at ({row:g}, {col:g}) reaches beyond the image edge")
+        raise BadInputError(f"{label}: its cone reaches beyond the image edge")
     r0, c0 = max(r0, 0), max(c0, 0)
     r1, c1 = min(r1, rows), min(c1, cols)
     rr, cc = np.meshgrid(np.arange(r0, r1), np.arange(c0, c1), indexing="ij")
@@ -150,12 +166,17 @@ def calibrate_spots(relative, saturated, projection, spots, *, meter_uncertainty
     if not spots:
         raise BadInputError("no spot readings given")
     shift = (binning - 1) / 2.0
+    rows, cols = projection.shape
     results = []
     for spot in spots:
+        # Messages name the spot as the user gave it: in full-resolution sensor pixels.
+        where = f"spot at ({spot.row:g}, {spot.col:g})"
+        if not (-0.5 <= spot.row <= rows * binning - 0.5 and -0.5 <= spot.col <= cols * binning - 0.5):
+            raise BadInputError(f"{where} is off the image ({rows * binning}×{cols * binning} sensor px; "
+                                "ROW,COL are full-resolution sensor pixels)")
         row = (spot.row - shift) / binning
         col = (spot.col - shift) / binning
-        window, mask, weights = spot_cone(projection, row, col, spot.acceptance_angle)
-        where = f"spot at ({spot.row:g}, {spot.col:g})"
+        window, mask, weights = spot_cone(projection, row, col, spot.acceptance_angle, label=where)
         n_sat = int(saturated[window][mask].sum())
         if n_sat:
             raise BadInputError(f"{where} covers {n_sat} saturated pixel(s); measure a darker target")
@@ -169,7 +190,8 @@ def calibrate_spots(relative, saturated, projection, spots, *, meter_uncertainty
         cv = float(np.sqrt(np.sum(w * (values - mean) ** 2) / np.sum(w)) / mean)
         if cv > SPOT_CV_WARNING:
             warnings.warn(
-                f"{where}: luminance varies by {100 * cv:.0f} % (CV) inside the 1° cone; "
+                f"{where}: luminance varies by {100 * cv:.0f} % (CV) inside the "
+                f"{np.degrees(spot.acceptance_angle):g}° cone; "
                 "aim at a uniform target",
                 NonUniformSpotWarning,
                 stacklevel=2,
@@ -206,4 +228,13 @@ def calibrate_spots(relative, saturated, projection, spots, *, meter_uncertainty
     else:
         scatter = next(r["noise"] for r in results if r["used"])
     uncertainty = float(np.hypot(meter_uncertainty, scatter))
+    kept = [r for r in results if r["used"]]
+    low, high = min(kept, key=lambda r: r["factor"]), max(kept, key=lambda r: r["factor"])
+    if high["factor"] > SPOT_DISAGREEMENT_RATIO * low["factor"]:
+        warnings.warn(
+            f"spots disagree: factor {low['factor']:.4g} at ({low['row']:g}, {low['col']:g}) "
+            f"({low['reading']:g} cd/m²) against {high['factor']:.4g} at ({high['row']:g}, "
+            f"{high['col']:g}) ({high['reading']:g} cd/m²), ×{high['factor'] / low['factor']:.2g}; "
+            f"their mean has u = {100 * uncertainty:.0f} %: check the readings and where the meter pointed",
+            NonUniformSpotWarning, stacklevel=2)
     return SpotCalibration(factor=factor, relative_uncertainty=uncertainty, spots=results)

@@ -25,7 +25,6 @@ import numpy as np
 
 from ..calibrate.geometric import ChessboardPattern
 from ..calibrate.profile import CameraProfile, save_profile
-from ..calibrate.spot import spot_cone
 from ..calibrate.vignetting import VignettingModel
 from ..constants import LS100_ACCEPTANCE_ANGLE
 from ..geometry.pinhole import PinholeProjection
@@ -58,10 +57,32 @@ def demo_profile():
     )
 
 
+#: Directions sampling the spot meter's cone in :func:`meter_reading`: rings × azimuths.
+METER_RINGS, METER_AZIMUTHS = 24, 64
+
+
 def meter_reading(luminance, projection, row, col):
-    """What an LS-100 would display aimed at (row, col): the cone mean, 3 significant digits."""
-    window, mask, weights = spot_cone(projection, row, col, LS100_ACCEPTANCE_ANGLE)
-    value = float(np.sum(luminance[window][mask] * weights[mask]) / np.sum(weights[mask]))
+    """What an LS-100 would display aimed at (row, col): the cone mean, 3 significant digits.
+
+    The meter's 1° cone is sampled directly — :data:`METER_RINGS` rings equally spaced in cos θ
+    about the aim direction (equal solid angle each) times :data:`METER_AZIMUTHS` directions — and each direction
+    is read at the sensor pixel it projects into. This is independent of
+    :func:`lsadphoto.calibrate.spot.spot_cone` (pixel centres inside the cone, weighted by
+    their solid angle), which the calibration uses: the bundled readings test it.
+    """
+    axis = np.asarray(projection.directions(row, col), np.float64)
+    axis = axis / np.linalg.norm(axis)
+    u = np.cross(axis, [0.0, 1.0, 0.0] if abs(axis[1]) < 0.9 else [1.0, 0.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    cos_half = np.cos(LS100_ACCEPTANCE_ANGLE / 2)
+    cos_t = 1.0 - (np.arange(METER_RINGS) + 0.5) / METER_RINGS * (1.0 - cos_half)
+    sin_t = np.sqrt(1.0 - cos_t**2)
+    phi = (np.arange(METER_AZIMUTHS) + 0.5) * 2 * np.pi / METER_AZIMUTHS
+    ring = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * v
+    directions = cos_t[:, None, None] * axis + sin_t[:, None, None] * ring[None]
+    r, c = projection.project(directions)
+    value = float(np.mean(luminance[np.rint(r).astype(int), np.rint(c).astype(int)]))
     return float(f"{value:.3g}")
 
 
@@ -69,7 +90,7 @@ def meter_reading(luminance, projection, row, col):
 BOARD = ChessboardPattern(9, 6, 25.0)
 #: Board poses: Rodrigues vectors [rad] and centres [mm] in the camera frame — frontal, tilted
 #: ±0.5 rad about each axis, pushed towards the four corners and turned towards the centre,
-#: and turned in its plane (this spread recovers fx, fy to 0.1 %: tests/test_samples.py).
+#: and turned in its plane (this spread recovers fx, fy to 0.1 %: tests/test_quickstart.py).
 BOARD_POSES = [
     ((0.0, 0.0, 0.0), (0, 0, 380)),
     ((0.5, 0.0, 0.0), (0, 0, 380)),

@@ -49,13 +49,17 @@ class SyntheticCamera:
     full_well: float = 30000.0
     read_noise: float = 3.0
     vignetting: tuple = ()  # a1, a2, … of V = 1 + Σ a_k r^(2k)
+    vignetting_map: np.ndarray | None = None  # V per sensor pixel (e.g. lensfun's), replaces the polynomial
     calibration_constant: float = 12.0  # C [cd·s·m⁻²]
     make: str = "lsadphoto"
     model: str = "synthetic camera"
     extra: dict = field(default_factory=dict)
 
     def vignetting_gain(self):
-        """V per sensor pixel (radius over the half-diagonal, centre at the sensor centre)."""
+        """V per sensor pixel (radius over the half-diagonal, centre at the sensor centre), or
+        ``vignetting_map`` where given."""
+        if self.vignetting_map is not None:
+            return np.asarray(self.vignetting_map, dtype=np.float64)
         r = np.arange(self.height) - (self.height - 1) / 2.0
         c = np.arange(self.width) - (self.width - 1) / 2.0
         r2 = (r[:, None] ** 2 + c[None, :] ** 2) / (0.25 * (self.height**2 + self.width**2))
@@ -107,8 +111,14 @@ def _rational(value, max_denominator=10000):
     return [fraction.numerator, fraction.denominator]
 
 
-def write_dng(path, raw, camera, *, exposure_time, f_number, iso, extra_tags=()):
-    """Write raw ADU values as a real DNG (atomic). ``None`` exposure values are left out."""
+def write_dng(path, raw, camera, *, exposure_time, f_number, iso, extra_tags=(), focal_plane=True,
+              focal_length_35mm=None, lens=None):
+    """Write raw ADU values as a real DNG (atomic). ``None`` exposure values are left out.
+
+    ``focal_plane=False`` leaves out the FocalPlane resolution tags (as many cameras do);
+    ``focal_length_35mm`` [mm] writes FocalLengthIn35mmFilm (rounded to 1 mm, as EXIF
+    stores it); ``lens`` writes the EXIF lens model.
+    """
     from pidng.core import RAW2DNG, DNGTags, Tag
     from pidng.defs import CalibrationIlluminant, DNGVersion, Orientation, PhotometricInterpretation
 
@@ -143,9 +153,14 @@ def write_dng(path, raw, camera, *, exposure_time, f_number, iso, extra_tags=())
     if iso is not None:
         tags.set(Tag.PhotographicSensitivity, [int(iso)])
     tags.set(Tag.FocalLength, [_rational(camera.focal_length, 100)])
-    tags.set(Tag.FocalPlaneXResolution, [_rational(camera.width / (camera.sensor_width / 10.0), 1000)])
-    tags.set(Tag.FocalPlaneYResolution, [_rational(camera.height / (camera.sensor_height / 10.0), 1000)])
-    tags.set(Tag.FocalPlaneResolutionUnit, 3)  # centimetres
+    if focal_plane:
+        tags.set(Tag.FocalPlaneXResolution, [_rational(camera.width / (camera.sensor_width / 10.0), 1000)])
+        tags.set(Tag.FocalPlaneYResolution, [_rational(camera.height / (camera.sensor_height / 10.0), 1000)])
+        tags.set(Tag.FocalPlaneResolutionUnit, 3)  # centimetres
+    if focal_length_35mm is not None:
+        tags.set(Tag.FocalLengthIn35mmFilm, [int(round(focal_length_35mm))])
+    if lens is not None:
+        tags.set(Tag.EXIFPhotoLensModel, lens)
     tags.set(Tag.Make, camera.make)
     tags.set(Tag.Model, camera.model)
     tags.set(Tag.UniqueCameraModel, f"{camera.make} {camera.model}")
@@ -167,3 +182,37 @@ def write_dng(path, raw, camera, *, exposure_time, f_number, iso, extra_tags=())
         if os.path.exists(name + ".dng"):
             os.unlink(name + ".dng")
     return path
+
+
+def rotation_sequence(projection, angles_deg, *, target_radius_deg, target_luminance, background=0.0):
+    """Luminance images [cd·m⁻²] of a rotation-method vignetting measurement.
+
+    A uniform disk target of angular radius ``target_radius_deg`` and luminance
+    ``target_luminance`` stays fixed while the camera turns about its entrance pupil (the
+    vertical image axis) by each of ``angles_deg``: in the camera frame the target lies at
+    (sin α, 0, cos α). Pixels outside the projection's valid region are black (0), the rest
+    ``background``.
+
+    Parameters
+    ----------
+    projection : Projection
+        The camera's geometry at sensor resolution.
+    angles_deg : sequence of float
+        Rotation angles α [deg].
+    target_radius_deg, target_luminance, background : float
+
+    Returns
+    -------
+    list of ndarray, (rows, cols)
+    """
+    rows, cols = projection.pixel_grid()
+    directions = projection.directions(rows.astype(float), cols.astype(float))
+    valid = np.all(np.isfinite(directions), axis=-1)
+    cos_radius = np.cos(np.radians(target_radius_deg))
+    images = []
+    for alpha in np.radians(np.asarray(angles_deg, dtype=float)):
+        axis = np.array([np.sin(alpha), 0.0, np.cos(alpha)])
+        inside = np.nan_to_num(directions @ axis, nan=-1.0) >= cos_radius
+        image = np.where(valid, background, 0.0)
+        images.append(np.where(inside & valid, target_luminance, image))
+    return images

@@ -21,6 +21,7 @@ from .field import (
     visual_field,
 )
 from .fisheye import IdealFisheyeProjection
+from .lensfun import LensfunProjection
 from .observer import ObserverFrame
 from .opencv import OpenCVFisheyeProjection, OpenCVPinholeProjection
 from .pinhole import PinholeProjection
@@ -28,6 +29,7 @@ from .position_index import guth_field_mask, position_index
 
 __all__ = [
     "IdealFisheyeProjection",
+    "LensfunProjection",
     "ObserverFrame",
     "OpenCVFisheyeProjection",
     "OpenCVPinholeProjection",

@@ -11,7 +11,7 @@ keeps full relative precision for triangles of 1e-12 sr and below.
 
 import numpy as np
 
-__all__ = ["quad_solid_angle", "triangle_solid_angle"]
+__all__ = ["corner_solid_angles", "quad_solid_angle", "triangle_solid_angle"]
 
 
 def _unit(v):
@@ -55,3 +55,22 @@ def quad_solid_angle(d00, d01, d11, d10):
     True
     """
     return triangle_solid_angle(d00, d01, d11) + triangle_solid_angle(d00, d11, d10)
+
+
+def corner_solid_angles(directions, rows, cols):
+    """Solid angle [sr] of pixels ``(rows, cols)`` from the directions of their four corners.
+
+    ``directions(rows, cols)`` maps image points [px] to direction vectors ``(…, 3)`` (a
+    projection's :meth:`directions`); corners lie at ±½ px. A pixel with a corner where it
+    is NaN (outside the model's one-to-one region) gets 0.
+    """
+    rows, cols = np.broadcast_arrays(np.asarray(rows, float), np.asarray(cols, float))
+    corners = [directions(rows + dr, cols + dc) for dr, dc in ((-0.5, -0.5), (-0.5, 0.5), (0.5, 0.5), (0.5, -0.5))]
+    bad = np.zeros(rows.shape, bool)
+    for d in corners:
+        bad |= np.any(~np.isfinite(d), axis=-1)
+    fill = np.array([0.0, 0.0, 1.0])
+    corners = [np.where(bad[..., None], fill, d) for d in corners]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        omega = quad_solid_angle(*corners)
+    return np.where(bad, 0.0, omega)

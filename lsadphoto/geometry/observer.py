@@ -24,10 +24,10 @@ import numpy as np
 from .._validation import check_array
 from ..errors import BadInputError
 
-__all__ = ["ObserverFrame"]
+__all__ = ["ON_AXIS", "ObserverFrame"]
 
 #: Components perpendicular to v̂ below this (σ < 1e-15 rad) count as on the line of sight.
-_ON_AXIS = 1e-15
+ON_AXIS = 1e-15
 
 
 def _finite_angle(value, name):
@@ -232,7 +232,7 @@ class ObserverFrame:
         sigma = np.arctan2(lateral, forward)
         tau = np.arctan2(np.abs(side), up)
         with np.errstate(invalid="ignore"):
-            tau = np.where(lateral < _ON_AXIS, 0.0, tau)
+            tau = np.where(lateral < ON_AXIS, 0.0, tau)
         return sigma, tau
 
     def angular_coordinates(self, directions):
@@ -265,5 +265,5 @@ class ObserverFrame:
         lateral = np.hypot(up, side)
         sigma = np.arctan2(lateral, forward)
         with np.errstate(invalid="ignore", divide="ignore"):
-            scale = np.where(lateral < _ON_AXIS, 0.0, sigma / np.where(lateral < _ON_AXIS, 1.0, lateral))
+            scale = np.where(lateral < ON_AXIS, 0.0, sigma / np.where(lateral < ON_AXIS, 1.0, lateral))
         return scale * side, scale * up

@@ -34,7 +34,7 @@ from numpy.polynomial import polynomial as P
 
 from .._validation import check_positive
 from ..errors import BadInputError
-from ._spherical import quad_solid_angle
+from ._spherical import corner_solid_angles
 from .base import (
     Projection,
     binned_coordinate,
@@ -126,19 +126,7 @@ class _OpenCVBase(Projection):
         (:func:`~lsadphoto.geometry._spherical.quad_solid_angle`). A pixel with a corner where
         :meth:`directions` is NaN (outside the model's one-to-one region) gets 0.
         """
-        rows, cols = np.broadcast_arrays(np.asarray(rows, float), np.asarray(cols, float))
-        d00 = self.directions(rows - 0.5, cols - 0.5)
-        d01 = self.directions(rows - 0.5, cols + 0.5)
-        d11 = self.directions(rows + 0.5, cols + 0.5)
-        d10 = self.directions(rows + 0.5, cols - 0.5)
-        bad = np.zeros(rows.shape, bool)
-        for d in (d00, d01, d11, d10):
-            bad |= np.any(~np.isfinite(d), axis=-1)
-        fill = np.array([0.0, 0.0, 1.0])
-        d00, d01, d11, d10 = (np.where(bad[..., None], fill, d) for d in (d00, d01, d11, d10))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            omega = quad_solid_angle(d00, d01, d11, d10)
-        return np.where(bad, 0.0, omega)
+        return corner_solid_angles(self.directions, rows, cols)
 
     def binned(self, factor):
         """Model after ``factor``×``factor`` binning (see :meth:`PinholeProjection.binned`).

@@ -4,11 +4,26 @@ import json
 
 import numpy as np
 
+from .._schema import Key, Table, validate
 from .._version import __version__
-from ..errors import UnsupportedFileError
+from ..errors import BadInputError, UnsupportedFileError
 from ..geometry.base import projection_from_dict
 
 SCHEMA = "lsadphoto.luminance-map/1"
+
+#: What :func:`metadata_json` writes (null values are left out before the check). Open: keys
+#: that a later version adds are kept, not refused.
+METADATA_SCHEMA = Table({
+    "schema": Key(str, required=True, choices=(SCHEMA,)),
+    "lsadphoto_version": Key(str),
+    "unit": Key(str, choices=("cd/m2",)),
+    "projection": Key(dict),
+    "line_of_sight": Key(list, items=float, length=3),
+    "calibration_factor": Key(float, default=1.0, minimum=0, exclusive=True),
+    "calibration_uncertainty": Key(float, default=0.0, minimum=0),
+    "calibrated": Key(bool, default=False),
+    "provenance": Key(dict),
+}, open=True)
 
 
 def _default(value):
@@ -43,12 +58,18 @@ def metadata_fields(text, path):
         raise UnsupportedFileError(f"{path}: corrupt lsadphoto metadata ({exc.msg})") from None
     if not isinstance(record, dict) or record.get("schema") != SCHEMA:
         raise UnsupportedFileError(f"{path}: unknown lsadphoto metadata schema")
-    projection = record.get("projection")
+    try:
+        record = validate({k: v for k, v in record.items() if v is not None}, METADATA_SCHEMA,
+                          source="lsadphoto metadata")
+        projection = record.get("projection")
+        projection = None if projection is None else projection_from_dict(projection)
+    except (BadInputError, TypeError, ValueError) as exc:
+        raise UnsupportedFileError(f"{path}: corrupt lsadphoto metadata ({exc})") from None
     return {
-        "projection": None if projection is None else projection_from_dict(projection),
+        "projection": projection,
         "line_of_sight": record.get("line_of_sight"),
-        "calibration_factor": record.get("calibration_factor", 1.0),
-        "calibration_uncertainty": record.get("calibration_uncertainty", 0.0),
-        "calibrated": record.get("calibrated", False),
+        "calibration_factor": record["calibration_factor"],
+        "calibration_uncertainty": record["calibration_uncertainty"],
+        "calibrated": record["calibrated"],
         "provenance": record.get("provenance", {}),
     }

@@ -9,8 +9,9 @@ binding's API is noted in PITFALLS.md.
 import numpy as np
 import OpenEXR
 
+from .._native import native_output
 from .._validation import check_file
-from ..errors import UnsupportedFileError
+from ..errors import BadInputError, UnsupportedFileError
 from ..luminance_map import LuminanceMap
 from .._atomic import atomic_path
 from ._metadata import metadata_fields, metadata_json
@@ -58,12 +59,15 @@ def read_exr(path):
     uncalibrated.
     """
     path = check_file(path, "EXR file")
+    chatter = []  # OpenEXR's own lines on a corrupt file: the first goes into our message
     try:
-        exr = OpenEXR.File(str(path))
-        header = exr.header()
-        channels = exr.channels()
+        with native_output(chatter, python=True):
+            exr = OpenEXR.File(str(path))
+            header = exr.header()
+            channels = exr.channels()
     except Exception as exc:  # the binding raises bare RuntimeError for corrupt files
-        raise UnsupportedFileError(f"{path}: not a readable OpenEXR file ({exc})") from None
+        detail = chatter[0].removeprefix(f"{path}: ") if chatter else str(exc)
+        raise UnsupportedFileError(f"{path}: not a readable OpenEXR file ({detail})") from None
     names = set(channels)
     if LUMINANCE_CHANNEL in names:
         luminance = channels[LUMINANCE_CHANNEL].pixels.astype(np.float32)
@@ -85,4 +89,7 @@ def read_exr(path):
         # Negative values from foreign files (e.g. filtered renderings) are not luminances;
         # our own maps keep their signed noise (see LuminanceMap).
         luminance = np.where(luminance < 0, np.nan, luminance)
-    return LuminanceMap(luminance, uncertainty=uncertainty, **fields)
+    try:
+        return LuminanceMap(luminance, uncertainty=uncertainty, **fields)
+    except BadInputError as exc:  # e.g. a negative uncertainty channel, a projection of another size
+        raise UnsupportedFileError(f"{path}: {exc}") from None

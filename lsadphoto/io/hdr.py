@@ -16,6 +16,7 @@ G. Ward, "Real pixels", *Graphics Gems II* (1991) 80–83. Radiance ``src/common
 (setcolr, colr_color, fwritecolrs, freadcolrs) and ``src/common/header.c``.
 """
 
+import math
 import re
 
 import numpy as np
@@ -93,28 +94,56 @@ def _encode_scanlines(rgbe):
 # --- header ----------------------------------------------------------------------------------
 
 
-def parse_view(text):
-    """Parse Radiance view options (``-vtv -vh 60 …``) into a dict; the type under ``"type"``."""
+_VIEW_COUNTS = {"vp": 3, "vd": 3, "vu": 3, "vh": 1, "vv": 1, "vs": 1, "vl": 1, "vo": 1, "va": 1}
+
+
+def parse_view(text, *, strict=False):
+    """Parse Radiance view options (``-vtv -vh 60 …``) into a dict; the type under ``"type"``.
+
+    With ``strict`` (views typed by a user, e.g. ``render --view``) anything that is not a
+    view option, and an unknown view type, is a :class:`BadInputError`; file headers are
+    read leniently (other words are skipped).
+
+    References
+    ----------
+    Radiance ``rpict`` manual page (view options ``-vt? -vp -vd -vu -vh -vv -vs -vl -vo
+    -va``).
+
+    Examples
+    --------
+    >>> parse_view("-vta -vp 1 2 1.2 -vh 180")
+    {'type': 'a', 'vp': [1.0, 2.0, 1.2], 'vh': 180.0}
+    >>> parse_view("banana", strict=True)
+    Traceback (most recent call last):
+    ...
+    lsadphoto.errors.BadInputError: 'banana' in view 'banana' is not a Radiance view option; valid: -vt[vlchas], -vp X Y Z, -vd X Y Z, -vu X Y Z, -vh, -vv, -vs, -vl, -vo, -va
+    """
     options = {"type": "v"}
     tokens = text.split()
+    error = BadInputError if strict else UnsupportedFileError
+    valid = "-vt[" + "".join(RADIANCE_VIEW_NAMES) + "], " + ", ".join(
+        f"-{k} X Y Z" if n == 3 else f"-{k}" for k, n in _VIEW_COUNTS.items())
     i = 0
-    counts = {"vp": 3, "vd": 3, "vu": 3}
     while i < len(tokens):
         token = tokens[i]
         if token.startswith("-vt") and len(token) == 4:
+            if strict and token[3] not in RADIANCE_VIEW_NAMES:
+                raise error(f"unknown Radiance view type {token} in view {text!r}; valid: {valid}")
             options["type"] = token[3]
             i += 1
-        elif token.startswith("-v") and token[1:] in ("vp", "vd", "vu", "vh", "vv", "vs", "vl", "vo", "va"):
+        elif token.startswith("-v") and token[1:] in _VIEW_COUNTS:
             key = token[1:]
-            k = counts.get(key, 1)
+            k = _VIEW_COUNTS[key]
             try:
                 values = [float(t) for t in tokens[i + 1 : i + 1 + k]]
             except ValueError:
-                raise UnsupportedFileError(f"bad view option {token} in {text!r}") from None
-            if len(values) != k:
-                raise UnsupportedFileError(f"bad view option {token} in {text!r}")
+                raise error(f"bad view option {token} in {text!r}: needs {k} number(s)") from None
+            if len(values) != k or not all(math.isfinite(v) for v in values):
+                raise error(f"bad view option {token} in {text!r}: needs {k} finite number(s)")
             options[key] = values if k > 1 else values[0]
             i += 1 + k
+        elif strict:
+            raise error(f"{token!r} in view {text!r} is not a Radiance view option; valid: {valid}")
         else:
             i += 1
     return options
@@ -244,7 +273,10 @@ def read_hdr(path):
                     fields["projection"] = projection_from_view(view, cols, rows)
             except BadInputError as exc:
                 raise UnsupportedFileError(f"{path}: unusable VIEW= line ({exc})") from None
-    return LuminanceMap(luminance, **fields)
+    try:
+        return LuminanceMap(luminance, **fields)
+    except BadInputError as exc:  # e.g. metadata of a projection of another size
+        raise UnsupportedFileError(f"{path}: {exc}") from None
 
 
 def write_hdr(lmap, path):
@@ -267,19 +299,31 @@ def write_hdr(lmap, path):
                      "means over dark regions are biased upwards; the OpenEXR map keeps them signed")
     lines.append(f"LSADPHOTO={metadata_json(lmap)}")
     write_hdr_rgb(np.repeat(value[..., None], 3, axis=-1), path, projection=lmap.projection,
-                  header_lines=lines)
+                  header_lines=lines, view_pose=(lmap.provenance or {}).get("view_pose"))
 
 
-def write_hdr_rgb(rgb, path, *, projection=None, header_lines=()):
+def _placed(view, pose):
+    """Radiance view options with ``-vp``/``-vd``/``-vu`` taken from ``pose`` (when given)."""
+    if not pose:
+        return view
+    vectors = " ".join(f"-{k} " + " ".join(f"{float(c):.17g}" for c in pose[k]) for k in ("vp", "vd", "vu"))
+    return re.sub(r"-vp \S+ \S+ \S+ -vd \S+ \S+ \S+ -vu \S+ \S+ \S+", vectors, view, count=1)
+
+
+def write_hdr_rgb(rgb, path, *, projection=None, header_lines=(), view_pose=None):
     """Write Radiance RGB values ``(rows, cols, 3)`` (W·sr⁻¹·m⁻², luminance = 179·(0.265074 R
     + 0.670115 G + 0.064811 B)) as a Radiance picture (atomic), with a ``VIEW=`` line from
-    ``projection`` where it has a Radiance equivalent and the given extra header lines."""
+    ``projection`` where it has a Radiance equivalent and the given extra header lines.
+
+    ``view_pose`` (``{"vp", "vd", "vu"}`` in world coordinates, e.g. a rendered map's
+    ``provenance["view_pose"]``) places the view in the scene; without it the view is given in
+    the camera's own frame (``-vp 0 0 0 -vd 0 1 0 -vu 0 0 1``)."""
     rgbe = float_to_rgbe(np.nan_to_num(np.asarray(rgb, np.float64), nan=0.0))
     rows, cols = rgbe.shape[:2]
     lines = ["#?RADIANCE", f"SOFTWARE=lsadphoto {__version__}"]
     if projection is not None and hasattr(projection, "radiance_view"):
         try:
-            lines.append(f"VIEW= {projection.radiance_view()}")
+            lines.append(f"VIEW= {_placed(projection.radiance_view(), view_pose)}")
         except BadInputError:
             pass  # no Radiance view type for this projection (e.g. equisolid): no VIEW= line
     lines.extend(header_lines)

@@ -59,23 +59,22 @@ def evaluated_field(luminance, solid_angle, cos_sigma):
     return out
 
 
-def _masked(values, mask):
-    values = np.asarray(values, dtype=np.float64)
-    return values.ravel() if mask is None else values[mask]
-
-
-def _field(luminance, solid_angle, cos_sigma, mask):
-    """The selection of pixels to sum: None when it is every pixel (no copies then)."""
-    field = evaluated_field(luminance, solid_angle, cos_sigma)
-    if mask is not None:
-        field &= mask
-    return None if field.all() else field
+def _sums(luminance, solid_angle, cos_sigma, mask):
+    """:func:`field_sums` of per-pixel arrays (broadcast), ``mask`` as its source mask."""
+    L, w, c = np.broadcast_arrays(np.asarray(luminance, dtype=np.float64), solid_angle,
+                                  cos_sigma)
+    m = np.zeros(L.shape, dtype=bool) if mask is None else np.broadcast_to(
+        np.asarray(mask, dtype=bool), L.shape)
+    # P = 1 everywhere: the position index enters only ugr_sum, unused here.
+    return field_sums(L, w, c, np.ones(L.shape), m)
 
 
 def vertical_illuminance(luminance, solid_angle, cos_sigma, *, mask=None):
     """Illuminance at the eye on the plane facing the line of sight, E_v = Σ L·cos σ·ω [lx].
 
-    ``mask`` restricts the sum further (e.g. to glare-source pixels, giving E_dir).
+    ``mask`` restricts the sum further (e.g. to glare-source pixels, giving E_dir). The value
+    is that of :func:`field_sums` (``illuminance``, or ``source_illuminance`` with the mask),
+    which :func:`~lsadphoto.metrics.score.score_map` uses.
 
     Examples
     --------
@@ -84,23 +83,22 @@ def vertical_illuminance(luminance, solid_angle, cos_sigma, *, mask=None):
     >>> float(vertical_illuminance(np.array([1.0]), np.array([2 * np.pi]), np.array([0.5])))
     3.141592653589793
     """
-    field = _field(luminance, solid_angle, cos_sigma, mask)
-    # np.sum (pairwise) rather than np.dot: BLAS dot results depend on its thread count.
-    return float(np.sum(_masked(luminance, field) * _masked(cos_sigma, field)
-                        * _masked(solid_angle, field)))
+    sums = _sums(luminance, solid_angle, cos_sigma, mask)
+    return sums.illuminance if mask is None else sums.source_illuminance
 
 
 def mean_luminance(luminance, solid_angle, cos_sigma, *, mask=None):
     """Solid-angle-weighted mean luminance L̄ = Σ L·ω / Σ ω over the field [cd·m⁻²].
 
-    NaN when the field is empty.
+    ``mask`` restricts the mean further. NaN when the field is empty. The value is that of
+    :attr:`FieldSums.mean_luminance` (of the sums outside a source mask ``~mask`` with one).
     """
-    field = _field(luminance, solid_angle, cos_sigma, mask)
-    omega = _masked(solid_angle, field)
-    total = omega.sum()
-    if not total > 0:
+    if mask is None:
+        return _sums(luminance, solid_angle, cos_sigma, None).mean_luminance
+    sums = _sums(luminance, solid_angle, cos_sigma, ~np.asarray(mask, dtype=bool))
+    if not sums.background_solid_angle > 0:
         return math.nan
-    return float(np.sum(_masked(luminance, field) * omega) / total)
+    return sums.background_luminance_solid_angle / sums.background_solid_angle
 
 
 def background_luminance(luminance, solid_angle, cos_sigma, source_mask, *, method="CIE"):
@@ -131,10 +129,7 @@ def background_luminance(luminance, solid_angle, cos_sigma, source_mask, *, meth
     50.0
     """
     check_choice(method, "background luminance method", BACKGROUND_METHODS)
-    L, w, c, mask = np.broadcast_arrays(np.asarray(luminance, dtype=np.float64), solid_angle,
-                                        cos_sigma, np.asarray(source_mask, dtype=bool))
-    # P = 1 everywhere: the position index enters only ugr_sum, unused here.
-    return field_sums(L, w, c, np.ones(L.shape), mask).background_luminance(method)
+    return _sums(luminance, solid_angle, cos_sigma, source_mask).background_luminance(method)
 
 
 # --- all field sums in one pass ----------------------------------------------------------------

@@ -17,6 +17,10 @@ limit (50 000 cd·m⁻²), those pixels leave it and form sources of their own, 
 same way; the parent keeps the rest. evalglare's first pass joins split pixels at r/4 and
 then merges the split sources at r/2, which again ends in single linkage at r/2.
 
+Each source carries both of its centroids: the L·ω-weighted mean direction and the
+L·ω-weighted mean pixel position; :func:`position_pixel_evalglare` gives the pixel at which
+evalglare takes the source's position index.
+
 Not reproduced: evalglare's optional smoothing (``-s``, off by default), and its
 unconditional linking of vertically adjacent pixels in the first scan, which differs from
 the rule above only when the pixel pitch exceeds r/2 (images narrower than about 30 pixels

@@ -145,6 +145,8 @@ def smoothing_labels(labels, source_mask, solid_angle, valid, *, radius):
     from scipy.ndimage import distance_transform_edt
 
     # Only pixels within the radius of a source pixel can qualify.
+    from scipy.ndimage import distance_transform_edt  # only where smoothing is asked for
+
     near = distance_transform_edt(~prim) <= radius
     candidates = np.argwhere(cand & near).astype(np.int64)
     result = np.zeros_like(lab)

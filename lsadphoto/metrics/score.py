@@ -14,11 +14,21 @@ takes it, at the pixel of the source's L·ω-weighted mean *pixel position*
 large sources in a non-gnomonic projection (the mean of pixel positions is not the image of
 the mean direction): 2–3° for a window of 1–2 sr in an equidistant fisheye.
 
-Uncertainty: a calibrated map carries the relative standard uncertainty u of its
-calibration factor, a common scale of every pixel. Each metric is re-evaluated with the
-luminances scaled by 1 ± u (the same source pixels and groups) and half the difference is
-reported as its standard uncertainty (``uncertainty`` in the result). For UGR-type indices
-this is exactly 8·u/ln 10 to first order.
+Uncertainty, two parts combined in quadrature (``uncertainty``):
+
+* calibration (``uncertainty_calibration``): a calibrated map carries the relative standard
+  uncertainty u of its calibration factor, a common scale of every pixel. Each metric is
+  re-evaluated with the luminances scaled by 1 ± u (the same source pixels and groups) and
+  half the difference is its standard uncertainty; for UGR-type indices 8·u/ln 10 to first
+  order;
+* per-pixel noise (``uncertainty_noise``), where the map has a per-pixel ``uncertainty``:
+  its variance less the calibration part (:func:`noise_variance`), independent between
+  pixels. Every index but Q is a function of field sums that are then jointly Gaussian with
+  exactly known moments (:func:`~lsadphoto.metrics.field.noise_moments`); ``noise_samples``
+  antithetic draws of them are evaluated like noisy maps. Q is evaluated on
+  ``q_noise_samples`` maps L ± √v·z. The mean change over the draws is each metric's bias
+  from noise (``noise_bias``): large for Q, whose gradients noise inflates. Source pixels
+  and groups are held fixed; the draws come from a fixed seed (common random numbers).
 
 Undefined values are ``None`` in :meth:`Score.to_dict` with the reason in ``notes``.
 """
@@ -251,9 +261,9 @@ def _scaled_thresholds(quality, n_thresholds, size_arcmin, method, scales):
 
 
 #: Resamples of the field sums for the per-pixel noise (cheap: a few vectors per sample).
-DEFAULT_NOISE_SAMPLES = 256
+DEFAULT_NOISE_SAMPLES = 64
 #: Resampled maps for Q's per-pixel noise (each one a full Q evaluation).
-DEFAULT_Q_NOISE_SAMPLES = 4
+DEFAULT_Q_NOISE_SAMPLES = 8
 #: Seed of the noise resampling: every run draws the same numbers (common random numbers).
 DEFAULT_NOISE_SEED = 20261201
 
@@ -264,41 +274,49 @@ def noise_variance(lmap):
 
     :attr:`LuminanceMap.uncertainty` combines the calibration scale and the noise,
     u_j² = (L_j·u_k)² + v_j (u_k = ``calibration_uncertainty``); the calibration part is a
-    common scale propagated separately, so v_j = max(u_j² − (L_j·u_k)², 0). NaN counts as 0.
+    common scale propagated separately, so v_j = u_j² − (L_j·u_k)², and 0 where that is
+    within float32 rounding of u_j² or NaN.
     """
     if lmap.uncertainty is None:
         return None
     u = np.asarray(lmap.uncertainty, dtype=np.float64)
     scale = np.asarray(lmap.luminance, dtype=np.float64) * float(lmap.calibration_uncertainty)
     variance = u * u - scale * scale
-    return np.where(variance > 0, variance, 0.0)
+    # u and L are float32: a difference within their rounding (2⁻²² of u²) is no noise.
+    return np.where(variance > 1e-6 * u * u, variance, 0.0)
 
 
-def _gaussian(rng, mean, covariance, n_samples):
-    """``n_samples`` draws of normal vectors (stacked: mean (..., k), covariance (..., k, k));
-    positive semi-definite covariances through their eigen-decomposition."""
+def _antithetic(rng, pairs, shape):
+    """Standard normal draws z₁…z_p followed by −z₁…−z_p, shape (2·pairs, *shape)."""
+    z = rng.standard_normal((pairs, *shape))
+    return np.concatenate([z, -z])
+
+
+def _gaussian(z, mean, covariance):
+    """Normal vectors from standard draws ``z`` (m, ..., k): mean (..., k), covariance
+    (..., k, k), positive semi-definite, through its eigen-decomposition."""
     lam, vec = np.linalg.eigh(covariance)
     root = vec * np.sqrt(np.clip(lam, 0.0, None))[..., None, :]
-    z = rng.standard_normal((n_samples, *np.shape(mean)))
     return mean + np.einsum("...ij,m...j->m...i", root, z)
 
 
-def _noise_resampling(indices, sums, source_solid_angle, moments, n_samples, rng):
-    """Every index evaluated on ``n_samples`` draws of the field sums under pixel noise.
+def _noise_resampling(indices, sums, source_solid_angle, moments, pairs, rng):
+    """Every index evaluated on 2·``pairs`` antithetic draws of the field sums under noise.
 
     The sums are linear in the pixel luminances (pixel-UGR's quadratically, handled as in
     :class:`~lsadphoto.metrics.field.NoiseMoments`), so for Gaussian pixel noise they are
     jointly Gaussian with the moments computed in one pass: drawing them is drawing noisy
     maps, without the maps. Returns a dict name → array of the sample values.
     """
-    background = _gaussian(rng, np.array([sums.background_illuminance,
-                                          sums.background_luminance_solid_angle]),
-                           moments.background, n_samples)
-    per_source = _gaussian(rng, moments.source_means, moments.source_covariances, n_samples)
+    background = _gaussian(_antithetic(rng, pairs, (2,)),
+                           np.array([sums.background_illuminance,
+                                     sums.background_luminance_solid_angle]), moments.background)
+    per_source = _gaussian(_antithetic(rng, pairs, moments.source_means.shape),
+                           moments.source_means, moments.source_covariances)
     quadratic = moments.quadratic_mean + math.sqrt(moments.quadratic_variance) * \
-        rng.standard_normal(n_samples)
+        _antithetic(rng, pairs, ())
     samples = []
-    for m in range(n_samples):
+    for m in range(2 * pairs):
         e_dir, total_lw, ugr_sum = per_source[m].sum(axis=0)
         field = replace(sums, illuminance=background[m, 0] + e_dir, source_illuminance=e_dir,
                         background_illuminance=background[m, 0],
@@ -310,14 +328,18 @@ def _noise_resampling(indices, sums, source_solid_angle, moments, n_samples, rng
 
 
 def _noise_summary(values, samples):
-    """Standard deviation, bias (mean − value) and the bias's standard error per metric."""
+    """Standard deviation, bias (mean − value) and the bias's standard error per metric,
+    from antithetic samples (first half +z, second half −z): a pair's mean cancels the
+    first-order change, so the bias's error comes from the spread of the pair means."""
     spread, bias, error = {}, {}, {}
     for key, draws in samples.items():
-        if not math.isfinite(values[key]) or not np.all(np.isfinite(draws)) or draws.size < 2:
+        if not math.isfinite(values[key]) or not np.all(np.isfinite(draws)) or draws.size < 4:
             continue
+        pairs = draws.size // 2
+        pair_means = (draws[:pairs] + draws[pairs:]) / 2
         spread[key] = float(np.std(draws, ddof=1))
         bias[key] = float(np.mean(draws) - values[key])
-        error[key] = spread[key] / math.sqrt(draws.size)
+        error[key] = float(np.std(pair_means, ddof=1)) / math.sqrt(pairs)
     return spread, bias, error
 
 
@@ -325,9 +347,10 @@ def _pixel_noise(lmap, values, indices, sums, source_solid_angle, labels, n_sour
                  noise_samples, q_noise_samples, seed, q_of):
     """Per-pixel noise: standard uncertainty, bias and its standard error of every metric.
 
-    The indices from resampled field sums (:func:`_noise_resampling`), Q from
-    ``q_noise_samples`` maps L + √v·z; the same source pixels and groups throughout.
-    Empty dicts when the map has no per-pixel uncertainty or the samples are 0.
+    The indices from resampled field sums (:func:`_noise_resampling`), Q from maps
+    L ± √v·z (antithetic pairs); the same source pixels and groups throughout. Sample
+    counts are rounded up to even numbers; at least 4 are needed. Empty dicts when the map
+    has no per-pixel uncertainty or the samples are 0.
     """
     noise_samples = 0 if noise_samples == 0 else check_positive_int(noise_samples, "noise_samples")
     q_noise_samples = 0 if q_noise_samples == 0 else check_positive_int(q_noise_samples,
@@ -338,13 +361,15 @@ def _pixel_noise(lmap, values, indices, sums, source_solid_angle, labels, n_sour
     rng = np.random.default_rng(int(seed))
     samples = {}
     luminance = arrays[0]
-    if noise_samples > 1:
+    if noise_samples >= 4:
         moments = noise_moments(*arrays, labels, variance, n_sources)
-        samples = _noise_resampling(indices, sums, source_solid_angle, moments, noise_samples, rng)
-    if q_noise_samples > 1 and math.isfinite(values["q"]):
+        samples = _noise_resampling(indices, sums, source_solid_angle, moments,
+                                    (noise_samples + 1) // 2, rng)
+    if q_noise_samples >= 4 and math.isfinite(values["q"]):
         sd = np.sqrt(variance)
-        samples["q"] = np.array([q_of(luminance + sd * rng.standard_normal(sd.shape))
-                                 for _ in range(q_noise_samples)])
+        z = [rng.standard_normal(sd.shape) for _ in range((q_noise_samples + 1) // 2)]
+        samples["q"] = np.array([q_of(luminance + sign * sd * zk)
+                                 for sign in (1.0, -1.0) for zk in z])
     return _noise_summary(values, samples)
 
 
@@ -403,9 +428,11 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         N values for the one-pass Q(N) sweep (e.g. ``range(1, 101)``).
     noise_samples : int
         Draws of the field sums for the per-pixel noise (used when the map has a per-pixel
-        ``uncertainty``); 0 switches the noise propagation off.
+        ``uncertainty``), in antithetic pairs; 0 switches the noise propagation off, and at
+        least 4 are needed.
     q_noise_samples : int
-        Resampled maps for Q's noise (each a full Q evaluation); 0 switches it off.
+        Resampled maps for Q's noise (each a full Q evaluation), in antithetic pairs; 0
+        switches it off, and at least 4 are needed.
     seed : int
         Seed of the noise resampling (the same draws in every run).
     band_deg : float, optional
@@ -573,12 +600,12 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
                      threshold=q_threshold, cutoff=q_cutoff, valid=valid)
     # Calibration: a common scale k = 1 ± u of every luminance (same sources and groups).
     u = float(lmap.calibration_uncertainty)
-    uncertainty = {}
+    calibration = {}
     extra_n = []
     if u > 0:
         hi, lo = indices(sums.scaled(1.0 + u), s_l * (1.0 + u)), indices(sums.scaled(1.0 - u),
                                                                          s_l * (1.0 - u))
-        uncertainty = {k: abs(hi[k] - lo[k]) / 2.0 for k in hi}
+        calibration = {k: abs(hi[k] - lo[k]) / 2.0 for k in hi}
         extra_n = _scaled_thresholds(quality, n_thresholds, size_arcmin, q_threshold, (1 + u, 1 - u))
     sweep_n = [] if sweep is None else [float(n) for n in sweep]
     sweep_record = None
@@ -593,8 +620,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
             # Q(k·L; N) = Q(L; N')·N/N' with N' = N·ΔL(k·L̄)/(k·ΔL(L̄)) (see _scaled_thresholds).
             scaled = [q * factor for q, (_, factor) in zip(q_values[len(sweep_n):], extra_n,
                                                             strict=True)]
-            uncertainty["q"] = abs(scaled[0] - scaled[1]) / 2.0
-    calibration = dict(uncertainty)
+            calibration["q"] = abs(scaled[0] - scaled[1]) / 2.0
+    # Per-pixel noise, where the map has a per-pixel uncertainty; both parts combined.
     noise, bias, bias_error = _pixel_noise(
         lmap, values, indices, sums, s_w, labels, len(sources),
         arrays=(luminance, omega, vf.cos_sigma, pindex), noise_samples=noise_samples,
@@ -615,8 +642,26 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if not math.isfinite(quality.q):
         notes.append(f"Q undefined: {quality.reason}")
     settings["q"] = quality.settings
+    negative = int(np.count_nonzero(lmap.luminance < 0))
+    if negative:
+        notes.append(f"{negative} pixel(s) have negative luminance (noise about zero in a signed map): "
+                     "field sums keep them, which keeps the means unbiased; percentiles count them "
+                     "as the lowest values")
     if lmap.calibrated is False:
-        notes.append("map is uncalibrated: absolute metrics carry the exposure-equation scale")
+        if "calibration_method" in (lmap.provenance or {}):  # our photo pipeline, no spot reading
+            notes.append("map is not spot-calibrated: absolute metrics rest on the exposure equation "
+                         "and the profile's calibration constant")
+        else:
+            notes.append("map carries no lsadphoto calibration (a foreign file, e.g. a Radiance "
+                         "rendering): its values are taken as cd/m² as written, and absolute metrics "
+                         "are only as right as that scale")
+    overflow = (lmap.provenance or {}).get("overflow")
+    if overflow and overflow.get("repair"):
+        notes.append(f"metrics rest on a luminous-overflow repair ({overflow['repair']}): "
+                     f"{overflow['pixels']} px set to {overflow['repaired_luminance']:.4g} cd/m²")
+    elif overflow:
+        notes.append(f"luminous overflow not repaired: {overflow['pixels']} px saturated in every frame are "
+                     "unknown, so E_v and the glare indices are low")
     provenance = build_provenance(profile=(lmap.provenance or {}).get("profile"),
                                   calibration_factor=lmap.calibration_factor,
                                   calibration_uncertainty=lmap.calibration_uncertainty)

@@ -3,6 +3,8 @@
 import numpy as np
 import tifffile
 
+from ._quiet import quiet_loggers
+
 # DNG 1.6 tag numbers (Adobe DNG Specification 1.6.0.0, chapter 4).
 BLACK_LEVEL_REPEAT_DIM = 50713
 BLACK_LEVEL = 50714
@@ -26,7 +28,7 @@ def _value(tag):
 def read_dng_tags(path):
     """Return the colour and black-level tags of the raw IFD of a DNG, or ``{}`` for non-DNG."""
     try:
-        with tifffile.TiffFile(path) as tif:
+        with quiet_loggers("tifffile"), tifffile.TiffFile(path) as tif:
             pages = [tif.pages[0]]
             pages += list(getattr(tif.pages[0], "pages", []) or [])
             if 50706 not in tif.pages[0].tags:  # DNGVersion
@@ -46,7 +48,7 @@ def read_dng_tags(path):
             ]
             out["as_shot_neutral"] = _value(tags[AS_SHOT_NEUTRAL])[:3] if AS_SHOT_NEUTRAL in tags else None
             return out
-    except (tifffile.TiffFileError, OSError, ValueError, KeyError, IndexError):
+    except Exception:  # tifffile raises assorted errors on corrupt tags (TypeError seen fuzzing)
         return {}
 
 

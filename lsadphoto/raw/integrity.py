@@ -27,10 +27,10 @@ callback" (libraw.org/docs/API-notes.html).
 import contextlib
 import os
 import struct
-import tempfile
 
 import numpy as np
 
+from .._native import native_output
 from ..errors import UnsupportedFileError
 
 __all__ = ["declared_extent", "check_declared_extent", "libraw_reports", "check_repeated_rows"]
@@ -173,22 +173,13 @@ def check_declared_extent(path):
 
 @contextlib.contextmanager
 def libraw_reports():
-    """Capture what C code writes to standard error (LibRaw's data-error reports).
+    """Capture what C code writes to standard error (LibRaw's data-error reports), through
+    the package's one native-output capture (:func:`lsadphoto._native.native_output`).
 
     Yields a list that holds the captured lines once the block ends.
     """
-    lines = []
-    with tempfile.TemporaryFile(mode="w+b") as sink:
-        saved = os.dup(2)
-        os.dup2(sink.fileno(), 2)
-        try:
-            yield lines
-        finally:
-            os.dup2(saved, 2)
-            os.close(saved)
-            sink.seek(0)
-            text = sink.read().decode("utf-8", "replace")
-            lines.extend(line.strip() for line in text.splitlines() if line.strip())
+    with native_output([]) as lines:
+        yield lines
 
 
 def check_repeated_rows(raw_image, path):

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 import exifread
 
 from ..errors import MetadataWarning, MissingMetadataError
+from ._quiet import quiet_loggers
 
 _FIELDS = ("exposure_time", "f_number", "iso", "focal_length")
 _UNITS = {"exposure_time": "s", "f_number": "", "iso": "", "focal_length": "mm"}
@@ -61,8 +62,9 @@ class ExposureMetadata:
         if missing:
             where = f"{path}: " if path else ""
             raise MissingMetadataError(
-                f"{where}missing exposure metadata ({', '.join(missing)}); "
-                "give a spot reading or the values in a sidecar"
+                f"{where}missing exposure metadata ({', '.join(missing)}); a single frame can be "
+                "calibrated with a spot reading (--spot) instead, a bracket needs the values in its "
+                "files (e.g. exiftool -ExposureTime=1/125 -FNumber=4 -ISO=100 FILE)"
             )
         return self.exposure_time * self.iso / self.f_number**2
 
@@ -87,7 +89,7 @@ def _ratio(tag):
 
 def _exif(path):
     try:
-        with open(path, "rb") as fh:
+        with quiet_loggers("exifread"), open(path, "rb") as fh:
             return exifread.process_file(fh, details=False)
     except Exception:  # exifread raises assorted errors on non-TIFF data
         return {}

@@ -1,17 +1,18 @@
 """Self-contained HTML reports: a survey (with its observer study) and a model-vs-photo comparison.
 
-One ``.html`` file holds everything: CSS inline, every image a PNG ``data:`` URI, no
-JavaScript, no external request — it can be mailed, archived with the data, or opened from a
-USB stick. Every piece of text that came from data (view ids, file names, notes, failure
+One ``.html`` file holds everything: CSS inline, every image a PNG ``data:`` URI, the
+interactive luminance viewer of each view (:mod:`lsadphoto.viewer`: its script inline, its
+maps embedded), no external request — it can be mailed, archived with the data, or opened
+from a USB stick. Every piece of text that came from data (view ids, file names, notes, failure
 reasons) is HTML-escaped. Files are written atomically. Missing pieces (no ratings, no sweep
 columns, an empty survey, every view failed, no study) never stop a report: the section says
 what is missing and why.
 
 * :func:`write_survey_report` — summary, the paper's Figures 1–4 for the survey's data,
-  per-view gallery (false colour, glare sources, contrast), failures, observer-study
-  statistics, provenance.
+  per-view gallery (the interactive viewer, glare sources, contrast), failures,
+  observer-study statistics, provenance.
 * :func:`write_comparison_report` — ratio statistics over the field and per region, metric
-  agreement within the combined uncertainty, ratio map and both false-colour maps.
+  agreement within the combined uncertainty, ratio map and the viewer of both maps.
 
 The contents are described in ``docs/user-guide-report.md``.
 
@@ -565,12 +566,24 @@ def _figures_section(survey, study, why_no_study):
     return _section("figures", "Figures of the paper for this survey", *parts)
 
 
-def _gallery_section(survey, max_views):
+def _view_viewer(survey, view):
+    """The interactive viewer of a view (its map, the model beside it where the survey
+    rendered one, the score's glare sources), or (None, why)."""
+    from ..viewer import report_viewer
+
+    photo = survey.view_file(view, "exr") if survey.id_column else None
+    if photo is None:
+        return None, "no luminance map among the view's outputs"
+    return report_viewer(photo, second=survey.view_file(view, "model_exr"),
+                         score=survey.score_record(view), title=view)
+
+
+def _gallery_section(survey, max_views, viewers=True):
     ids = survey.ids()
     if not ids:
         return _section("gallery", "Views", _unavailable("The gallery", "no processed views"))
     shown = ids if max_views is None else ids[:max_views]
-    parts = []
+    parts, shown_viewer = [], False
     if len(shown) < len(ids):
         parts.append(_note(f"the first {len(shown)} of {len(ids)} views are shown "
                            f"(max_gallery_views={max_views})"))
@@ -579,7 +592,12 @@ def _gallery_section(survey, max_views):
                  for c, (label, _) in ((c, _label_unit(c)) for c in KEY_METRICS[:4])
                  if _number(row.get(c)) is not None]
         cells = []
+        viewer, why = _view_viewer(survey, view) if viewers else (None, None)
+        if why is not None:
+            facts.append(f"no interactive viewer: {why}")
         for kind, caption in _GALLERY:
+            if kind == "falsecolour" and viewer is not None:
+                continue  # the viewer shows the false colour, and points at it
             path = survey.view_file(view, kind) if survey.id_column else None
             png = None
             if path is not None:
@@ -594,8 +612,13 @@ def _gallery_section(survey, max_views):
                     caption, "not among the view's outputs (none listed by its done marker)")
                     + "</figure>"))
         parts.append(_Html('<div class="view">' + _tag("h3", view)
-                           + (_tag("p", "; ".join(facts)) if facts else "")
+                           + (_tag("p", "; ".join(facts)) if facts else "") + (viewer or "")
                            + '<div class="triple">' + "".join(cells) + "</div></div>"))
+        shown_viewer = shown_viewer or viewer is not None
+    if shown_viewer:
+        from ..viewer import viewer_assets
+
+        parts.insert(0, _Html(viewer_assets()))
     return _section("gallery", "Views", *parts)
 
 
@@ -777,7 +800,7 @@ def check_survey_folder(survey_dir, *, option=None):
 
 
 def write_survey_report(survey_dir, path=None, *, study=None, title=None,
-                        max_gallery_views=None):
+                        max_gallery_views=None, viewers=True):
     """Write one self-contained HTML report of a survey folder (and its observer study).
 
     Sections: summary (views processed and failed, key metrics with their standard
@@ -805,6 +828,11 @@ def write_survey_report(survey_dir, path=None, *, study=None, title=None,
     max_gallery_views : int, optional
         Show only the first views in the gallery (images are embedded, so a survey of
         hundreds of views makes a large file); default all.
+    viewers : bool
+        Embed the interactive luminance viewer (:mod:`lsadphoto.viewer`) of every shown
+        view in place of its false-colour picture: its map losslessly, with the model
+        beside it where the survey rendered one and the score's glare sources (about the
+        size of the view's EXR file per view).
 
     Returns
     -------
@@ -832,7 +860,7 @@ def write_survey_report(survey_dir, path=None, *, study=None, title=None,
              "metrics.csv sha256": survey.metrics_sha256 or "—"}
     sections = [_summary_section(survey, study_dict),
                 _figures_section(survey, study_dict, why_no_study),
-                _gallery_section(survey, max_gallery_views),
+                _gallery_section(survey, max_gallery_views, viewers),
                 _failures_section(survey),
                 _study_section(study_dict, why_no_study, computed_here),
                 _provenance_section(survey, study_dict, extra)]
@@ -879,8 +907,9 @@ _RATIO_HEADERS = ("pixels", "solid angle [sr]", "mean ratio (geometric)", "media
                   "5 % ratio", "95 % ratio", "RMS relative error", "within ±10 %")
 
 
-def _comparison_images(ratio, photo, model):
-    """PNG bytes of (caption, png or None, why) for the ratio map and both false-colour maps."""
+def _comparison_images(ratio, photo, model, *, false_colour=True):
+    """PNG bytes of (caption, png or None, why) for the ratio map and both false-colour maps
+    (``false_colour=False``: the ratio map alone)."""
     from ..io.falsecolour import false_colour_range, write_false_colour_png
     from .figures import write_ratio_png
 
@@ -905,7 +934,7 @@ def _comparison_images(ratio, photo, model):
             images.append(("luminance ratio model / photo", None,
                            "no ratio map: pass the Comparison object, or both photo and model"))
         maps = [(name, m) for name, m in (("photo", photo), ("model", model)) if m is not None]
-        if maps:
+        if maps and false_colour:
             both = np.concatenate([np.asarray(m.luminance, dtype=np.float64).ravel()
                                    for _, m in maps])
             common = false_colour_range(both)  # one legend, so the two maps can be compared
@@ -914,10 +943,20 @@ def _comparison_images(ratio, photo, model):
                        write_false_colour_png, lmap, luminance_range=common,
                        title=f"{name}: luminance")
         for name, m in (("photo", photo), ("model", model)):
-            if m is None:
+            if m is None and false_colour:
                 images.append((f"{name}: false colour luminance", None,
                                f"no {name} luminance map was given"))
     return images
+
+
+def _comparison_viewer(comparison, photo, model):
+    """The viewer of photo and model with their scores' overlays where the comparison
+    carries them (a :class:`~lsadphoto.compare.Comparison`), or (None, why)."""
+    from ..viewer import report_viewer
+
+    scores = tuple(getattr(comparison, "scores", ()) or (None, None))
+    return report_viewer(photo, second=model, score=scores[0], second_score=scores[1],
+                         title="photo and model")
 
 
 def write_comparison_report(comparison, path, *, photo=None, model=None, title=None):
@@ -925,7 +964,8 @@ def write_comparison_report(comparison, path, *, photo=None, model=None, title=N
 
     Sections: summary, metric agreement (photo, model, difference ± combined standard
     uncertainty, agreement within 2u), ratio statistics over the field, per σ ring and per
-    image block, the ratio map and both false-colour maps (on one luminance scale), and
+    image block, the interactive viewer of both maps (:mod:`lsadphoto.viewer`; where it
+    cannot be made, both false-colour maps on one luminance scale) with the ratio map, and
     provenance.
 
     Parameters
@@ -1015,10 +1055,22 @@ def write_comparison_report(comparison, path, *, photo=None, model=None, title=N
                                                             + list(e.get("cols") or ["?", "?"])))),
         numeric=set(range(1, 9))) if blocks else _unavailable("Block statistics", "none given"))
 
+    # The interactive viewer of both maps (side by side, one probe, their ratio) in place of
+    # the two false-colour pictures, where both maps are given.
+    viewer, why = (None, "both maps are needed") if photo is None or model is None else \
+        _comparison_viewer(comparison, photo, model)
     images = []
-    for caption, png, why in _comparison_images(ratio, photo, model):
+    for caption, png, why_not in _comparison_images(ratio, photo, model,
+                                                    false_colour=viewer is None):
         images.append(_figure_html(png, caption) if png is not None
-                      else _Html("<figure>" + _unavailable(caption, why) + "</figure>"))
+                      else _Html("<figure>" + _unavailable(caption, why_not) + "</figure>"))
+    maps_parts = [_Html('<div class="triple">' + "".join(images) + "</div>")]
+    if viewer is not None:
+        from ..viewer import viewer_assets
+
+        maps_parts = [_Html(viewer_assets()), _Html(viewer)] + maps_parts
+    elif photo is not None and model is not None:
+        maps_parts.insert(0, _note(f"no interactive viewer: {why}"))
 
     provenance = [_tag("h3", "This report"),
                   _kv_table({"generated": generated, **_versions()}),
@@ -1035,8 +1087,7 @@ def write_comparison_report(comparison, path, *, photo=None, model=None, title=N
                                     f"{_kv_table(facts)}</details>"))
     sections = [_section("summary", "Summary", *summary),
                 _section("metrics", "Metric agreement", agreement),
-                _section("maps", "Maps", _Html('<div class="triple">' + "".join(images)
-                                               + "</div>")),
+                _section("maps", "Maps", *maps_parts),
                 _section("ratios", "Ratio statistics (model / photo, solid-angle weighted)",
                          *ratio_parts),
                 _section("provenance", "Provenance", *provenance)]

@@ -49,19 +49,51 @@ MAX_BOUNCES = 2000
 
 
 class EmissionSampler:
-    """Samples emission points on the luminaires of a scene, in proportion to their flux."""
+    """Samples emission points on the luminaires of a scene, in proportion to their flux.
+
+    Vectorised over luminaires: one draw over all emitting triangles (probability
+    Φ_l·a_t/A_l for triangle t of area luminaire l), the point luminaires' rectangles and
+    frames as arrays, and their first directions drawn once per distinct intensity table
+    (luminaires of one photometric file share it), so the cost does not grow with a Python
+    loop over hundreds of luminaires.
+    """
 
     def __init__(self, scene):
         self.scene = scene
         self.total_flux = scene.total_flux
-        fluxes = [l.flux for l in scene.area_luminaires] + [l.flux for l in scene.point_luminaires]
-        self.n_area = len(scene.area_luminaires)
-        self._lum_cdf = np.cumsum(fluxes) / np.sum(fluxes)
-        self._lum_cdf[-1] = 1.0
-        self._tri_cdf = []
-        for lum in scene.area_luminaires:
-            a = np.cumsum(scene.areas[lum.triangles])
-            self._tri_cdf.append(a / a[-1])
+        area = scene.area_luminaires
+        points = scene.point_luminaires
+        self.n_area = len(area)
+        fluxes = np.array([l.flux for l in area] + [l.flux for l in points], dtype=float)
+        # One CDF over every emission choice: each emitting triangle, then each point luminaire.
+        if area:
+            self._tri = np.concatenate([l.triangles for l in area])
+            self._tri_lum = np.concatenate([np.full(len(l.triangles), k) for k, l in enumerate(area)])
+            a = scene.areas[self._tri]
+            lum_area = np.array([scene.areas[l.triangles].sum() for l in area])
+            tri_mass = fluxes[self._tri_lum] * a / lum_area[self._tri_lum]
+        else:
+            self._tri = np.zeros(0, np.int64)
+            self._tri_lum = np.zeros(0, np.int64)
+            tri_mass = np.zeros(0)
+        mass = np.concatenate([tri_mass, fluxes[self.n_area:]])
+        self._cdf = np.cumsum(mass) / mass.sum()
+        self._cdf[-1] = 1.0
+        self._n_tri = len(self._tri)
+        if points:
+            self._positions = np.array([l.position for l in points], dtype=float)
+            self._frames = np.array([l.frame for l in points], dtype=float)
+            self._extents = np.array([l.extent for l in points], dtype=float)
+            self._coef = self.total_flux / np.array([l.flux for l in points])
+            self._multipliers = np.array([l.multiplier for l in points], dtype=float)
+            tables = {}
+            for k, l in enumerate(points):
+                tables.setdefault(id(l.table), (l.table, []))[1].append(k)
+            self._table_of = np.zeros(len(points), np.int64)
+            self.tables = []
+            for j, (table, members) in enumerate(tables.values()):
+                self._table_of[members] = j
+                self.tables.append(table)
 
     def sample(self, rng, n):
         """``n`` emission points: dict of position, normal, luminaire, kind, coefficient.
@@ -71,36 +103,68 @@ class EmissionSampler:
         point luminaires (see :class:`~lsadphoto.solver.store.LsadStore`).
         """
         scene = self.scene
-        u_lum = rng.random(n)
-        u_tri = rng.random(n)
+        u_choice = rng.random(n)
         u_pt = rng.random((n, 2))
-        which = np.minimum(np.searchsorted(self._lum_cdf, u_lum, side="right"), len(self._lum_cdf) - 1)
+        which = np.minimum(np.searchsorted(self._cdf, u_choice, side="right"), len(self._cdf) - 1)
+        on_tri = which < self._n_tri
         position = np.zeros((n, 3))
         normal = np.zeros((n, 3))
-        kind = np.where(which < self.n_area, KIND_COSINE, KIND_POINT).astype(np.int8)
-        lum_index = np.where(which < self.n_area, which, which - self.n_area)
+        kind = np.where(on_tri, KIND_COSINE, KIND_POINT).astype(np.int8)
+        lum_index = np.zeros(n, dtype=np.int64)
         coefficient = np.zeros(n)
         triangle = np.full(n, -1, dtype=np.int64)
-        for k, lum in enumerate(scene.area_luminaires):
-            m = which == k
-            if not m.any():
-                continue
-            t = lum.triangles[np.minimum(np.searchsorted(self._tri_cdf[k], u_tri[m], side="right"),
-                                         len(lum.triangles) - 1)]
-            triangle[m] = t
-            position[m] = triangle_points(scene.triangles[t], u_pt[m])
-            normal[m] = scene.normals[t]
-            coefficient[m] = self.total_flux / math.pi
-        for k, lum in enumerate(scene.point_luminaires):
-            m = which == self.n_area + k
-            if not m.any():
-                continue
-            offs = (u_pt[m] - 0.5) * np.asarray(lum.extent)
-            position[m] = lum.position + offs[:, :1] * lum.frame[0] + offs[:, 1:] * lum.frame[1]
-            normal[m] = lum.frame[2]
-            coefficient[m] = self.total_flux / lum.flux
+        if on_tri.any():
+            t = self._tri[which[on_tri]]
+            triangle[on_tri] = t
+            lum_index[on_tri] = self._tri_lum[which[on_tri]]
+            position[on_tri] = triangle_points(scene.triangles[t], u_pt[on_tri])
+            normal[on_tri] = scene.normals[t]
+            coefficient[on_tri] = self.total_flux / math.pi
+        pt = ~on_tri
+        if pt.any():
+            k = which[pt] - self._n_tri
+            lum_index[pt] = k
+            frames = self._frames[k]
+            offs = (u_pt[pt] - 0.5) * self._extents[k]
+            position[pt] = self._positions[k] + offs[:, :1] * frames[:, 0] + offs[:, 1:] * frames[:, 1]
+            normal[pt] = frames[:, 2]
+            coefficient[pt] = self._coef[k]
         return {"position": position, "normal": normal, "kind": kind, "luminaire": lum_index,
                 "coefficient": coefficient, "triangle": triangle}
+
+    def point_intensity(self, luminaire, directions):
+        """Intensity [cd] of point luminaires ``luminaire`` (indices, shape (n,)) towards
+        world ``directions`` (n, 3), evaluated once per distinct intensity table."""
+        luminaire = np.asarray(luminaire)
+        out = np.zeros(luminaire.size)
+        table_of = self._table_of[luminaire]
+        for j, table in enumerate(self.tables):
+            rows = np.flatnonzero(table_of == j)
+            if rows.size:
+                frames = self._frames[luminaire[rows]]
+                local = np.einsum("nj,nkj->nk", directions[rows], frames)
+                gamma = np.arccos(np.clip(local[:, 2], -1.0, 1.0))
+                c = np.mod(np.arctan2(local[:, 1], local[:, 0]), 2 * math.pi)
+                out[rows] = table(c, gamma) * self._multipliers[luminaire[rows]]
+        return out
+
+    def first_directions(self, rng, src):
+        """First directions and weight factors of the chains started at ``src``: cosine
+        directions for Lambertian emitters, each point luminaire's distribution (drawn once
+        per distinct intensity table and turned into each luminaire's frame)."""
+        n = len(src["kind"])
+        direction = cosine_directions(src["normal"], rng.random((n, 2)))
+        factor = np.ones(n)
+        point = np.flatnonzero(src["kind"] == KIND_POINT)
+        if point.size:
+            table_of = self._table_of[src["luminaire"][point]]
+            for j, table in enumerate(self.tables):
+                rows = point[table_of == j]
+                if rows.size:
+                    d, w = table.sample(rng, rows.size, self._frames[src["luminaire"][rows]])
+                    direction[rows] = d
+                    factor[rows] = w
+        return direction, factor
 
 
 def _block_chains(scene, engine, sampler, seed, block, n, batches, max_depth, absorption):
@@ -115,17 +179,8 @@ def _block_chains(scene, engine, sampler, seed, block, n, batches, max_depth, ab
         "luminaire": [np.where(src["kind"] == KIND_POINT, src["luminaire"], -1).astype(np.int32)],
         "batch": [batch], "depth": [np.zeros(n, np.int16)], "triangle": [src["triangle"]],
     }
-    # first directions
-    u_dir = rng.random((n, 2))
-    direction = cosine_directions(src["normal"], u_dir)
-    weight = np.full(n, sampler.total_flux)
-    for k, lum in enumerate(scene.point_luminaires):
-        m = (src["kind"] == KIND_POINT) & (src["luminaire"] == k)
-        count = int(m.sum())
-        if count:
-            d, w = lum.table.sample(rng, count, lum.frame)
-            direction[m] = d
-            weight[m] *= w
+    direction, factor = sampler.first_directions(rng, src)
+    weight = sampler.total_flux * factor
     origin = src["position"] + engine.epsilon * np.where(
         (src["kind"] == KIND_COSINE)[:, None], src["normal"], 0.0)
     alive = np.arange(n)

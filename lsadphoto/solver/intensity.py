@@ -151,8 +151,17 @@ class IntensityTable:
         """``n`` world directions and their sampling weights I(ω)/(Φ·p(ω)) [–].
 
         The weight has mean 1 under the sampling density; it is exactly 1 where the
-        intensity is constant over a cell.
+        intensity is constant over a cell. ``frame`` is one luminaire frame (3, 3) or one
+        per direction (n, 3, 3) (rows e_C0, e_C90, e_nadir).
         """
+        local, weight = self.sample_local(rng, n)
+        frame = np.asarray(frame, float)
+        if frame.ndim == 3:
+            return np.einsum("nk,nkj->nj", local, frame), weight
+        return local @ frame, weight
+
+    def sample_local(self, rng, n):
+        """``n`` directions in the luminaire's own frame and their weights (see :meth:`sample`)."""
         cell = np.minimum(np.searchsorted(self._cdf, rng.random(n), side="right"),
                           self._cdf.size - 1)
         ng = self.gamma_angles.size - 1
@@ -167,7 +176,7 @@ class IntensityTable:
         pdf = self._cell_prob[cell] / self._cell_omega.ravel()[cell]
         gamma = np.arccos(np.clip(cos_g, -1.0, 1.0))
         weight = self(c, gamma) / (self.luminous_flux * pdf)
-        return local @ frame, weight
+        return local, weight
 
     def to_arrays(self):
         """``(c_angles, gamma_angles, intensity)`` for storage."""

@@ -575,7 +575,7 @@ def render(store_or_scene, projection, *, position, rotation, samples=None, seed
                           "near_field_biased": near_field == "clamp",
                           "nodes_per_pixel": "all" if nodes_per_pixel is None else int(nodes_per_pixel),
                           "seed": int(seed), "simulation_seed": int(store.seed)},
-                   elapsed=time.perf_counter() - t0)
+                   elapsed=time.perf_counter() - t0, pose=(position, rotation))
 
 
 def _run_chunks(work, starts, lum_b, workers, progress, t0, total):
@@ -607,9 +607,23 @@ def _run_chunks(work, starts, lum_b, workers, progress, t0, total):
             report(h.size)
 
 
-def _finish(projection, valid, lum_b, *, store_or_scene, estimator, extra, elapsed,
+def view_pose(position, rotation):
+    """The world pose of a camera as Radiance view vectors: ``{"vp", "vd", "vu"}``.
+
+    ``vd`` is the optical axis (camera +z) and ``vu`` the image's up (camera −y, rows run
+    down), both in world coordinates; Radiance's ``-vp``/``-vd``/``-vu``.
+    """
+    r = np.asarray(rotation, dtype=float)
+    return {"vp": [float(v) for v in position], "vd": [float(v) for v in r[:, 2]],
+            "vu": [float(v) for v in -r[:, 1]]}
+
+
+def _finish(projection, valid, lum_b, *, store_or_scene, estimator, extra, elapsed, pose,
             openings=None, shared_variance=None):
     """The LuminanceMap of per-batch pixel values ``lum_b`` (valid pixels × batches).
+
+    ``pose`` = (position, rotation) of the camera: recorded as ``provenance["view_pose"]``
+    (:func:`view_pose`), so the Radiance HDR writer gives the rendered view's ``VIEW=`` line.
 
     ``shared_variance`` (per valid pixel) is the variance of a component that all batches
     share (added to the batches' squared standard error; independent between pixels).
@@ -642,6 +656,7 @@ def _finish(projection, valid, lum_b, *, store_or_scene, estimator, extra, elaps
         "achieved_relative_error": field_se / field_mean if field_mean > 0 else float("nan"),
         "render_time_s": float(elapsed),
         "scene": store_or_scene.scene.name if hasattr(store_or_scene, "scene") else store_or_scene.name,
+        "view_pose": view_pose(*pose),
     }
     provenance.update(extra)
     return LuminanceMap(lum.reshape(rows, cols).astype(np.float32),
@@ -743,10 +758,9 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
             cos_x = np.einsum("ij,ij->i", w, nx)
             is_cos = src["kind"] == KIND_COSINE
             g = np.where(is_cos, -np.einsum("ij,ij->i", w, src["normal"]), 0.0)
-            for li, lum in enumerate(scene.point_luminaires):
-                m = (src["kind"] == KIND_POINT) & (src["luminaire"] == li)
-                if m.any():
-                    g[m] = lum.intensity(-w[m])
+            pt = np.flatnonzero(src["kind"] == KIND_POINT)
+            if pt.size:
+                g[pt] = sampler.point_intensity(src["luminaire"][pt], -w[pt])
             ok = (cos_x > 0) & (g > 0) & (rho > 0)
             if ok.any():
                 tgt = src["position"][ok] + eps * src["normal"][ok] * is_cos[ok, None]
@@ -778,4 +792,4 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
                    extra={"samples": samples, "samples_per_pixel": samples, "seed": int(seed),
                           "near_field": "none (path tracing)", "near_field_biased": False,
                           "max_depth": max_depth},
-                   elapsed=time.perf_counter() - t0)
+                   elapsed=time.perf_counter() - t0, pose=(position, rotation))

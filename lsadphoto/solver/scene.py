@@ -3,9 +3,9 @@
 A scene is a set of triangles (every shape is triangulated when it is read), each with a
 Lambertian reflectance and possibly a Lambertian emission, plus point-like luminaires with
 a luminous intensity distribution, plus named views. Lengths are in metres, flux in lumens,
-intensity in candelas, luminance in cd·m⁻². The TOML schema is documented in
-``docs/user-guide-solver.md``; :func:`scene_from_dict` accepts the same structure as a
-Python ``dict``.
+intensity in candelas, luminance in cd·m⁻². The TOML schema is declared in
+:data:`SCENE_SCHEMA` and documented in ``docs/user-guide-solver.md``;
+:func:`scene_from_dict` accepts the same structure as a Python ``dict``.
 
 Surfaces reflect on both sides (the shading normal is turned towards the side a ray comes
 from); Lambertian luminaires emit from their front side only, the side towards which the
@@ -19,13 +19,14 @@ equation. *Computer Research and Modeling* 4(1), 75–84.
 """
 
 import math
-import tomllib
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import BadInputError
+from .._schema import ArrayOf, Key, MapOf, Table, Variants, read_toml, validate
+from ..errors import BadInputError, SolverWarning
 from ..geometry.base import Projection, projection_from_dict
 from ..geometry.observer import orthonormal_pair
 from .intensity import IntensityTable, luminaire_frame
@@ -33,6 +34,7 @@ from .intensity import IntensityTable, luminaire_frame
 __all__ = [
     "AreaLuminaire",
     "PointLuminaire",
+    "SCENE_SCHEMA",
     "Scene",
     "View",
     "camera_to_world",
@@ -330,12 +332,57 @@ class Scene:
             raise BadInputError("scene has no luminaires")
         lo = self.triangles.reshape(-1, 3).min(axis=0)
         hi = self.triangles.reshape(-1, 3).max(axis=0)
+        self._warn_luminaires_outside()
         for lum in self.point_luminaires:
             lo, hi = np.minimum(lo, lum.position), np.maximum(hi, lum.position)
         self.bounds = (lo, hi)
         #: Characteristic size of the scene: diagonal of its bounding box [m].
         self.size = float(np.linalg.norm(hi - lo))
         self.triangle_reflectance = self.reflectance[self.material]
+
+    def _winding_number(self, point):
+        """Generalised winding number of the scene's triangles at ``point`` [m]: 1 inside a
+        closed surface whose fronts face inwards (a room), 0 outside (Jacobson, Kavan &
+        Sorkine-Hornung 2013, doi:10.1145/2461912.2461916; triangle solid angles by Van
+        Oosterom & Strackee 1983, doi:10.1109/TBME.1983.325207)."""
+        a, b, c = (self.triangles[:, k] - point for k in range(3))
+        la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
+        numerator = np.einsum("ij,ij->i", a, np.cross(b, c))
+        denominator = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", a, c) * lb
+                       + np.einsum("ij,ij->i", b, c) * la)
+        # Triangles wound counter-clockwise seen from the point have their fronts towards it.
+        return float(-2.0 * np.arctan2(numerator, denominator).sum() / (4 * math.pi))
+
+    def _warn_luminaires_outside(self):
+        """A luminaire outside a closed room lights only the room's outsides, so that every
+        view inside is black: say so (SolverWarning).
+
+        The scene is a room when its surfaces enclose the centre of the passive surfaces'
+        bounding box with their fronts facing it (winding number ≥ 0.9 there); open models (a plane, a solid on
+        a plane) are not rooms and are not checked. A point luminaire is outside where the
+        winding number at its position is below ½; an area luminaire where it is at a point
+        just in front of its emitting side.
+        """
+        passive = self.triangles[self.emitter < 0].reshape(-1, 3)
+        box = passive if len(passive) else self.triangles.reshape(-1, 3)
+        lo, hi = box.min(axis=0), box.max(axis=0)
+        size = float(np.linalg.norm(hi - lo))
+        if not self._winding_number(0.5 * (lo + hi)) >= 0.9:
+            return
+        places = [(lum.name, np.asarray(lum.position, float)) for lum in self.point_luminaires]
+        for k, lum in enumerate(self.area_luminaires):
+            own = self.emitter == k
+            front = (self.normals[own] * self.areas[own, None]).sum(axis=0)
+            front /= max(float(np.linalg.norm(front)), 1e-300)
+            places.append((lum.name, self.triangles[own].reshape(-1, 3).mean(axis=0) + 1e-4 * size * front))
+        outside = [(name, where) for name, where in places if self._winding_number(where) < 0.5]
+        if outside:
+            name, where = outside[0]
+            others = f" (and {len(outside) - 1} more)" if len(outside) > 1 else ""
+            warnings.warn(
+                f"luminaire {name!r} near ({', '.join(f'{v:.4g}' for v in where)}) m{others} is outside the "
+                "closed room the scene's surfaces form: it lights the room from outside, and views "
+                "inside may be black", SolverWarning, stacklevel=3)
 
     def __repr__(self):
         return (f"Scene({self.name!r}, {len(self.triangles)} triangles, "
@@ -370,8 +417,67 @@ class Scene:
 
 # --- reading -------------------------------------------------------------------------------
 
+def _vec3(doc, **kw):
+    return Key(list, items=float, length=3, doc=doc, **kw)
+
+
+_FACING = ("inward", "outward")
+#: Keys of each shape type (a surface adds ``material`` and ``name``).
+_SHAPES = {
+    "polygon": {"vertices": Key(list, required=True, items=Key(list, items=float, length=3),
+                                doc="planar polygon's vertices [m], counter-clockwise seen from its front")},
+    "box": {"min": _vec3("lower corner [m]", required=True), "max": _vec3("upper corner [m]", required=True),
+            "facing": Key(str, default="inward", choices=_FACING),
+            "axes": Key(list, length=3, items=Key(list, items=float, length=3), doc="orthonormal rows"),
+            "face_materials": Key(dict, doc="material per face (floor, ceiling, x-, x+, …)")},
+    "disc": {"centre": _vec3("centre [m]"), "center": _vec3("centre [m] (US spelling)"),
+             "normal": _vec3("front normal", required=True),
+             "radius": Key(float, required=True, minimum=0, exclusive=True, doc="radius [m]"),
+             "segments": Key(int, default=64, minimum=3, doc="polygon sides")},
+    "sphere": {"centre": _vec3("centre [m]"), "center": _vec3("centre [m] (US spelling)"),
+               "radius": Key(float, required=True, minimum=0, exclusive=True, doc="radius [m]"),
+               "subdivisions": Key(int, default=3, minimum=0, maximum=7, doc="icosphere subdivisions"),
+               "facing": Key(str, default="outward", choices=_FACING)},
+    "mesh": {"file": Key(str, required=True, doc="mesh file (OBJ, PLY, STL, …), relative to the scene"),
+             "scale": Key(float, default=1.0, minimum=0, exclusive=True),
+             "translate": _vec3("offset [m]", default=[0.0, 0.0, 0.0]),
+             "flip": Key(bool, default=False, doc="turn the triangles' fronts over")},
+}
+_POSITIVE = {"minimum": 0, "exclusive": True}
+
+#: The declared schema of a TOML scene (lsadphoto._schema): unknown tables and keys are
+#: refused, types and ranges checked, each problem one line; geometry (planarity, orthonormal
+#: axes, one of flux/luminance) is checked while the scene is built.
+SCENE_SCHEMA = Table({
+    "scene": Table({"name": Key(str, default="scene")}),
+    "materials": MapOf(Table({"reflectance": Key(float, required=True, doc="Lambertian ρ, 0 ≤ ρ < 1")})),
+    "surfaces": ArrayOf(Variants("type", {kind: Table({**keys, "material": Key(str), "name": Key(str)})
+                                          for kind, keys in _SHAPES.items()})),
+    "luminaires": ArrayOf(Variants("type", {
+        "area": Table({"name": Key(str), "material": Key(str, default="black"),
+                       "shape": Variants("type", {kind: Table(keys) for kind, keys in _SHAPES.items()},
+                                         required=True),
+                       "flux": Key(float, **_POSITIVE, doc="[lm]"),
+                       "luminance": Key(float, **_POSITIVE, doc="[cd·m⁻²]")}),
+        "point": Table({"name": Key(str), "position": _vec3("[m]", required=True),
+                        "intensity": Key(float, **_POSITIVE, doc="isotropic [cd]"),
+                        "flux": Key(float, **_POSITIVE, doc="isotropic [lm]"),
+                        "photometry": Key(str, doc="IES or EULUMDAT file, relative to the scene"),
+                        "nadir": _vec3("luminaire's nadir (γ = 0)", default=[0.0, 0.0, -1.0]),
+                        "length_axis": _vec3("C0 direction", default=[1.0, 0.0, 0.0]),
+                        "extent": Key(list, items=float, length=2, minimum=0, doc="[length, width] [m]"),
+                        "multiplier": Key(float, default=1.0, **_POSITIVE)}),
+    })),
+    "views": ArrayOf(Table({"name": Key(str), "position": _vec3("eye [m]", required=True),
+                            "line_of_sight": _vec3("[m]", required=True),
+                            "up": _vec3("", default=[0.0, 0.0, 1.0]),
+                            "projection": Key(dict, doc="a projection (default a 180° fisheye)")})),
+})
+
+
 def load_scene(path, *, photometry_reader=None):
-    """Read a scene from a TOML file (schema: ``docs/user-guide-solver.md``).
+    """Read a scene from a TOML file checked against :data:`SCENE_SCHEMA` (documented in
+    ``docs/user-guide-solver.md``).
 
     Relative file names inside (meshes, photometric files) are taken relative to the
     TOML file's folder. Every problem with the file is reported as one
@@ -389,80 +495,34 @@ def load_scene(path, *, photometry_reader=None):
     ----------
     TOML v1.0.0, https://toml.io/en/v1.0.0.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise BadInputError(f"scene file {path} does not exist")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise BadInputError(f"{path}: not valid TOML ({exc})") from None
-    except UnicodeDecodeError:
-        raise BadInputError(f"{path}: not a UTF-8 text file") from None
-    return scene_from_dict(data, base=path.parent, photometry_reader=photometry_reader)
-
-
-def _require(d, key, ctx):
-    if not isinstance(d, dict):
-        raise BadInputError(f"{ctx}: must be a table")
-    if key not in d:
-        raise BadInputError(f"{ctx}: missing required field {key!r}")
-    return d[key]
-
-
-def _number(value, ctx, *, positive=False, nonneg=False):
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-        raise BadInputError(f"{ctx} must be a finite number, got {value!r}")
-    if positive and value <= 0:
-        raise BadInputError(f"{ctx} must be positive, got {value!r}")
-    if nonneg and value < 0:
-        raise BadInputError(f"{ctx} must not be negative, got {value!r}")
-    return float(value)
-
-
-def _check_keys(d, allowed, ctx):
-    unknown = sorted(set(d) - set(allowed))
-    if unknown:
-        raise BadInputError(f"{ctx}: unknown field {unknown[0]!r}; valid: {', '.join(sorted(allowed))}")
-
-
-_SHAPE_KEYS = {
-    "polygon": {"vertices"},
-    "box": {"min", "max", "facing", "axes", "face_materials"},
-    "disc": {"centre", "center", "normal", "radius", "segments"},
-    "sphere": {"centre", "center", "radius", "subdivisions", "facing"},
-    "mesh": {"file", "scale", "translate", "flip"},
-}
+    data = read_toml(path, SCENE_SCHEMA, what="scene")
+    return _build_scene(data, base=Path(path).parent, photometry_reader=photometry_reader, source=str(path))
 
 
 def _shape_triangles(spec, ctx, base, material_of):
-    """List of (triangles, material name) of one shape table."""
-    kind = _require(spec, "type", ctx)
-    if kind not in _SHAPE_KEYS:
-        raise BadInputError(f"{ctx}: unknown shape type {kind!r}; valid: {', '.join(sorted(_SHAPE_KEYS))}")
-    _check_keys(spec, _SHAPE_KEYS[kind] | {"type", "material", "name"}, ctx)
+    """List of (triangles, material name) of one checked shape table."""
+    kind = spec["type"]
     material = material_of(spec, ctx)
     ctx = f"{ctx} ({kind})"
     if kind == "polygon":
-        return [(polygon_triangles(_require(spec, "vertices", ctx), ctx), material)]
+        return [(polygon_triangles(spec["vertices"], ctx), material)]
+    if kind in ("disc", "sphere"):
+        centre = spec.get("centre", spec.get("center"))
+        if centre is None:
+            raise BadInputError(f"{ctx}: missing required key 'centre'")
+        centre = np.asarray(centre, float)
     if kind == "box":
-        lo = _vector(_require(spec, "min", ctx), f"{ctx} min")
-        hi = _vector(_require(spec, "max", ctx), f"{ctx} max")
+        lo, hi = np.asarray(spec["min"], float), np.asarray(spec["max"], float)
         if np.any(hi <= lo):
             raise BadInputError(f"{ctx}: max must exceed min on every axis")
-        facing = spec.get("facing", "inward")
-        if facing not in ("inward", "outward"):
-            raise BadInputError(f"{ctx}: facing must be 'inward' or 'outward', got {facing!r}")
         axes = None
         if "axes" in spec:
             axes = np.asarray(spec["axes"], float)
-            if axes.shape != (3, 3) or not np.allclose(axes @ axes.T, np.eye(3), atol=1e-9):
+            if not np.allclose(axes @ axes.T, np.eye(3), atol=1e-9):
                 raise BadInputError(f"{ctx}: axes must be 3 orthonormal rows")
-        faces = box_faces(lo, hi, facing=facing, axes=axes)
-        face_materials = spec.get("face_materials", {})
-        if not isinstance(face_materials, dict):
-            raise BadInputError(f"{ctx}: face_materials must be a table")
+        faces = box_faces(lo, hi, facing=spec["facing"], axes=axes)
         chosen = {}
-        for key, mat in face_materials.items():
+        for key, mat in spec.get("face_materials", {}).items():
             face = _FACE_ALIASES.get(key, key)
             if face not in faces:
                 raise BadInputError(f"{ctx}: unknown face {key!r}; valid: {', '.join(list(faces) + list(_FACE_ALIASES))}")
@@ -470,35 +530,21 @@ def _shape_triangles(spec, ctx, base, material_of):
         return [(polygon_triangles(q, f"{ctx} face {f}"), chosen.get(f, material))
                 for f, q in faces.items()]
     if kind == "disc":
-        centre = _vector(spec.get("centre", spec.get("center")) if ("centre" in spec or "center" in spec)
-                         else _require(spec, "centre", ctx), f"{ctx} centre")
-        normal = _vector(_require(spec, "normal", ctx), f"{ctx} normal")
-        radius = _number(_require(spec, "radius", ctx), f"{ctx} radius", positive=True)
-        segments = spec.get("segments", 64)
-        if not isinstance(segments, int) or segments < 3:
-            raise BadInputError(f"{ctx}: segments must be an integer ≥ 3")
-        return [(polygon_triangles(disc_polygon(centre, normal, radius, segments), ctx), material)]
+        normal = _vector(spec["normal"], f"{ctx} normal")
+        return [(polygon_triangles(disc_polygon(centre, normal, spec["radius"], spec["segments"]), ctx),
+                 material)]
     if kind == "sphere":
         import trimesh
 
-        centre = _vector(spec.get("centre", spec.get("center")) if ("centre" in spec or "center" in spec)
-                         else _require(spec, "centre", ctx), f"{ctx} centre")
-        radius = _number(_require(spec, "radius", ctx), f"{ctx} radius", positive=True)
-        sub = spec.get("subdivisions", 3)
-        if not isinstance(sub, int) or not 0 <= sub <= 7:
-            raise BadInputError(f"{ctx}: subdivisions must be an integer 0…7")
-        facing = spec.get("facing", "outward")
-        if facing not in ("inward", "outward"):
-            raise BadInputError(f"{ctx}: facing must be 'inward' or 'outward', got {facing!r}")
-        ico = trimesh.creation.icosphere(subdivisions=sub, radius=radius)
+        ico = trimesh.creation.icosphere(subdivisions=spec["subdivisions"], radius=spec["radius"])
         tris = np.asarray(ico.triangles, float) + centre
-        if facing == "inward":
+        if spec["facing"] == "inward":
             tris = tris[:, ::-1]
         return [(tris, material)]
     # mesh
     import trimesh
 
-    file = Path(_require(spec, "file", ctx))
+    file = Path(spec["file"])
     if not file.is_absolute() and base is not None:
         file = Path(base) / file
     if not file.is_file():
@@ -510,9 +556,8 @@ def _shape_triangles(spec, ctx, base, material_of):
     tris = np.asarray(mesh.triangles, float)
     if tris.size == 0:
         raise BadInputError(f"{ctx}: mesh {file} has no triangles")
-    tris = tris * _number(spec.get("scale", 1.0), f"{ctx} scale", positive=True)
-    tris = tris + _vector(spec.get("translate", [0, 0, 0]), f"{ctx} translate")
-    if spec.get("flip", False):
+    tris = tris * spec["scale"] + np.asarray(spec["translate"], float)
+    if spec["flip"]:
         tris = tris[:, ::-1]
     e = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     tris = tris[np.linalg.norm(e, axis=1) > 0]  # meshes often carry slivers: drop them
@@ -524,10 +569,6 @@ _DEFAULT_PROJECTION = {"model": "fisheye-ideal", "kind": "equidistant", "fov_deg
 
 
 def _projection(spec, ctx):
-    if spec is None:
-        spec = {}
-    if not isinstance(spec, dict):
-        raise BadInputError(f"{ctx}: projection must be a table")
     data = dict(_DEFAULT_PROJECTION) if spec.get("model", "fisheye-ideal") == "fisheye-ideal" else {}
     data.update(spec)
     if data.get("model") == "fisheye-ideal":
@@ -545,32 +586,34 @@ def _projection(spec, ctx):
 
 
 def scene_from_dict(data, *, base=None, photometry_reader=None):
-    """Build a :class:`Scene` from the TOML structure (a ``dict``); see :func:`load_scene`."""
-    if not isinstance(data, dict):
-        raise BadInputError("scene must be a table")
-    _check_keys(data, {"scene", "materials", "surfaces", "luminaires", "views"}, "scene file")
-    meta = data.get("scene", {})
-    name = str(meta.get("name", "scene")) if isinstance(meta, dict) else "scene"
-    materials = data.get("materials", {})
-    if not isinstance(materials, dict):
-        raise BadInputError("materials must be a table of named materials")
-    names = []
-    rho = []
-    for mname, m in materials.items():
-        ctx = f"materials.{mname}"
-        if not isinstance(m, dict):
-            raise BadInputError(f"{ctx}: must be a table with a reflectance")
-        _check_keys(m, {"reflectance"}, ctx)
-        r = _number(_require(m, "reflectance", ctx), f"{ctx} reflectance")
+    """Build a :class:`Scene` from the TOML structure (a ``dict``), checked against
+    :data:`SCENE_SCHEMA`; see :func:`load_scene`."""
+    data = validate(data, SCENE_SCHEMA, source="scene")
+    return _build_scene(data, base=base, photometry_reader=photometry_reader, source="scene")
+
+
+def _build_scene(data, *, base, photometry_reader, source):
+    """The :class:`Scene` of a document that passed :data:`SCENE_SCHEMA`."""
+    try:
+        return _build_checked(data, base, photometry_reader)
+    except BadInputError as exc:
+        raise BadInputError(f"{source}: {exc}") from None
+
+
+def _build_checked(data, base, photometry_reader):
+    name = data.get("scene", {}).get("name", "scene")
+    names, rho = [], []
+    for mname, m in data.get("materials", {}).items():
+        r = m["reflectance"]
         if not 0 <= r < 1:
-            raise BadInputError(f"{ctx}: reflectance must be in [0, 1), got {r!r}")
+            raise BadInputError(f"materials.{mname}: reflectance must be in [0, 1), got {r!r}")
         names.append(mname)
         rho.append(r)
 
-    def material_of(spec, ctx, default=None):
-        m = spec.get("material", default)
+    def material_of(spec, ctx):
+        m = spec.get("material")
         if m is None:
-            raise BadInputError(f"{ctx}: missing required field 'material'")
+            raise BadInputError(f"{ctx}: missing required key 'material'")
         if m not in names:
             if m == "black":  # built-in ρ = 0
                 names.append("black")
@@ -581,84 +624,60 @@ def scene_from_dict(data, *, base=None, photometry_reader=None):
         return names.index(m)
 
     tri_list, mat_list, emit_list = [], [], []
-    surfaces = data.get("surfaces", [])
-    if not isinstance(surfaces, list):
-        raise BadInputError("surfaces must be an array of tables ([[surfaces]])")
-    for k, spec in enumerate(surfaces):
+    for k, spec in enumerate(data.get("surfaces", [])):
         for tris, mat in _shape_triangles(spec, f"surfaces[{k}]", base, material_of):
             tri_list.append(tris)
             mat_list.append(np.full(len(tris), mat))
             emit_list.append(np.full(len(tris), -1))
     area_lums, point_lums = [], []
-    luminaires = data.get("luminaires", [])
-    if not isinstance(luminaires, list):
-        raise BadInputError("luminaires must be an array of tables ([[luminaires]])")
-    for k, spec in enumerate(luminaires):
+    tables = {}
+    for k, spec in enumerate(data.get("luminaires", [])):
         ctx = f"luminaires[{k}]"
-        kind = _require(spec, "type", ctx)
-        lname = str(spec.get("name", f"luminaire{k}"))
-        if kind == "area":
-            _check_keys(spec, {"type", "name", "shape", "flux", "luminance", "material"}, ctx)
-            shape = _require(spec, "shape", ctx)
-            lum_material = material_of({"material": spec.get("material", "black")}, ctx)
-            parts = _shape_triangles(shape, f"{ctx} shape", base,
-                                     lambda s, c, m=lum_material: m)
+        lname = spec.get("name", f"luminaire{k}")
+        if spec["type"] == "area":
+            lum_material = material_of({"material": spec["material"]}, ctx)
+            parts = _shape_triangles(spec["shape"], f"{ctx} shape", base, lambda s, c, m=lum_material: m)
             tris = np.concatenate([t for t, _ in parts])
             mat = parts[0][1]
             area = 0.5 * np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1).sum()
             if ("flux" in spec) == ("luminance" in spec):
                 raise BadInputError(f"{ctx}: give exactly one of 'flux' [lm] or 'luminance' [cd/m²]")
-            if "flux" in spec:
-                flux = _number(spec["flux"], f"{ctx} flux", positive=True)
-            else:
-                flux = float(math.pi * area * _number(spec["luminance"], f"{ctx} luminance", positive=True))
+            flux = spec["flux"] if "flux" in spec else float(math.pi * area * spec["luminance"])
             first = sum(len(t) for t in tri_list)
             tri_list.append(tris)
             mat_list.append(np.full(len(tris), mat))
             emit_list.append(np.full(len(tris), len(area_lums)))
             area_lums.append(AreaLuminaire(lname, flux, np.arange(first, first + len(tris))))
-        elif kind == "point":
-            _check_keys(spec, {"type", "name", "position", "intensity", "flux", "photometry",
-                               "nadir", "length_axis", "extent", "multiplier"}, ctx)
-            position = _vector(_require(spec, "position", ctx), f"{ctx} position")
-            frame = luminaire_frame(_vector(spec.get("nadir", [0, 0, -1]), f"{ctx} nadir"),
-                                    _vector(spec.get("length_axis", [1, 0, 0]), f"{ctx} length_axis"))
+        else:
+            position = np.asarray(spec["position"], float)
+            frame = luminaire_frame(_vector(spec["nadir"], f"{ctx} nadir"),
+                                    _vector(spec["length_axis"], f"{ctx} length_axis"))
             given = [key for key in ("intensity", "flux", "photometry") if key in spec]
             if len(given) != 1:
                 raise BadInputError(f"{ctx}: give exactly one of 'intensity' [cd], 'flux' [lm] "
                                     "(isotropic) or 'photometry' (file)")
-            multiplier = _number(spec.get("multiplier", 1.0), f"{ctx} multiplier", positive=True)
             extent = (0.0, 0.0)
             if given[0] == "intensity":
-                table = IntensityTable.isotropic(_number(spec["intensity"], f"{ctx} intensity", positive=True))
+                table = IntensityTable.isotropic(spec["intensity"])
             elif given[0] == "flux":
-                table = IntensityTable.isotropic(
-                    _number(spec["flux"], f"{ctx} flux", positive=True) / (4 * math.pi))
+                table = IntensityTable.isotropic(spec["flux"] / (4 * math.pi))
             else:
-                table, extent = _photometry_table(spec["photometry"], ctx, base, photometry_reader)
+                key = (str(Path(base or ".") / spec["photometry"]), photometry_reader)
+                if key not in tables:  # luminaires of one file share its table (one draw each)
+                    tables[key] = _photometry_table(spec["photometry"], ctx, base, photometry_reader)
+                table, extent = tables[key]
             if "extent" in spec:
-                ext = spec["extent"]
-                if not (isinstance(ext, list) and len(ext) == 2):
-                    raise BadInputError(f"{ctx}: extent must be [length, width] in m")
-                extent = (_number(ext[0], f"{ctx} extent", nonneg=True),
-                          _number(ext[1], f"{ctx} extent", nonneg=True))
-            point_lums.append(PointLuminaire(lname, position, table, frame, extent, multiplier))
-        else:
-            raise BadInputError(f"{ctx}: unknown luminaire type {kind!r}; valid: 'area', 'point'")
+                extent = tuple(spec["extent"])
+            point_lums.append(PointLuminaire(lname, position, table, frame, extent, spec["multiplier"]))
     views = []
-    view_specs = data.get("views", [])
-    if not isinstance(view_specs, list):
-        raise BadInputError("views must be an array of tables ([[views]])")
-    for k, spec in enumerate(view_specs):
+    for k, spec in enumerate(data.get("views", [])):
         ctx = f"views[{k}]"
-        _check_keys(spec, {"name", "position", "line_of_sight", "up", "projection"}, ctx)
-        position = _vector(_require(spec, "position", ctx), f"{ctx} position")
         try:
-            rotation = camera_to_world(_require(spec, "line_of_sight", ctx), spec.get("up", [0, 0, 1]))
+            rotation = camera_to_world(spec["line_of_sight"], spec["up"])
         except BadInputError as exc:
             raise BadInputError(f"{ctx}: {exc}") from None
-        views.append(View(str(spec.get("name", f"view{k}")), position, rotation,
-                          _projection(spec.get("projection"), ctx)))
+        views.append(View(spec.get("name", f"view{k}"), np.asarray(spec["position"], float), rotation,
+                          _projection(spec.get("projection", {}), ctx)))
     if not tri_list:
         raise BadInputError("scene has no surfaces")
     if not area_lums and not point_lums:

@@ -723,4 +723,4 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                           "cache_points": int(cache.size),
                           "cache_nodes_per_point": cache.provenance.get("nodes_per_point"),
                           "interpolation_bias": "not included in the uncertainty"},
-                   elapsed=time.perf_counter() - t0)
+                   elapsed=time.perf_counter() - t0, pose=(position, rotation))

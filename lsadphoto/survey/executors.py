@@ -136,13 +136,10 @@ def connect_dask(address):
                             f"{' '.join(str(exc).split())}") from None
 
 
-def run_dask(tasks, report, *, client=None, address=None):
-    """The tasks on a Dask cluster: an existing ``client``, or a new one for ``address``."""
+def run_dask(tasks, report, *, client):
+    """The tasks on the Dask cluster of ``client`` (a ``distributed.Client``, left open)."""
     from distributed import as_completed as dask_as_completed
 
-    own = client is None
-    if own:
-        client = connect_dask(address)
     token = uuid.uuid4().hex[:8]
     waiting = {}
     try:
@@ -162,5 +159,3 @@ def run_dask(tasks, report, *, client=None, address=None):
     finally:
         if waiting:  # interrupted: withdraw what has not run yet
             client.cancel([f for f, _ in waiting.values()])
-        if own:
-            client.close()

@@ -31,8 +31,8 @@ A survey is described by a TOML manifest (schema ``lsadphoto.survey/1``, documen
 The structure, the types, the ranges and the choices of every key — the score options
 among them — are declared once in :data:`MANIFEST_SCHEMA` and checked by the one TOML
 checker, :mod:`lsadphoto._schema` (unknown keys refused); :func:`load_manifest` then checks
-what a schema cannot: files exist, camera profiles load, CSV tables of spots and ratings
-parse, ids are unique and safe as file names. Options given outside the manifest
+what a schema cannot: files exist, camera profiles and scene models load, CSV tables of
+spots and ratings parse, ids are unique and safe as file names. Options given outside the manifest
 (``run_survey(score_options=...)``, the CLI's ``--N``) go through the same declaration with
 :func:`check_score_options`. So a bad value stops the run before any view is processed
 (issue 17, defect 3).
@@ -374,8 +374,15 @@ def _ratings(value, base, where, view_id):
 
 
 def _model(value, base, where):
+    from ..solver import load_scene
+
     model = dict(value)
-    model["scene"] = str(_file(base, value["scene"], where, "model.scene", "scene model"))
+    scene = _file(base, value["scene"], where, "model.scene", "scene model")
+    try:
+        load_scene(scene)  # read and checked now, not after the view's map was computed
+    except BadInputError as exc:
+        raise where.error("model.scene", str(exc)) from None
+    model["scene"] = str(scene)
     for key in ("direction", "up"):
         if key in value and not any(value[key]):
             raise where.error(f"model.{key}", "must not be the zero vector")

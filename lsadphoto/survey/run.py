@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import BadInputError
-from .executors import check_dask_address, cpu_count, run_dask, run_local, run_serial
+from .executors import check_dask_address, connect_dask, cpu_count, run_dask, run_local, run_serial
 from .lock import survey_lock
 from .manifest import Manifest, check_score_options, load_manifest
 from .pipeline import make_task, read_done
@@ -143,6 +143,17 @@ def run_survey(manifest_or_path, outdir, *, workers=None, dask_address=None, cli
     manifest = manifest_or_path if isinstance(manifest_or_path, Manifest) else load_manifest(manifest_or_path)
     options = check_score_options(score_options or {}, source="score_options")
     _check_options(workers, dask_address, client)
+    # Connected before anything is written: an unreachable scheduler leaves no empty folder.
+    own_client = None if dask_address is None else connect_dask(dask_address)
+    try:
+        return _run(manifest, outdir, options, workers=workers, client=client or own_client,
+                    progress=progress, start=start)
+    finally:
+        if own_client is not None:
+            own_client.close()
+
+
+def _run(manifest, outdir, options, *, workers, client, progress, start):
     outdir = _output_folder(outdir)
     with survey_lock(outdir, manifest=manifest.path):
         tasks = [make_task(manifest, view, outdir, options) for view in manifest.views]
@@ -161,8 +172,8 @@ def run_survey(manifest_or_path, outdir, *, workers=None, dask_address=None, cli
 
         try:
             if pending:
-                if client is not None or dask_address is not None:
-                    run_dask(pending, report, client=client, address=dask_address)
+                if client is not None:
+                    run_dask(pending, report, client=client)
                 elif workers == 0:
                     run_serial(pending, report)
                 else:

@@ -5,24 +5,27 @@ browser script (``viewer.js``) only decodes, draws and sums.
 
 Embedded arrays
 ---------------
-Each array is stored little-endian, its bytes regrouped into planes (all first bytes, then
+Each array is stored little-endian in parts of at most :data:`PART_ITEMS` elements (in flat
+order; one part for all but the largest arrays), each part's bytes regrouped into planes (all first bytes, then
 all second bytes, …), each byte replaced by its difference from the previous one (mod 256),
 compressed with zlib (RFC 1950, what the browser's ``DecompressionStream("deflate")``
-reads) and written as base64 into a ``<script type="application/octet-stream">`` element.
+reads) and written as base64 into a ``<script type="application/octet-stream">`` element of
+its own, so that the page decodes the parts in parallel, off its main thread.
 This is lossless; the regrouping and differencing are the OpenEXR ZIP predictor's idea
 (neighbouring floats share their high bytes) and make the payload 0.7–0.8 of the OpenEXR
 file's size on the real maps of ``docs/performance.md``.
 
 * luminance (and its per-pixel standard uncertainty where the map has one): float32, every
   pixel — the probe and the regions read these exact values;
-* the validity of every pixel's geometry (uint8) and the glare-source labels (uint16 or
-  uint32, 0 = no source) of :func:`~lsadphoto.metrics.score.score_map`;
+* the validity of every pixel's geometry (uint8), the glare-source labels (uint8, 16 or 32,
+  0 = no source) of :func:`~lsadphoto.metrics.score.score_map`, and its evalglare band and
+  zones where it was asked for them (uint8);
 * the Q criterion's contrast map K [rad⁻¹]: float16 (3 significant digits), an overlay;
 * the pixel geometry — direction, solid angle ω [sr] and position index — from
   :func:`~lsadphoto.geometry.pixel_geometry` and :func:`~lsadphoto.geometry.visual_field`
-  on a grid of every :data:`GEOMETRY_STRIDE`-th row and column (plus the last), float32,
-  interpolated bilinearly by the page; the pixels of every grid cell where that misses by
-  more than :data:`GEOMETRY_TOLERANCE` carry their exact values. σ, τ and cos σ follow
+  on a grid of every :data:`GEOMETRY_STRIDE`-th row and column (plus the last; a finer grid
+  for small images), float32, interpolated bilinearly by the page; the pixels of every grid
+  cell where that misses by more than :data:`GEOMETRY_TOLERANCE` carry their exact values. σ, τ and cos σ follow
   from the direction and the observer frame's axes, as
   :meth:`~lsadphoto.geometry.ObserverFrame.angles` defines them. The largest remaining
   error against the package's full-resolution maps, over all valid pixels, is stated on
@@ -48,17 +51,17 @@ from pathlib import Path
 import numpy as np
 
 from .._version import __version__
-from ..errors import BadInputError
+from ..errors import BadInputError, LsadError
 from ..geometry import ObserverFrame, pixel_geometry, visual_field
-from ..geometry.observer import _ON_AXIS  # τ's on-axis rule, as ObserverFrame.angles has it
-from ..io._atomic import atomic_text
+from ..geometry.observer import ON_AXIS  # τ's on-axis rule, as ObserverFrame.angles has it
+from .._atomic import atomic_text
 from ..io.falsecolour import false_colour_range
 from ..luminance_map import LuminanceMap
 
-__all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "viewer_assets", "viewer_fragment",
-           "write_viewer"]
+__all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "report_viewer", "viewer_assets",
+           "viewer_fragment", "write_viewer"]
 
-#: Rows and columns between the embedded geometry samples [px].
+#: Rows and columns between the embedded geometry samples [px] (at most; see _geometry).
 GEOMETRY_STRIDE = 8
 #: Largest interpolation errors accepted in a grid cell (else its pixels are stored
 #: exactly): pixel solid angle (relative: region means and solid angles within 10⁻⁴, ten
@@ -68,6 +71,9 @@ GEOMETRY_STRIDE = 8
 #: exactly on the real fisheye of docs/performance.md).
 GEOMETRY_TOLERANCE = {"solid_angle_relative": 1e-4, "direction_deg": 0.01,
                       "position_index": 0.05}
+#: Elements per embedded part [items]: the page decodes the parts of its arrays in parallel
+#: (Web Workers), so a 24 MP map's luminance is six parts of 4 Mi floats (16 MiB).
+PART_ITEMS = 1 << 22
 #: zlib level: 6 is zlib's default (level 9 gains < 1 % here at twice the time).
 _ZLIB_LEVEL = 6
 #: Colour maps offered for the false-colour view (matplotlib names), then the fixed ones of
@@ -77,24 +83,31 @@ _OVERLAY_MAPS = {"ratio": "RdBu_r", "contrast": "magma"}
 
 
 def _encode(array, dtype):
-    """The array as the page stores it (see the module notes): (description, base64 text)."""
+    """The array as the page stores it (see the module notes): (description, base64 texts),
+    one text per part of at most :data:`PART_ITEMS` elements (in flat order)."""
     a = np.ascontiguousarray(array, dtype=np.dtype(dtype).newbyteorder("<"))
-    planes = a.view(np.uint8).reshape(-1, a.itemsize).T.reshape(-1)
-    delta = np.diff(planes, prepend=np.uint8(0))
-    text = base64.b64encode(zlib.compress(delta.tobytes(), _ZLIB_LEVEL)).decode("ascii")
-    return {"dtype": np.dtype(dtype).name, "shape": list(a.shape)}, text
+    flat = a.reshape(-1)
+    texts = []
+    for start in range(0, max(flat.size, 1), PART_ITEMS):
+        part = flat[start:start + PART_ITEMS]
+        planes = part.view(np.uint8).reshape(-1, a.itemsize).T.reshape(-1)
+        delta = np.diff(planes, prepend=np.uint8(0))
+        texts.append(base64.b64encode(zlib.compress(delta.tobytes(), _ZLIB_LEVEL))
+                     .decode("ascii"))
+    return {"dtype": np.dtype(dtype).name, "shape": list(a.shape), "parts": len(texts),
+            "part_items": PART_ITEMS}, texts
 
 
 class _Arrays:
-    """Collects the encoded arrays of one viewer; each becomes a ``<script>`` element."""
+    """Collects the encoded arrays of one viewer; each part becomes a ``<script>`` element."""
 
     def __init__(self):
         self.scripts = []
 
     def add(self, name, array, dtype):
-        description, text = _encode(array, dtype)
-        self.scripts.append(f'<script type="application/octet-stream" data-array="{name}">'
-                            f"{text}</script>")
+        description, texts = _encode(array, dtype)
+        self.scripts.extend(f'<script type="application/octet-stream" data-array="{name}">'
+                            f"{text}</script>" for text in texts)
         return dict(description, name=name)
 
 
@@ -120,19 +133,6 @@ def _nodes(n, stride):
     return np.asarray(nodes)
 
 
-def _bilinear(grid, node_rows, node_cols, stride, rows, cols):
-    """Bilinear interpolation of ``grid`` (values on the nodes, every ``stride`` px) at
-    integer pixels ``(rows, cols)``, as the page does it."""
-    i = np.minimum(rows // stride, max(len(node_rows) - 2, 0))
-    j = np.minimum(cols // stride, max(len(node_cols) - 2, 0))
-    i1, j1 = np.minimum(i + 1, len(node_rows) - 1), np.minimum(j + 1, len(node_cols) - 1)
-    ti = np.where(i1 > i, (rows - node_rows[i]) / np.maximum(node_rows[i1] - node_rows[i], 1), 0.0)
-    tj = np.where(j1 > j, (cols - node_cols[j]) / np.maximum(node_cols[j1] - node_cols[j], 1), 0.0)
-    top = grid[i, j] * (1 - tj) + grid[i, j1] * tj
-    bottom = grid[i1, j] * (1 - tj) + grid[i1, j1] * tj
-    return top * (1 - ti) + bottom * ti
-
-
 def _frame_of(lmap, score):
     """The observer frame and position-index method: the score's, else the map's line of
     sight (or the optical axis) with the camera's up, as :func:`score_map` takes them."""
@@ -150,14 +150,25 @@ def _cells(n, nodes, stride):
     return i, np.minimum(i + 1, len(nodes) - 1)
 
 
-def _band_errors(full, grids, node_rows, node_cols, rows, frame, field):
-    """Errors of the page's interpolation at every pixel of the image rows ``rows``:
-    direction [deg], σ [deg], τ [deg] (NaN within 1° of the line of sight, where τ is
-    undefined), solid angle (relative) and position index (absolute), each (rows, cols)."""
+def _band_errors(full, grids, node_rows, node_cols, stride, cell, rows, frame, field):
+    """Errors of the page's interpolation at every pixel of the image rows ``rows`` (all in
+    grid cell row ``cell``): direction [deg], σ [deg], τ [deg] (NaN within 1° of the line of
+    sight, where τ is undefined), solid angle (relative) and position index (absolute), each
+    (len(rows), cols). Bilinear in the page's order: along the columns on the two node rows,
+    then between them."""
     cols = full["dx"].shape[1]
-    r, c = rows[:, None], np.arange(cols)[None, :]
-    at = {key: _bilinear(grids[key].astype(np.float64), node_rows, node_cols,
-                         GEOMETRY_STRIDE, r, c) for key in full}
+    i, i1 = cell, min(cell + 1, len(node_rows) - 1)
+    j, j1 = _cells(cols, node_cols, stride)
+    span = np.maximum(node_cols[j1] - node_cols[j], 1)
+    tj = np.where(j1 > j, (np.arange(cols) - node_cols[j]) / span, 0.0)
+    ti = ((rows - node_rows[i]) / (node_rows[i1] - node_rows[i]) if i1 > i
+          else np.zeros(rows.size))[:, None]
+    at = {}
+    for key in full:
+        g = grids[key].astype(np.float64)
+        top = g[i, j] * (1 - tj) + g[i, j1] * tj
+        bottom = g[i1, j] * (1 - tj) + g[i1, j1] * tj
+        at[key] = top * (1 - ti) + bottom * ti
     d = np.stack([at["dx"], at["dy"], at["dz"]], axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
@@ -173,42 +184,24 @@ def _band_errors(full, grids, node_rows, node_cols, rows, frame, field):
                 "position_index": np.abs(at["position_index"] - field.position_index[rows])}
 
 
-def _geometry(lmap, score, arrays):
-    """Embedded geometry with its interpolation error, or None (no projection).
-
-    Direction, solid angle and position index are sampled every :data:`GEOMETRY_STRIDE` px
-    and interpolated bilinearly; every grid cell in which the interpolation misses any of
-    them by more than :data:`GEOMETRY_TOLERANCE` at any valid pixel (the rim of a fisheye's
-    image circle, the line of sight, the horizon where evalglare's position index changes
-    formula, small images where a cell spans degrees) stores its pixels' exact values
-    instead. σ and τ follow on the page from the direction and the observer's axes
-    (v̂, û, ĥ), as :meth:`~lsadphoto.geometry.ObserverFrame.angles` defines them: they have
-    a cone point at the line of sight that no grid interpolates. The errors stated on the
-    page are the largest over all valid pixels.
-    """
-    if lmap.projection is None:
-        return None
-    frame, method = _frame_of(lmap, score)
-    geometry = pixel_geometry(lmap.projection)
-    field = visual_field(lmap.projection, frame, position_index_method=method)
-    full = {"dx": geometry.directions[..., 0], "dy": geometry.directions[..., 1],
-            "dz": geometry.directions[..., 2], "solid_angle": geometry.solid_angle,
-            "position_index": field.position_index}
-    valid = geometry.valid
+def _grid_plan(full, valid, frame, field, stride):
+    """The node grid of ``stride`` px, the pixels that must be stored exactly (a mask) and
+    the largest errors of the interpolation at the others."""
     rows, cols = valid.shape
-    node_rows, node_cols = _nodes(rows, GEOMETRY_STRIDE), _nodes(cols, GEOMETRY_STRIDE)
+    node_rows, node_cols = _nodes(rows, stride), _nodes(cols, stride)
     ix = np.ix_(node_rows, node_cols)
     grids = {key: np.where(valid[ix], np.asarray(value[ix], dtype=np.float64), 0.0)
              .astype(np.float32) for key, value in full.items()}
-    row_cell, _ = _cells(rows, node_rows, GEOMETRY_STRIDE)
-    col_cell, _ = _cells(cols, node_cols, GEOMETRY_STRIDE)
+    row_cell, _ = _cells(rows, node_rows, stride)
+    col_cell, _ = _cells(cols, node_cols, stride)
     col_starts = np.flatnonzero(np.diff(col_cell, prepend=-1))
     exact = np.zeros((rows, cols), dtype=bool)
     largest = dict.fromkeys(("direction_deg", "sigma_deg", "tau_deg_beyond_1deg",
                              "solid_angle_relative", "position_index"), 0.0)
     for cell in range(int(row_cell[-1]) + 1):
         band = np.flatnonzero(row_cell == cell)
-        errors = _band_errors(full, grids, node_rows, node_cols, band, frame, field)
+        errors = _band_errors(full, grids, node_rows, node_cols, stride, cell, band, frame,
+                              field)
         ok = valid[band]
         bad = ~ok.copy()
         for key, limit in GEOMETRY_TOLERANCE.items():
@@ -223,12 +216,53 @@ def _geometry(lmap, score, arrays):
             values = values[np.isfinite(values)]
             if values.size:
                 largest[key] = max(largest[key], float(values.max()))
+    return node_rows, node_cols, grids, exact, largest
+
+
+def _payload(plan):
+    """Bytes the plan embeds before compression: five float32 per node, and five float32
+    and a uint32 index per exact pixel."""
+    node_rows, node_cols, _, exact, _ = plan
+    return 20 * node_rows.size * node_cols.size + 24 * int(exact.sum())
+
+
+def _geometry(lmap, score, arrays):
+    """Embedded geometry with its interpolation error, or None (no projection).
+
+    Direction, solid angle and position index are sampled every :data:`GEOMETRY_STRIDE` px
+    and interpolated bilinearly; every grid cell in which the interpolation misses any of
+    them by more than :data:`GEOMETRY_TOLERANCE` at any valid pixel (the rim of a fisheye's
+    image circle, the line of sight, the horizon where evalglare's position index changes
+    formula) stores its pixels' exact values instead. Where that leaves more than a tenth of
+    the pixels exact (small images, where a cell spans degrees), the grid is halved while
+    that makes the page smaller. σ and τ follow on the page from the direction and the
+    observer's axes (v̂, û, ĥ), as :meth:`~lsadphoto.geometry.ObserverFrame.angles` defines
+    them: they have a cone point at the line of sight that no grid interpolates. The errors
+    stated on the page are the largest over all valid pixels.
+    """
+    if lmap.projection is None:
+        return None
+    frame, method = _frame_of(lmap, score)
+    geometry = pixel_geometry(lmap.projection)
+    field = visual_field(lmap.projection, frame, position_index_method=method)
+    full = {"dx": geometry.directions[..., 0], "dy": geometry.directions[..., 1],
+            "dz": geometry.directions[..., 2], "solid_angle": geometry.solid_angle,
+            "position_index": field.position_index}
+    valid = geometry.valid
+    stride = GEOMETRY_STRIDE
+    plan = _grid_plan(full, valid, frame, field, stride)
+    while stride > 1 and plan[3].sum() > 0.1 * valid.sum():
+        finer = _grid_plan(full, valid, frame, field, stride // 2)
+        if _payload(finer) >= _payload(plan):
+            break
+        stride, plan = stride // 2, finer
+    node_rows, node_cols, grids, exact, largest = plan
     exact_index = np.flatnonzero(exact)
     exact_values = {key: np.asarray(value.reshape(-1)[exact_index], dtype=np.float32)
                     for key, value in full.items()}
     largest["exact_pixels"] = int(exact_index.size)
     largest["valid_pixels"] = int(valid.sum())
-    return {"stride": GEOMETRY_STRIDE, "node_rows": node_rows.tolist(),
+    return {"stride": stride, "node_rows": node_rows.tolist(),
             "node_cols": node_cols.tolist(),
             "fields": {key: arrays.add(f"geometry.{key}", grids[key], np.float32)
                        for key in full},
@@ -238,7 +272,7 @@ def _geometry(lmap, score, arrays):
             "valid": arrays.add("geometry.valid", valid, np.uint8),
             "interpolation_error": _json_safe(largest), "position_index_method": method,
             "axes": [np.asarray(a, dtype=np.float64).tolist() for a in frame.axes()],
-            "on_axis": _ON_AXIS, "projection": lmap.projection.to_dict()}
+            "on_axis": ON_AXIS, "projection": lmap.projection.to_dict()}
 
 
 def _json_safe(value):
@@ -256,8 +290,42 @@ def _json_safe(value):
     return value
 
 
-def _score_record(score, arrays, prefix):
-    """Sources, values and (from a :class:`Score`) the label and contrast maps."""
+def _regions(lmap, record, arrays, prefix):
+    """evalglare's band and zones of the score (``band_deg``, ``zones`` in its settings) as
+    pixel maps, drawn by the package's own :func:`~lsadphoto.metrics.regions.band_region`
+    and :func:`~lsadphoto.metrics.regions.zone_map` over the pixels the score evaluated
+    (valid geometry, finite luminance, in front of the observer), with the score's
+    statistics of them."""
+    settings = record.get("settings") or {}
+    band_deg, zones = settings.get("band_deg"), settings.get("zones")
+    if lmap.projection is None or (band_deg is None and not zones):
+        return {}
+    from ..metrics.analyses import centre_direction
+    from ..metrics.regions import band_region, zone_map
+
+    frame, method = _frame_of(lmap, record)
+    geometry = pixel_geometry(lmap.projection)
+    field = visual_field(lmap.projection, frame, position_index_method=method)
+    valid = geometry.valid & np.isfinite(lmap.luminance) & (field.cos_sigma >= 0)
+    out = {}
+    if band_deg is not None:
+        band = band_region(geometry.directions, valid, half_width=math.radians(band_deg))
+        out["band"] = arrays.add(f"{prefix}.band", band, np.uint8)
+        out["band_deg"] = float(band_deg)
+        out["band_stats"] = _json_safe(record.get("band"))
+    if zones:
+        centre = centre_direction(zones["centre"], lmap.projection, "zone centre")
+        opening = np.radians(np.atleast_1d(np.asarray(zones["opening_deg"], dtype=float)))
+        zone = zone_map(geometry.directions, valid, centre, opening_angles=opening)
+        out["zones"] = arrays.add(f"{prefix}.zones", zone, np.uint8)
+        out["zone_opening_deg"] = _json_safe(list(zones["opening_deg"]))
+        out["zone_stats"] = _json_safe(record.get("zones"))
+    return out
+
+
+def _score_record(score, lmap, arrays, prefix):
+    """Sources, values, band and zones and (from a :class:`Score`) the label and contrast
+    maps."""
     if score is None:
         return None
     record = score.to_dict() if hasattr(score, "to_dict") else score
@@ -279,6 +347,7 @@ def _score_record(score, arrays, prefix):
         if positive.size:
             low, high = np.percentile(positive, [1.0, 99.9])
             out["contrast_range"] = [float(low), float(max(high, low * 10))]
+    out.update(_regions(lmap, record, arrays, prefix))
     return out
 
 
@@ -297,7 +366,7 @@ def _map_record(lmap, name, score, arrays, prefix):
         "log_average": float(np.exp(np.mean(np.log(finite)))) if finite.size else 1.0,
         "source": str(lmap.provenance.get("source", "")) if isinstance(lmap.provenance, dict)
         else "",
-        "score": _score_record(score, arrays, prefix),
+        "score": _score_record(score, lmap, arrays, prefix),
     }
     return record
 
@@ -374,6 +443,31 @@ def viewer_fragment(lmap, *, second=None, score=None, second_score=None,
     return (f'<div class="lsad-viewer" data-lazy="{"yes" if lazy else "no"}">'
             f'<script type="application/json" data-meta="1">{meta}</script>'
             + "".join(arrays.scripts) + "</div>")
+
+
+def report_viewer(lmap, *, second=None, score=None, second_score=None,
+                  names=("photo", "model"), title=None):
+    """The lazily decoded viewer fragment a report embeds for one view, or why there is none.
+
+    ``lmap`` and ``second`` are :class:`LuminanceMap` objects or paths of map files (read
+    with :func:`lsadphoto.io.read_map`); the other parameters are those of
+    :func:`viewer_fragment`. A report never fails for a view it cannot show: an unreadable
+    map, or two maps of different geometry, come back as the reason.
+
+    Returns
+    -------
+    (str, None) or (None, str)
+        The HTML fragment, or None and the reason.
+    """
+    from ..io import read_map
+
+    try:
+        maps = [m if m is None or isinstance(m, LuminanceMap) else read_map(m)
+                for m in (lmap, second)]
+        return viewer_fragment(maps[0], second=maps[1], score=score, second_score=second_score,
+                               names=names, title=title, lazy=True), None
+    except LsadError as error:
+        return None, str(error)
 
 
 def _asset(name):

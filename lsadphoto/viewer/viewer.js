@@ -31,21 +31,16 @@
 
   const ITEM_SIZE = { float32: 4, float16: 2, uint8: 1, uint16: 2, uint32: 4 };
 
-  /** A byte stream of base64 text: the browser's own decoder (Uint8Array.fromBase64), else
-   * a data: URL read back with fetch (both without a network). */
-  async function base64Stream(text) {
-    if (typeof Uint8Array.fromBase64 === "function") return new Blob([Uint8Array.fromBase64(text)]).stream();
-    const response = await fetch("data:application/octet-stream;base64," + text);
-    return (await response.blob()).stream();
-  }
-
-  async function decodeArray(container, desc) {
-    const element = container.querySelector('script[data-array="' + desc.name + '"]');
-    if (!element) throw new Error("missing embedded array " + desc.name);
-    const stream = (await base64Stream(element.textContent)).pipeThrough(new DecompressionStream("deflate"));
+  /** The bytes of one embedded part (base64 → zlib → byte differences and planes undone;
+   * `k` bytes per element). Runs in a decoding Worker, whose source is this function's
+   * text, or here where a page cannot start Workers. base64 is read by the browser's own
+   * decoder (Uint8Array.fromBase64), else by fetch of a data: URL (no network either way). */
+  async function decodePart(text, k) {
+    const raw = typeof Uint8Array.fromBase64 === "function" ? new Blob([Uint8Array.fromBase64(text)])
+      : await (await fetch("data:application/octet-stream;base64," + text)).blob();
+    const stream = raw.stream().pipeThrough(new DecompressionStream("deflate"));
     const planes = new Uint8Array(await new Response(stream).arrayBuffer());
     // Undo the byte differences (a running sum mod 256) and the byte planes in one pass.
-    const k = ITEM_SIZE[desc.dtype];
     const n = planes.length / k;
     const bytes = k > 1 ? new Uint8Array(planes.length) : planes;
     let sum = 0;
@@ -55,6 +50,75 @@
         sum = (sum + planes[offset + i]) & 0xff;
         bytes[j] = sum;
       }
+    }
+    return bytes;
+  }
+
+  const WORKER_SOURCE = "const decodePart = " + decodePart.toString() + ";\n" +
+    "onmessage = async (event) => { const job = event.data; try { const bytes = await decodePart(job.text, job.k);" +
+    " postMessage({ id: job.id, bytes: bytes }, [bytes.buffer]); } catch (error) {" +
+    " postMessage({ id: job.id, error: String((error && error.message) || error) }); } };";
+
+  /** Decoding Workers (one per core, at most 4) built from a Blob URL, and their queue. Parts
+   * go to the first idle Worker in the order asked for; where Workers cannot start (or one
+   * fails to load) the parts are decoded on the page's own thread. */
+  const pool = { workers: null, queue: [], next: 0 };
+  function startWorkers() {
+    pool.workers = [];
+    let url;
+    try {
+      url = URL.createObjectURL(new Blob([WORKER_SOURCE], { type: "text/javascript" }));
+    } catch (error) { return; }
+    const count = Math.max(1, Math.min(4, navigator.hardwareConcurrency || 2));
+    for (let n = 0; n < count; n++) {
+      let worker;
+      try { worker = new Worker(url); } catch (error) { break; }
+      const slot = { worker: worker, job: null };
+      worker.onmessage = (event) => {
+        const job = slot.job; slot.job = null;
+        if (event.data.error) job.reject(new Error(event.data.error)); else job.resolve(event.data.bytes);
+        dispatch();
+      };
+      worker.onerror = (event) => {
+        event.preventDefault();
+        pool.workers = pool.workers.filter((s) => s !== slot);
+        if (slot.job) pool.queue.unshift(slot.job);
+        slot.job = null;
+        dispatch();
+      };
+      pool.workers.push(slot);
+    }
+  }
+  function dispatch() {
+    if (!pool.workers.length) {
+      for (const job of pool.queue.splice(0)) decodePart(job.text, job.k).then(job.resolve, job.reject);
+      return;
+    }
+    for (const slot of pool.workers) {
+      if (slot.job || !pool.queue.length) continue;
+      slot.job = pool.queue.shift();
+      slot.worker.postMessage({ id: pool.next++, text: slot.job.text, k: slot.job.k });
+    }
+  }
+  function decodeBytes(text, k) {
+    if (!pool.workers) startWorkers();
+    return new Promise((resolve, reject) => {
+      pool.queue.push({ text: text, k: k, resolve: resolve, reject: reject });
+      dispatch();
+    });
+  }
+
+  /** An embedded array (its parts decoded in parallel and joined) as a typed array. */
+  async function decodeArray(container, desc) {
+    const elements = container.querySelectorAll('script[data-array="' + desc.name + '"]');
+    if (!elements.length || elements.length !== (desc.parts || 1)) throw new Error("missing embedded array " + desc.name);
+    const k = ITEM_SIZE[desc.dtype];
+    const parts = await Promise.all(Array.from(elements, (element) => decodeBytes(element.textContent, k)));
+    let bytes = parts[0];
+    if (parts.length > 1) {
+      bytes = new Uint8Array(parts.reduce((total, part) => total + part.length, 0));
+      let offset = 0;
+      for (const part of parts) { bytes.set(part, offset); offset += part.length; }
     }
     const buffer = bytes.buffer;
     switch (desc.dtype) {
@@ -114,6 +178,8 @@
       this.colourMap = this.meta.colour_maps[0];
       this.layout = this.meta.maps.length > 1 ? "side" : "single";
       this.showSources = true;
+      this.showBand = true;
+      this.showZones = true;
       this.exposure = 0;
       this.tables = {};
       for (const [k, v] of Object.entries(this.meta.colour_tables)) this.tables[k] = colourTable(v);
@@ -130,26 +196,30 @@
     async load() {
       const t0 = performance.now();
       try {
-        this.maps = [];
-        for (const m of this.meta.maps) {
-          const entry = { meta: m, L: await decodeArray(this.container, m.luminance) };
-          entry.U = m.uncertainty ? await decodeArray(this.container, m.uncertainty) : null;
-          const score = m.score;
-          entry.labels = score && score.labels ? await decodeArray(this.container, score.labels) : null;
-          entry.contrast = null; // decoded when first shown (loadContrast)
-          this.maps.push(entry);
-        }
+        // Every array's parts are asked for at once (luminance first): the Workers decode
+        // them in parallel while this thread waits.
+        const decode = (desc) => (desc ? decodeArray(this.container, desc) : Promise.resolve(null));
+        const maps = Promise.all(this.meta.maps.map(async (m) => {
+          const score = m.score || {};
+          const [L, U, labels, band, zones] = await Promise.all([decode(m.luminance), decode(m.uncertainty),
+            decode(score.labels), decode(score.band), decode(score.zones)]);
+          // The Q contrast map is decoded when first shown (loadContrast).
+          return { meta: m, L: L, U: U, labels: labels, contrast: null, band: band, zones: zones };
+        }));
         const g = this.meta.geometry;
-        if (g) {
-          this.geometry = { meta: g, fields: {}, exact: {}, valid: await decodeArray(this.container, g.valid),
-            exactIndex: await decodeArray(this.container, g.exact_index),
+        const geometry = g ? (async () => {
+          const keys = Object.keys(g.fields);
+          const [valid, exactIndex, fields, exact] = await Promise.all([decode(g.valid), decode(g.exact_index),
+            Promise.all(keys.map((key) => decode(g.fields[key]))), Promise.all(keys.map((key) => decode(g.exact[key])))]);
+          const out = { meta: g, fields: {}, exact: {}, valid: valid, exactIndex: exactIndex,
             nodeRows: g.node_rows, nodeCols: g.node_cols };
-          for (const [k, desc] of Object.entries(g.fields)) {
-            this.geometry.fields[k] = await decodeArray(this.container, desc);
-            this.geometry.exact[k] = await decodeArray(this.container, g.exact[k]);
-          }
-        }
+          keys.forEach((key, n) => { out.fields[key] = fields[n]; out.exact[key] = exact[n]; });
+          return out;
+        })() : Promise.resolve(undefined);
+        [this.maps, this.geometry] = await Promise.all([maps, geometry]);
         this.decodeMs = performance.now() - t0;
+        // Workers that decoded the data (0: decoded on the page's own thread).
+        this.decodeWorkers = pool.workers.length;
         this.isReady = true;
         this.status.textContent = "";
         this.fit();
@@ -248,6 +318,18 @@
       return i < 0 || !m.labels ? 0 : m.labels[i];
     }
 
+    /** 1 where pixel (row, col) is in evalglare's band of the score (-B), else 0. */
+    bandAt(row, col, which) {
+      const m = this.maps[which || 0], i = this.index(row, col);
+      return i < 0 || !m.band ? 0 : m.band[i];
+    }
+
+    /** Zone (1, 2; 0 outside) of pixel (row, col) in the score's evalglare zones (-l/-L). */
+    zoneAt(row, col, which) {
+      const m = this.maps[which || 0], i = this.index(row, col);
+      return i < 0 || !m.zones ? 0 : m.zones[i];
+    }
+
     contrastAt(row, col, which) {
       const m = this.maps[which || 0], i = this.index(row, col);
       return i < 0 || !m.contrast ? NaN : halfToFloat()[m.contrast[i]];
@@ -293,7 +375,15 @@
         max: max, illuminance: geometric ? sumE : NaN };
     }
 
+    /** Statistics of a region of map `which` (cached on the region: the maps never change). */
     regionStats(region, which) {
+      const k = which || 0;
+      region.cache = region.cache || {};
+      if (!(k in region.cache)) region.cache[k] = this.computeRegionStats(region, k);
+      return region.cache[k];
+    }
+
+    computeRegionStats(region, which) {
       if (region.shape === "circle") {
         const [row, col, radius] = [region.row, region.col, region.radius];
         const r2 = radius * radius;
@@ -422,18 +512,21 @@
       exposure.addEventListener("input", () => { this.exposure = parseFloat(exposure.value); if (this.mode === "tone") this.render(); });
       exposureWrap.appendChild(exposure);
       controls.appendChild(exposureWrap);
-      if (meta.maps.some((m) => m.score)) {
+      const checkbox = (label, key) => {
         const wrap = el("label", null, "");
         const box = el("input", { type: "checkbox" });
-        box.checked = this.showSources;
-        box.addEventListener("change", () => { this.showSources = box.checked; this.render(); });
+        box.checked = this[key];
+        box.addEventListener("change", () => { this[key] = box.checked; this.render(); });
         wrap.appendChild(box);
-        wrap.appendChild(document.createTextNode(" glare sources"));
+        wrap.appendChild(document.createTextNode(" " + label));
         controls.appendChild(wrap);
-      }
+      };
+      if (meta.maps.some((m) => m.score)) checkbox("glare sources", "showSources");
+      if (meta.maps.some((m) => m.score && m.score.band)) checkbox("band (-B)", "showBand");
+      if (meta.maps.some((m) => m.score && m.score.zones)) checkbox("zones (-l/-L)", "showZones");
       this.toolSelect = select("tool", [["probe", "probe / pin (click), pan (drag)"], ["circle", "circle region (drag)"],
         ["polygon", "polygon region (click vertices, double-click to close)"]], this.tool,
-      (v) => { this.tool = v; this.draft = null; this.drawOverlay(); });
+      (v) => this.setTool(v));
       button("fit", () => this.fit(), "fit the map to the panel");
       button("export CSV", () => this.download(), "points and regions as CSV");
       button("clear", () => { this.points = []; this.regions = []; this.updateTables(); this.drawOverlay(); },
@@ -494,6 +587,14 @@
         case "b": return [{ kind: "map", which: 1, label: names[1] }];
         default: return [{ kind: "map", which: 0, label: names[0] }];
       }
+    }
+
+    /** The mouse's tool: "probe" (click pins, drag pans), "circle" or "polygon". */
+    setTool(tool) {
+      this.tool = tool;
+      this.draft = null;
+      if (this.toolSelect) this.toolSelect.value = tool;
+      this.drawOverlay();
     }
 
     /** Show "false" (false colour), "tone" (tone mapped) or "contrast" (the Q contrast map K). */
@@ -603,7 +704,12 @@
       const span = hi - lo;
       const key = 0.18 * Math.pow(2, this.exposure) / m.meta.log_average;
       const labels = this.showSources && panel.kind === "map" ? m.labels : null;
+      const band = this.showBand && panel.kind === "map" ? m.band : null;
+      const zones = this.showZones && panel.kind === "map" ? m.zones : null;
       const palette = this.tables.sources;
+      // Band: a magenta veil; zone 1 a white, zone 2 a yellow one (a quarter each).
+      const veil = (colour, r, g, b) => pack(((colour & 255) * 3 + r) >> 2,
+        ((((colour >> 8) & 255) * 3) + g) >> 2, ((((colour >> 16) & 255) * 3) + b) >> 2);
       for (let y = 0; y < h; y++) {
         const r = rowIndex[y], line = y * w;
         if (r < 0) { out.fill(background, line, line + w); continue; }
@@ -630,6 +736,8 @@
               colour = pack(g, g, g);
             }
           }
+          if (zones && zones[i]) colour = zones[i] === 1 ? veil(colour, 255, 255, 255) : veil(colour, 255, 214, 0);
+          if (band && band[i]) colour = veil(colour, 255, 0, 255);
           if (labels) {
             const label = labels[i];
             if (label > 0) {
@@ -815,6 +923,8 @@
         add(m.meta.name + " L [cd/m²]", fmt(L, 5) + (Number.isFinite(U) ? " ± " + fmt(U, 2) : ""));
         const label = this.sourceLabelAt(row, col, k);
         if (label > 0) add(m.meta.name + " glare source", "#" + label);
+        if (m.zones) add(m.meta.name + " zone", this.zoneAt(row, col, k) ? String(this.zoneAt(row, col, k)) : "outside");
+        if (m.band) add(m.meta.name + " band", this.bandAt(row, col, k) ? "inside" : "outside");
         if (m.contrast) add(m.meta.name + " K [1/rad]", fmt(this.contrastAt(row, col, k), 3));
       });
       if (this.maps.length > 1) add("ratio " + this.maps[1].meta.name + " / " + this.maps[0].meta.name,
@@ -868,6 +978,13 @@
           fmt(s.row, 5) + ", " + fmt(s.col, 5)]);
         table("Glare sources of " + m.meta.name + " (lsadphoto score)", ["#", "L [cd/m²]", "ω [sr]", "P", "σ [°]", "τ [°]",
           "pixels", "centre row, col"], rows);
+        const regionRow = (name, r) => [name, fmt(r.solid_angle, 4), fmt(r.mean, 4), fmt(r.median, 4),
+          fmt(r.max, 4), r.illuminance === undefined ? "—" : fmt(r.illuminance, 4), String(r.n_pixels)];
+        const analysed = [];
+        if (score.band_stats) analysed.push(regionRow("band ±" + fmt(score.band_deg, 3) + "°", score.band_stats));
+        (score.zone_stats || []).forEach((z, k) => analysed.push(regionRow("zone " + (k + 1), z)));
+        table("Band and zones of " + m.meta.name + " (lsadphoto score)", ["region", "ω [sr]", "mean [cd/m²]",
+          "median [cd/m²]", "max [cd/m²]", "E [lx]", "pixels"], analysed);
         const v = score.values, u = score.uncertainty || {};
         const keys = [["ugr_pixel", "UGR pixel"], ["ugr_grouped", "UGR grouped"], ["q", "Q"], ["dgp", "DGP"],
           ["vertical_illuminance", "E_v [lx]"], ["background_luminance", "L_b [cd/m²]"]];
