@@ -139,7 +139,7 @@ def approx_rows(table):
 
 def output_names(view):
     names = {f"{view}.exr", f"{view}.hdr", f"{view}-falsecolour.png", f"{view}-sources.png",
-             f"{view}-contrast.png", f"{view}-score.json", f"{view}-done.json"}
+             f"{view}-source-labels.npz", f"{view}-contrast.png", f"{view}-score.json", f"{view}-done.json"}
     if view == "single":  # the view with a scene model
         names |= {f"{view}-model.exr", f"{view}-model-ratio.png", f"{view}-model-comparison.json",
                   f"{view}-model-comparison.html"}

@@ -418,9 +418,17 @@ def test_survey_report_embeds_a_viewer_per_view(browser, pages, folder):
     (survey / "metrics.csv").write_text("view,ugr_pixel\nv1,12.5\n", encoding="utf-8")
     shutil.copy(pages["exr"], view / "v1.exr")
     (view / "v1-score.json").write_text(json.dumps(pages["score"]), encoding="utf-8")
+    # The survey saves each view's glare-source labels beside its score (as the pipeline
+    # writes them); the reference labels are score_map's own, of the same map.
+    from lsadphoto.metrics.score import score_map
+    from lsadphoto.viewer import write_source_labels
+
+    labels = score_map(pages["map"]).source_labels
+    write_source_labels(labels, view / "v1-source-labels.npz")
     # The view's done marker lists its files (lsadphoto.survey.ViewLayout).
     (view / "v1-done.json").write_text(json.dumps(
-        {"outputs": {"exr": "v1.exr", "score": "v1-score.json"}}), encoding="utf-8")
+        {"outputs": {"exr": "v1.exr", "score": "v1-score.json",
+                     "source_labels": "v1-source-labels.npz"}}), encoding="utf-8")
     report = write_survey_report(survey)
     text = report.read_text(encoding="utf-8")
     assert text.count('class="lsad-viewer"') == 1 and 'data-lazy="yes"' in text
@@ -430,6 +438,16 @@ def test_survey_report_embeds_a_viewer_per_view(browser, pages, folder):
                                   row, col) == float(pages["map"].luminance[row, col])
     shown = browser.execute_script("return window.lsadViewer.sources()")
     assert len(shown) == pages["score"]["n_sources"]
+    # The tinted source pixels: the page's labels are the saved ones, at every source pixel
+    # and at random others.
+    inside = np.argwhere(labels > 0)
+    assert len(inside) > 0
+    sample = np.concatenate([inside[:: max(1, len(inside) // 200)],
+                             np.random.default_rng(3).integers(0, labels.shape, (200, 2))])
+    got = browser.execute_script(
+        "return arguments[0].map((p) => window.lsadViewer.sourceLabelAt(p[0], p[1]));",
+        sample.tolist())
+    assert got == labels[sample[:, 0], sample[:, 1]].tolist()
     assert _severe(browser) == []
 
 

@@ -575,7 +575,8 @@ def _view_viewer(survey, view):
     if photo is None:
         return None, "no luminance map among the view's outputs"
     return report_viewer(photo, second=survey.view_file(view, "model_exr"),
-                         score=survey.score_record(view), title=view)
+                         score=survey.score_record(view), title=view,
+                         source_labels=survey.view_file(view, "source_labels"))
 
 
 def _gallery_section(survey, max_views, viewers=True):

@@ -79,8 +79,8 @@ class ViewLayout:
     VIEWS = "views"
     #: Suffix of each kind of output (the done marker last: it is written last).
     PHOTO = (("exr", ".exr"), ("hdr", ".hdr"), ("falsecolour", "-falsecolour.png"),
-             ("sources", "-sources.png"), ("contrast", "-contrast.png"),
-             ("score", "-score.json"))
+             ("sources", "-sources.png"), ("source_labels", "-source-labels.npz"),
+             ("contrast", "-contrast.png"), ("score", "-score.json"))
     MODEL = (("model_exr", "-model.exr"), ("model_ratio", "-model-ratio.png"),
              ("model_json", "-model-comparison.json"),
              ("model_report", "-model-comparison.html"))
@@ -239,6 +239,7 @@ def _process_view_outputs(task, caught):
     from ..metrics.score import score_map
     from ..report import write_comparison_report, write_ratio_png
     from ..report.figures import write_contrast_png, write_glare_source_png
+    from ..viewer import write_source_labels
 
     outputs = {k: Path(v) for k, v in task["outputs"].items()}
     view_dir = outputs["done"].parent
@@ -280,6 +281,7 @@ def _process_view_outputs(task, caught):
         write_hdr(lmap, temp["hdr"])
         write_false_colour_png(lmap, temp["falsecolour"], title=f"{task['view']}: luminance")
         write_glare_source_png(lmap.luminance, score.source_labels, temp["sources"])
+        write_source_labels(score.source_labels, temp["source_labels"])  # for the viewer
         write_contrast_png(score.contrast, temp["contrast"])
         temp["score"].write_text(json.dumps(record, indent=2, default=json_default),
                                  encoding="utf-8")

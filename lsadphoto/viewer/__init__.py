@@ -11,11 +11,13 @@ The user guide is ``docs/user-guide-viewer.md``.
 from .page import (
     GEOMETRY_STRIDE,
     check_same_geometry,
+    read_source_labels,
     report_viewer,
     viewer_assets,
     viewer_fragment,
+    write_source_labels,
     write_viewer,
 )
 
-__all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "report_viewer", "viewer_assets",
-           "viewer_fragment", "write_viewer"]
+__all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "read_source_labels", "report_viewer",
+           "viewer_assets", "viewer_fragment", "write_source_labels", "write_viewer"]

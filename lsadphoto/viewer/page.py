@@ -58,8 +58,8 @@ from .._atomic import atomic_text
 from ..io.falsecolour import false_colour_range
 from ..luminance_map import LuminanceMap
 
-__all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "report_viewer", "viewer_assets",
-           "viewer_fragment", "write_viewer"]
+__all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "read_source_labels", "report_viewer",
+           "viewer_assets", "viewer_fragment", "write_source_labels", "write_viewer"]
 
 #: Rows and columns between the embedded geometry samples [px] (at most; see _geometry).
 GEOMETRY_STRIDE = 8
@@ -323,9 +323,16 @@ def _regions(lmap, record, arrays, prefix):
     return out
 
 
-def _score_record(score, lmap, arrays, prefix):
+def _label_dtype(labels):
+    """The smallest unsigned integer type that holds every label."""
+    most = labels.max(initial=0)
+    return np.uint8 if most < 256 else np.uint16 if most < 65536 else np.uint32
+
+
+def _score_record(score, lmap, arrays, prefix, source_labels=None):
     """Sources, values, band and zones and (from a :class:`Score`) the label and contrast
-    maps."""
+    maps; ``source_labels`` (an integer array of the map's shape) gives the labels where
+    ``score`` is a record without them."""
     if score is None:
         return None
     record = score.to_dict() if hasattr(score, "to_dict") else score
@@ -334,11 +341,14 @@ def _score_record(score, lmap, arrays, prefix):
                                  if isinstance(v, (int, float)) and not isinstance(v, bool)},
                       "uncertainty": record.get("uncertainty", {}),
                       "notes": record.get("notes", [])})
-    if hasattr(score, "source_labels"):
-        labels = np.asarray(score.source_labels)
-        most = labels.max(initial=0)
-        dtype = np.uint8 if most < 256 else np.uint16 if most < 65536 else np.uint32
-        out["labels"] = arrays.add(f"{prefix}.labels", labels, dtype)
+    labels = getattr(score, "source_labels", None) if source_labels is None else source_labels
+    if labels is not None:
+        labels = np.asarray(labels)
+        if labels.shape != lmap.shape or not np.issubdtype(labels.dtype, np.integer):
+            raise BadInputError(f"the glare-source labels ({labels.dtype}, {labels.shape}) are "
+                                f"not integers of the map's shape {lmap.shape}")
+        out["labels"] = arrays.add(f"{prefix}.labels", labels, _label_dtype(labels))
+    if hasattr(score, "contrast"):
         contrast = np.asarray(score.contrast, dtype=np.float64)
         positive = contrast[np.isfinite(contrast) & (contrast > 0)]
         # float16 ends at 65504: larger contrasts (the rim of a sun) are shown at that value.
@@ -351,7 +361,7 @@ def _score_record(score, lmap, arrays, prefix):
     return out
 
 
-def _map_record(lmap, name, score, arrays, prefix):
+def _map_record(lmap, name, score, arrays, prefix, source_labels=None):
     luminance = np.asarray(lmap.luminance, dtype=np.float32)
     finite = luminance[np.isfinite(luminance) & (luminance > 0)]
     record = {
@@ -366,7 +376,7 @@ def _map_record(lmap, name, score, arrays, prefix):
         "log_average": float(np.exp(np.mean(np.log(finite)))) if finite.size else 1.0,
         "source": str(lmap.provenance.get("source", "")) if isinstance(lmap.provenance, dict)
         else "",
-        "score": _score_record(score, lmap, arrays, prefix),
+        "score": _score_record(score, lmap, arrays, prefix, source_labels),
     }
     return record
 
@@ -393,7 +403,7 @@ def check_same_geometry(first, second, *, names=("first map", "second map")):
 
 
 def viewer_fragment(lmap, *, second=None, score=None, second_score=None,
-                    names=("photo", "model"), title=None, lazy=False):
+                    names=("photo", "model"), title=None, lazy=False, source_labels=None):
     """The viewer of one view as an HTML fragment (a ``<div>``) for embedding in a page.
 
     The page must also hold :func:`viewer_assets` once (the script and style).
@@ -416,6 +426,9 @@ def viewer_fragment(lmap, *, second=None, score=None, second_score=None,
     lazy : bool
         Decode the data only when the viewer is scrolled into sight (for reports with many
         views).
+    source_labels : array of int, optional
+        The glare-source label of every pixel of ``lmap`` (0 = none), where ``score`` is a
+        record without them (a survey's saved score).
 
     Returns
     -------
@@ -433,7 +446,7 @@ def viewer_fragment(lmap, *, second=None, score=None, second_score=None,
         check_same_geometry(lmap, second, names=names)
     arrays = _Arrays()
     base_score = score.to_dict() if hasattr(score, "to_dict") else score
-    maps = [_map_record(lmap, names[0], score, arrays, "map0")]
+    maps = [_map_record(lmap, names[0], score, arrays, "map0", source_labels)]
     if second is not None:
         maps.append(_map_record(second, names[1], second_score, arrays, "map1"))
     data = {"version": __version__, "title": title or names[0], "maps": maps,
@@ -446,12 +459,13 @@ def viewer_fragment(lmap, *, second=None, score=None, second_score=None,
 
 
 def report_viewer(lmap, *, second=None, score=None, second_score=None,
-                  names=("photo", "model"), title=None):
+                  names=("photo", "model"), title=None, source_labels=None):
     """The lazily decoded viewer fragment a report embeds for one view, or why there is none.
 
     ``lmap`` and ``second`` are :class:`LuminanceMap` objects or paths of map files (read
     with :func:`lsadphoto.io.read_map`); the other parameters are those of
-    :func:`viewer_fragment`. A report never fails for a view it cannot show: an unreadable
+:func:`viewer_fragment`; ``source_labels`` is also a path of the ``.npz`` file a survey
+    saves them in (:func:`read_source_labels`). A report never fails for a view it cannot show: an unreadable
     map, or two maps of different geometry, come back as the reason.
 
     Returns
@@ -464,10 +478,40 @@ def report_viewer(lmap, *, second=None, score=None, second_score=None,
     try:
         maps = [m if m is None or isinstance(m, LuminanceMap) else read_map(m)
                 for m in (lmap, second)]
+        if source_labels is not None and not isinstance(source_labels, np.ndarray):
+            source_labels = read_source_labels(source_labels)
         return viewer_fragment(maps[0], second=maps[1], score=score, second_score=second_score,
-                               names=names, title=title, lazy=True), None
+                               names=names, title=title, lazy=True,
+                               source_labels=source_labels), None
     except LsadError as error:
         return None, str(error)
+
+
+def write_source_labels(labels, file):
+    """Save a glare-source label map (integers, 0 = no source) compactly: the smallest
+    unsigned integer type that holds it, in a compressed ``.npz`` (key ``labels``).
+
+    ``file`` is a path or a binary file object (a path is written as given, with no
+    ``.npz`` added).
+    """
+    labels = np.asarray(labels)
+    dtype = _label_dtype(labels)
+    if isinstance(file, (str, Path)):
+        with open(file, "wb") as handle:
+            np.savez_compressed(handle, labels=labels.astype(dtype))
+    else:
+        np.savez_compressed(file, labels=labels.astype(dtype))
+
+
+def read_source_labels(path):
+    """The label map :func:`write_source_labels` saved; :class:`BadInputError` if the file
+    cannot be read as one."""
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            labels = archive["labels"]
+    except (OSError, ValueError, KeyError) as error:
+        raise BadInputError(f"{path}: not a glare-source label file ({error})") from None
+    return labels
 
 
 def _asset(name):
