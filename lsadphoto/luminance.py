@@ -24,6 +24,11 @@ from .raw.bracket import merge_bracket
 from .raw.colour import camera_to_xyz_matrix
 from .raw.decode import decode_raw
 
+#: Luminance more negative than this many noise standard deviations is a colour artefact
+#: (NaN in the map, counted in ``summary["colour_artefact_pixels"]``), not noise: Gaussian
+#: noise goes that far below zero with probability 3·10⁻⁷.
+IMPOSSIBLE_NEGATIVE_SIGMA = 5.0
+
 __all__ = ["luminance_from_raw", "LuminanceResult"]
 
 
@@ -178,6 +183,16 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
     # pixel is noise.
     luminance = np.float32(factor) * relative
     uncertainty = np.float32(factor) * np.sqrt((relative * np.float32(u_factor)) ** 2 + relative_var)
+    # Luminance below −IMPOSSIBLE_NEGATIVE_SIGMA noise standard deviations is not noise: it is
+    # a colour artefact where the pixel's camera channels saw different luminances (a sharp
+    # luminaire edge across a superpixel or the demosaic's footprint, combined with negative
+    # camera → Y weights). Such a value is unknown, not a measurement: NaN, counted.
+    noise = np.float32(factor) * np.sqrt(relative_var)
+    artefact = luminance < -np.float32(IMPOSSIBLE_NEGATIVE_SIGMA) * noise
+    artefacts = int(np.count_nonzero(artefact))
+    if artefacts:
+        luminance = np.where(artefact, np.float32(np.nan), luminance)
+        uncertainty = np.where(artefact, np.float32(np.nan), uncertainty)
     saturated_fraction = float(saturated.mean())
     # The least-exposed frame saturates at x = SATURATION_FRACTION/e in every channel: a
     # neutral source there has Y = x·Σw (then the vignetting correction).
@@ -202,6 +217,7 @@ def luminance_from_raw(paths, *, spots=(), profile=None, demosaic="superpixel", 
         "calibrated": calibrated,
         "calibration_method": method,
         "saturated_fraction": saturated_fraction,
+        "colour_artefact_pixels": artefacts,
         "overflow": None if overflow is None else overflow.to_dict(),
         "demosaic": demosaic,
         "colour_method": colour_used,

@@ -97,12 +97,17 @@ def test_office_map_matches_the_true_scene(quickstart):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="issue 17: after merging main on 2026-12-01 19:05 two pixels of the "
-                   "Quickstart's office map read about −2.9e3 cd/m² (0 before); luminance is never negative")
-def test_office_map_has_no_negative_luminance(quickstart):
+def test_office_map_has_no_impossible_negative_luminance(quickstart):
+    """Signed maps keep noise below zero (unbiased means), but never a value further below
+    zero than noise goes: the colour artefacts at the luminaires' edges (−2.9e3 cd/m² seen on
+    2026-12-01) are unknown pixels (NaN), counted in the summary."""
     clone, _ = quickstart
-    luminance = read_exr(clone / "office.exr").luminance
-    assert np.all(luminance[np.isfinite(luminance)] >= 0)
+    lmap = read_exr(clone / "office.exr")
+    known = np.isfinite(lmap.luminance)
+    assert np.all(lmap.luminance[known] >= -5 * lmap.uncertainty[known])
+    # nothing of the office is saturated, so every unknown pixel is a counted artefact
+    assert lmap.provenance["saturated_fraction"] == 0
+    assert lmap.provenance["colour_artefact_pixels"] == np.count_nonzero(~known) <= 10
 
 
 @pytest.mark.slow
