@@ -50,10 +50,6 @@ ALLOWED_CYCLES = {
     # into integrators/, store and chains as DESIGN.md lays them out).
     ("lsadphoto.solver.chains", "lsadphoto.solver.rendering", "lsadphoto.solver.simulation",
      "lsadphoto.solver.store", "lsadphoto.solver.surface_cache"): "issue 13",
-    # field dispatches on the projection types (its compiled kernels), and the fisheye measures
-    # its pixels with field's quad kernel: moving quad_solid_angle_components beside
-    # quad_solid_angle in geometry/_spherical.py removes it — issue 17 ("one place for each").
-    ("lsadphoto.geometry.field", "lsadphoto.geometry.fisheye"): "issue 17",
 }
 
 #: Known cross-package imports of private modules: (importer, private module) → issue. None

@@ -46,6 +46,7 @@ import numpy as np
 
 from .._validation import check_choice
 from ..errors import BadInputError
+from ._spherical import quad_solid_angle_components
 
 __all__ = [
     "PixelGeometry",
@@ -65,81 +66,6 @@ _BLOCK_PIXELS = 24_000
 #: threads; each recomputes the row of corners above it: 21-row bands at 6000 columns,
 #: 5 % more corner directions).
 _KERNEL_BLOCK_PIXELS = 1 << 17
-#: Below this tan(Ω/2) the arc tangent is replaced by its 3-term series (error < t⁶/7).
-_SERIES_LIMIT = 1e-3
-
-
-def _dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def _sub(a, b):
-    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
-
-
-def _triple(a, p, q):
-    """a·(p×q) from component tuples."""
-    return (a[0] * (p[1] * q[2] - p[2] * q[1]) + a[1] * (p[2] * q[0] - p[0] * q[2])
-            + a[2] * (p[0] * q[1] - p[1] * q[0]))
-
-
-def quad_solid_angle_components(d00, d01, d11, d10):
-    """Solid angle [sr] of geodesic quadrilaterals from unit corner directions.
-
-    Each corner is a tuple of three arrays ``(dx, dy, dz)`` (broadcastable), the corners in
-    order around the quadrilateral. The quad is split along ``d00–d11`` into two triangles,
-    each with ``tan(Ω/2) = |a·(b×c)| / (1 + a·b + b·c + c·a)`` (Van Oosterom & Strackee
-    1983), the triple product evaluated as a·((b − a)×(c − a)) so that small quads keep
-    full relative precision (relative ≈ eps/edge length, set by how precisely the unit
-    corner vectors themselves are stored); the half-angles are summed as ``arctan2(n₁d₂ + n₂d₁, d₁d₂ − n₁n₂)``, and where
-    that tangent is below 10⁻³ the arc tangent is its series to t⁵. Valid for quads smaller
-    than 2π sr (any pixel). The corners must be unit vectors (they are not normalised);
-    NaN corners give NaN.
-
-    Parameters
-    ----------
-    d00, d01, d11, d10 : tuple of 3 array_like
-        Corner direction components, in order around the quadrilateral.
-
-    Returns
-    -------
-    numpy.ndarray
-        Solid angle [sr], float64.
-
-    References
-    ----------
-    A. Van Oosterom & J. Strackee, IEEE Trans. Biomed. Eng. BME-30(2), 1983, 125–126.
-
-    Examples
-    --------
-    >>> x, y, z = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
-    >>> round(float(quad_solid_angle_components(x, y, z, z)) / np.pi, 12)  # an octant
-    0.5
-    """
-    a, b, c, e = d00, d01, d11, d10
-    ac = _dot(a, c)
-    # a·(b×c) = a·((b − a)×(c − a)): the cross product of the short edge vectors keeps full
-    # relative precision, where b×c of two nearly parallel unit vectors would leave an
-    # absolute error of ~eps (relative eps/Ω: 1e-7 for a 1e-9 sr quad).
-    p, q, r = _sub(b, a), _sub(c, a), _sub(e, a)
-    n1 = np.abs(_triple(a, p, q))
-    d1 = 1.0 + _dot(a, b) + _dot(b, c) + ac
-    n2 = np.abs(_triple(a, q, r))
-    d2 = 1.0 + ac + _dot(c, e) + _dot(e, a)
-    num = n1 * d2 + n2 * d1
-    den = d1 * d2 - n1 * n2
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = num / den
-        small = (den > 0) & (t < _SERIES_LIMIT)
-        t2 = t * t
-        series = 2.0 * t * (1.0 - t2 * (1.0 / 3.0 - t2 * 0.2))
-        if np.all(small):
-            return series
-        half = np.arctan2(num, den)
-        half = np.where(half < 0, half + 2.0 * math.pi, half)
-        return np.where(small, series, 2.0 * half)
-
-
 # --- caches ---------------------------------------------------------------------------------
 
 

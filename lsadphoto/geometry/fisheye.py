@@ -208,11 +208,11 @@ class IdealFisheyeProjection(Projection):
         """Solid angle [sr] of pixels: geodesic quad of the corner directions, centre rule.
 
         0 for pixels whose centre lies outside the image circle (see the class notes). The
-        quad is measured by :func:`~lsadphoto.geometry.field.quad_solid_angle_components`,
+        quad is measured by :func:`~lsadphoto.geometry._spherical.quad_solid_angle_components`,
         the kernel that :func:`~lsadphoto.geometry.field.pixel_geometry` uses, so the cached
         maps equal this method bit for bit.
         """
-        from .field import quad_solid_angle_components
+        from ._spherical import quad_solid_angle_components
 
         rows, cols = np.broadcast_arrays(np.asarray(rows, float), np.asarray(cols, float))
         x0, x1 = (cols - 0.5) - self.cx, (cols + 0.5) - self.cx
