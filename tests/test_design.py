@@ -24,6 +24,7 @@ def _tiny(folder, *, positions=((1.5, 1.0), (4.5, 3.0), (3.0, 2.0)), types=("dow
     problem["catalogue"] = {k: v for k, v in problem["catalogue"].items() if k in types}
     problem["positions"] = [{"position": [x, y, 2.95]} for x, y in positions]
     problem["simulation"] = {"samples": 2048, "grid_nodes": 128}
+    problem["search"] = {"method": "auto", "max_exhaustive": 1000}  # 27 designs: enumerated
     problem["grids"][0]["spacing"] = 2.5
     if constraints is not None:
         problem["constraints"] = constraints

@@ -85,11 +85,24 @@ def test_office_map_matches_the_true_scene(quickstart):
     assert np.median(error) < 0.03
     summary, _ = json.JSONDecoder().raw_decode(outputs[0])  # luminance --json, then score's
     assert summary["calibrated"] and summary["outputs"]["hdr"] == "office.hdr"
-    # The HDR copy holds the same map within the RGBE quantisation bound (2⁻⁸ relative).
+    # The HDR copy holds the same map within the RGBE quantisation bound (2⁻⁸ relative); RGBE
+    # has no sign, so negative pixels are written as 0 (see the next test).
     hdr = read_hdr(clone / "office.hdr").luminance
-    np.testing.assert_allclose(hdr[known], lmap.luminance[known], rtol=2.0**-8 + 1e-6)
+    positive = known & (lmap.luminance >= 0)
+    np.testing.assert_allclose(hdr[positive], lmap.luminance[positive], rtol=2.0**-8 + 1e-6)
     for name in ("office.png", "sources.png", "contrast.png"):
         assert (clone / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", name
+    if "office-view.html" in (clone / "README.md").read_text(encoding="utf-8"):
+        assert (clone / "office-view.html").read_text(encoding="utf-8").lstrip().lower().startswith("<!doctype html")
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue 17: after merging main on 2026-12-01 19:05 two pixels of the "
+                   "Quickstart's office map read about −2.9e3 cd/m² (0 before); luminance is never negative")
+def test_office_map_has_no_negative_luminance(quickstart):
+    clone, _ = quickstart
+    luminance = read_exr(clone / "office.exr").luminance
+    assert np.all(luminance[np.isfinite(luminance)] >= 0)
 
 
 @pytest.mark.slow

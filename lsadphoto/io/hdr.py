@@ -116,7 +116,7 @@ def parse_view(text, *, strict=False):
     >>> parse_view("banana", strict=True)
     Traceback (most recent call last):
     ...
-    lsadphoto.errors.BadInputError: 'banana' in view 'banana' is not a Radiance view option; valid: -vt[vlcahs], -vp X Y Z, -vd X Y Z, -vu X Y Z, -vh, -vv, -vs, -vl, -vo, -va
+    lsadphoto.errors.BadInputError: 'banana' in view 'banana' is not a Radiance view option; valid: -vt[vlchas], -vp X Y Z, -vd X Y Z, -vu X Y Z, -vh, -vv, -vs, -vl, -vo, -va
     """
     options = {"type": "v"}
     tokens = text.split()

@@ -59,7 +59,6 @@ from .grouping import (
     position_pixel_evalglare,
 )
 from .grouping import _describe as describe_sources
-from .grouping_options import regroup_sources
 from .quality import q_Budak2021, q_sweep
 from .registry import evaluate_indices
 from .sources import SOURCE_METHODS, select_source_pixels
@@ -541,6 +540,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
                                              search_angle=search_angle,
                                              peak_luminance=peak_luminance)
     if smooth or patch_deg is not None:
+        from .grouping_options import regroup_sources  # only for -s/-z (scipy.ndimage)
+
         groups, labels = regroup_sources(luminance, geometry.directions, omega, mask, valid,
                                          projection=lmap.projection, search_angle=search_angle,
                                          peak_luminance=peak_luminance, smooth=smooth,
