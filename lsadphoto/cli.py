@@ -357,16 +357,21 @@ def _task(text):
     return _vector(text, "--task")
 
 
-def _evalglare_options(args):
-    """score_map keywords of the evalglare 3.06 options of ``score`` (see its --help)."""
-    from .io import read_map
-
+def _band_and_zones(args):
+    """score_map keywords of --band-deg and --zones (score and view take them alike)."""
     options = {}
     if args.band_deg is not None:
         options["band_deg"] = args.band_deg
     if args.zones:
-        options["zone_centre"], options["zone_opening_deg"] = _centre_and_angles(args.zones,
-                                                                                 "--zones")
+        options["zone_centre"], options["zone_opening_deg"] = _centre_and_angles(args.zones, "--zones")
+    return options
+
+
+def _evalglare_options(args):
+    """score_map keywords of the evalglare 3.06 options of ``score`` (see its --help)."""
+    from .io import read_map
+
+    options = _band_and_zones(args)
     if args.mask:
         options["mask"] = read_map(args.mask)
     if args.checkfile:
@@ -558,12 +563,7 @@ def cmd_view(args):
     second = read_map(args.map2) if args.map2 else None
     if second is not None:
         check_same_geometry(first, second, names=(str(args.map), str(args.map2)))
-    options = {}
-    if args.band_deg is not None:
-        options["band_deg"] = args.band_deg
-    if args.zones:
-        options["zone_centre"], options["zone_opening_deg"] = _centre_and_angles(args.zones,
-                                                                                 "--zones")
+    options = _band_and_zones(args)
     scores = [None, None]
     if not args.no_score:
         scores = [score_map(m, **options) if m is not None and m.projection is not None

@@ -31,6 +31,17 @@ def realdata(relative):
 RAW_SUFFIXES = (".dng", ".arw", ".cr2", ".cr3", ".nef", ".raf", ".orf", ".rw2", ".pef", ".srw")
 
 
+def radiance_tool(name):
+    """Path of a Radiance program that pyradiance ships (the test skips without it)."""
+    import os
+
+    pyradiance = pytest.importorskip("pyradiance")
+    path = os.path.join(os.path.dirname(pyradiance.__file__), "bin", name)
+    if not os.path.exists(path):
+        pytest.skip(f"pyradiance ships no {name} binary on this platform")
+    return path
+
+
 def raw_samples():
     """Real camera RAW files: ../shared/realdata/raw and the folders in LSADPHOTO_RAW_SAMPLES
     (``os.pathsep``-separated; files of other people, never part of the repository)."""

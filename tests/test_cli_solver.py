@@ -15,6 +15,7 @@ import pytest
 from lsadphoto.io import read_exr
 from lsadphoto.solver import camera_to_world, load_store, render
 from lsadphoto.solver.examples import canonical_room_toml
+from .conftest import radiance_tool
 
 
 def cli(*args):
@@ -123,16 +124,6 @@ def test_render_through_the_nominal_demo_profile(store_path, tmp_path):
     np.testing.assert_array_equal(lmap.luminance, direct.luminance)
 
 
-def _radiance_tool(name):
-    pyradiance = pytest.importorskip("pyradiance")
-    import os
-
-    path = os.path.join(os.path.dirname(pyradiance.__file__), "bin", name)
-    if not os.path.exists(path):
-        pytest.skip(f"pyradiance ships no {name} binary on this platform")
-    return path
-
-
 @pytest.mark.parametrize("view", [
     "-vta -vp 1 2 1.2 -vd 1 0 0 -vu 0 0 1 -vh 180 -vv 150",
     "-vtv -vp 4.5 1.5 1.6 -vd -1 0.5 -0.2 -vu 0 0 1 -vh 60 -vv 45",
@@ -160,7 +151,7 @@ def test_rendered_hdr_view_is_the_rendered_view(store_path, tmp_path, view):
                 direction = direction - direction.dot(vd) * vd
                 direction /= np.linalg.norm(direction)
         np.testing.assert_allclose(np.asarray(written[key], float), direction, atol=1e-12)
-    out = subprocess.run([_radiance_tool("vwrays"), "-fd", "-x", "12", "-y", "10", "-pa", "0",
+    out = subprocess.run([radiance_tool("vwrays"), "-fd", "-x", "12", "-y", "10", "-pa", "0",
                           "-vf", str(hdr)], capture_output=True, check=True).stdout
     rays = np.frombuffer(out, dtype=np.float64).reshape(10, 12, 6)  # scanlines from the top
     lmap = read_hdr(hdr)

@@ -17,6 +17,8 @@ from lsadphoto.solver.grids import (
     work_plane_grid,
 )
 
+from .conftest import radiance_tool
+
 
 @pytest.mark.parametrize("d, p", [(1, 0.2), (5, 0.6), (10, 1.0), (50, 3.0), (100, 5.0)])
 def test_spacing_matches_the_standards_examples(d, p):
@@ -76,18 +78,10 @@ def test_bad_grids_are_one_line_errors():
         grid_illuminance(None, work_plane_grid((0, 0), (1, 1)))
 
 
-def _radiance_bin():
-    pyradiance = pytest.importorskip("pyradiance")
-    path = os.path.join(os.path.dirname(pyradiance.__file__), "bin")
-    if not os.path.exists(os.path.join(path, "rtrace")):
-        pytest.skip("pyradiance ships no rtrace binary on this platform")
-    return path
-
-
 @pytest.mark.slow
 def test_work_plane_against_rtrace(tmp_path):
     """Canonical room: work-plane illuminance against Radiance's unbiased rtrace -I -aa 0."""
-    b = _radiance_bin()
+    b = os.path.dirname(radiance_tool("rtrace"))
     env = dict(os.environ, RAYPATH=os.path.join(b, "..", "lib"))
     (tmp_path / "room.rad").write_text(canonical_room_rad())
     octree = subprocess.run([os.path.join(b, "oconv"), str(tmp_path / "room.rad")],
