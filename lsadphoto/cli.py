@@ -981,11 +981,11 @@ def _build_parser():
                     help="where a source's position index is taken: evalglare's pixel of its "
                          "L·ω-weighted mean pixel position (default, as evalglare 3.06), or its "
                          "L·ω-weighted mean direction")
-    sc.add_argument("--guth-field", type=int, choices=(1, 2), help="evaluate only Guth's total (1) or central (2) field")
+    sc.add_argument("--guth-field", type=int, choices=_Choices("lsadphoto.geometry.position_index", "GUTH_FIELDS"), help="evaluate only Guth's total (1) or central (2) field")
     sc.add_argument("--N", type=float, default=50.0, help="threshold count N of the Q criterion (default 50)")
     sc.add_argument("--alpha-arcmin", type=float, default=10.0, help="critical detail α [arcmin] (default 10)")
-    sc.add_argument("--q-weight-exponent", type=int, choices=(0, 1, 2), default=1,
-                    help="Q weight w = P^-m (default m = 1)")
+    sc.add_argument("--q-weight-exponent", type=float, default=1,
+                    help="Q weight w = P^-m, m ≥ 0 (default m = 1; FORMULAS.md §5.2 names 0, 1, 2)")
     sc.add_argument("--sweep", action="store_true", help="also compute Q(N) for N = 1…100 in one pass")
     sc.add_argument("--noise-samples", type=int, default=64,
                     help="draws of the field sums for the per-pixel noise of maps that carry a "
@@ -1020,7 +1020,7 @@ def _build_parser():
                     help="evalglare -I: as --illuminance, after filling cut rows with the last "
                          "known values; evalglare's y_max, y_min given as rows from the top "
                          "(row = rows - 1 - y)")
-    eg.add_argument("--correction-mode", choices=("l+", "l-", "0"),
+    eg.add_argument("--correction-mode", choices=_Choices("lsadphoto.metrics.corrections", "CORRECTION_MODES"),
                     help="evalglare -C: l+ DGP low-light correction on, l- or 0 off (default off)")
     eg.add_argument("--dgp-coefficients", metavar="NAME|a1,a2,a3,a4,a5,c1,c2,c3",
                     help="evalglare -w: DGP coefficients, 'evalglare' (default), 'Wienold2006' or "
@@ -1122,7 +1122,7 @@ def _build_parser():
     ren.add_argument("--line-of-sight", metavar="X,Y,Z", help="optical axis in the scene (with --profile)")
     ren.add_argument("--up", metavar="X,Y,Z", help="up in the scene (with --profile; default 0,0,1)")
     ren.add_argument("--samples", type=int, help="light chains when rendering a scene directly")
-    ren.add_argument("--estimator", choices=("local", "cache"), default="local",
+    ren.add_argument("--estimator", choices=_Choices("lsadphoto.solver.rendering", "ESTIMATORS"), default="local",
                      help="local: the double local estimate per pixel (unbiased reference); cache: direct "
                           "light per pixel, indirect interpolated from the store's surface cache (built if "
                           "missing) — far faster, with a small interpolation bias (docs/accuracy.md)")

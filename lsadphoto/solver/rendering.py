@@ -63,10 +63,14 @@ from .engine import RayEngine
 from .scene import Scene
 from .store import KIND_COSINE, KIND_POINT, LsadStore
 
-__all__ = ["AUTO_NODES_PER_PIXEL", "FULL_GATHER_PAIRS", "NEAR_FIELD_TREATMENTS",
+__all__ = ["AUTO_NODES_PER_PIXEL", "ESTIMATORS", "FULL_GATHER_PAIRS", "NEAR_FIELD_TREATMENTS",
            "RELATIVE_NEAR_DISTANCE", "SolverWarning", "render", "render_path_traced"]
 
 NEAR_FIELD_TREATMENTS = ("unbiased", "clamp")
+#: Estimators of a view: "local", the per-pixel double local estimate (:func:`render`, the
+#: unbiased reference); "cache", direct light per pixel and indirect light interpolated from
+#: the store's surface cache (:func:`~lsadphoto.solver.surface_cache.render_cached`).
+ESTIMATORS = ("local", "cache")
 
 #: Default near-field distance ε as a fraction of the scene's bounding-box diagonal.
 RELATIVE_NEAR_DISTANCE = 0.01
