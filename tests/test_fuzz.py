@@ -370,6 +370,8 @@ def test_cli_map_commands(record_property, seeds, name):
     fuzz(record_property, f"cli compare ({name[-3:].upper()})", folder / name, lambda d: byte_mutations(len(d)),
          lambda path, out: check_cli(["compare", folder / name, path, "--output-json", out / "c.json"],
                                      out, ("c.json",)), examples=8)
+    fuzz(record_property, f"cli view ({name[-3:].upper()})", folder / name, lambda d: byte_mutations(len(d)),
+         lambda path, out: check_cli(["view", path, "-o", out / "v.html"], out, ("v.html",)), examples=6)
 
 
 def test_cli_toml_commands(record_property, seeds):
