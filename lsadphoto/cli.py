@@ -510,7 +510,8 @@ def cmd_design(args):
             print(f"no design meets the constraints; wrote {args.output}/design.json with the "
                   f"{len(record['closest'])} closest designs")
         else:
-            parts = [f"{v['ugr_grouped'] if v['ugr_grouped'] is not None else '—'}" for v in best["views"].values()]
+            parts = [_format(v["ugr_grouped"], 3) if v["ugr_grouped"] is not None else "—"
+                     for v in best["views"].values()]
             print(f"best design: {best['luminaires']} luminaires, {best['power_w']:g} W, grouped UGR "
                   f"{', '.join(parts)} ({', '.join(best['views'])}); {len(record['pareto'])} Pareto "
                   f"designs; wrote {args.output}/design.json, best.toml, report.html")
