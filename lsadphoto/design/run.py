@@ -109,8 +109,8 @@ def _clean(value):
     return value
 
 
-def _best_scene(problem, evaluator, record):
-    """The best design as a scene document: the space plus its luminaires at their levels."""
+def _best_scene(problem, record):
+    """The best design as TOML scene text: the space plus its luminaires at their levels."""
     import tomli_w
 
     doc = dict(problem.space)
@@ -121,11 +121,10 @@ def _best_scene(problem, evaluator, record):
                                         name=f"p{i}-{choice['type']}", level=choice["level"]))
     # The space's own relative paths (its luminaires' photometric files) are relative to the
     # space's folder: made absolute, so that best.toml reads from wherever it is.
-    for lum in lums:
-        if "photometry" in lum and not Path(lum["photometry"]).is_absolute():
-            lum["photometry"] = str((problem.space_path.parent / lum["photometry"]).resolve())
-    doc["luminaires"] = lums
-    return tomli_w.dumps(_clean(doc)), doc
+    doc["luminaires"] = [dict(lum, photometry=str((problem.space_path.parent / lum["photometry"]).resolve()))
+                         if "photometry" in lum and not Path(lum["photometry"]).is_absolute() else lum
+                         for lum in lums]
+    return tomli_w.dumps(_clean(doc))
 
 
 def run_design(problem_path, outdir, *, report=None, progress=None, log=print):
@@ -212,7 +211,7 @@ def run_design(problem_path, outdir, *, report=None, progress=None, log=print):
         # its uncertainties include the candidates' per-pixel Monte Carlo errors.
         scored = evaluator.evaluate(best.genome, score_options={"noise_samples": 256, "q_noise_samples": 4})
         record["best"] = scored.to_dict()
-        toml_text, _ = _best_scene(problem, evaluator, best)
+        toml_text = _best_scene(problem, best)
         best_maps, _ = evaluator.maps_and_grids(best.genome)
     record = _clean(record)
     html = None if report is None else report(record, best_maps)
