@@ -130,6 +130,15 @@ REAL_SCENES = {
 }
 
 
+def _sources_at_evalglare_positions(score, peer):
+    """Each of evalglare's sources (its -d table: x, y from the bottom, P) has one of ours at
+    the same pixel with the same P, to the float32 precision of evalglare's get_posindex."""
+    for x, y, p in peer["sources"]:
+        ours = min(score.sources, key=lambda s: (s.col - x) ** 2 + (s.row + 1 - y) ** 2)
+        assert (ours.col, ours.row + 1) == pytest.approx((x, y), abs=1e-3)
+        assert ours.position_index == pytest.approx(p, rel=1e-5)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(REAL_SCENES))
 def test_real_looking_scenes_agree_with_evalglare(tmp_path, camera, name):
@@ -142,10 +151,7 @@ def test_real_looking_scenes_agree_with_evalglare(tmp_path, camera, name):
     _agree(score.values, peer)
     # Each source's position index is evalglare's: the same pixel, so the same P to the
     # float32 precision of evalglare's get_posindex (its -d table prints 6 digits).
-    for x, y, p in peer["sources"]:
-        ours = min(score.sources, key=lambda s: (s.col - x) ** 2 + (s.row + 1 - y) ** 2)
-        assert (ours.col, ours.row + 1) == pytest.approx((x, y), abs=1e-3)
-        assert ours.position_index == pytest.approx(p, rel=1e-5)
+    _sources_at_evalglare_positions(score, peer)
 
 
 @pytest.mark.slow
@@ -158,7 +164,4 @@ def test_real_rendering_with_the_sun_agrees_with_evalglare():
     peer = run_evalglare(path)
     score = score_map(read_hdr(path))
     _agree(score.values, peer)
-    for x, y, p in peer["sources"]:
-        ours = min(score.sources, key=lambda s: (s.col - x) ** 2 + (s.row + 1 - y) ** 2)
-        assert (ours.col, ours.row + 1) == pytest.approx((x, y), abs=1e-3)
-        assert ours.position_index == pytest.approx(p, rel=1e-5)
+    _sources_at_evalglare_positions(score, peer)
