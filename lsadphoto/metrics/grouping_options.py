@@ -35,7 +35,7 @@ layout of ``-z``, peak extraction with find_split).
 import math
 
 import numpy as np
-from numba import njit
+from .._compiled import njit
 
 from .._validation import check_positive
 from ..errors import BadInputError
