@@ -165,7 +165,8 @@ def atan2_nonnegative(y, x):
     return ((2.0 * _PIO2 - r) + 2.0 * _MOREBITS) if x < 0 else r
 
 
-@njit(**_OPTIONS)
+@njit(**_OPTIONS,
+      aot="void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, ::1])")
 def quad_solid_angle_grid(gx, gy, gz, out):
     """Solid angles ``out`` (n, m) of the pixels whose corner directions are the grid
     ``(gx, gy, gz)``, each (n + 1, m + 1); NaN corners give NaN. Serial, without the GIL
@@ -383,7 +384,8 @@ def _corner_row(model, p, table, row, j0, j1, corners):
 
 
 @njit(parallel=True, **_OPTIONS,
-      aot="void(int64, float64[::1], float64[::1], int64, float64[:, :, ::1], float64[:, ::1], boolean[:, ::1])")
+      aot=("void(int64, float64[::1], float64[::1], int64, float64[:, :, ::1], "
+           "float64[:, ::1], boolean[:, ::1])"))
 def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid):
     """Fill ``directions`` (rows, cols, 3), ``solid_angle`` and ``valid`` (rows, cols).
 
@@ -530,7 +532,9 @@ def _guth_exponent(s, t):
 
 
 @njit(parallel=True, **_OPTIONS,
-      aot="void(float64[:, :, ::1], boolean[:, ::1], float64[::1], float64[::1], float64[::1], int64, float64, float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, ::1])")
+      aot=("void(float64[:, :, ::1], boolean[:, ::1], float64[::1], float64[::1], "
+           "float64[::1], int64, float64, float64[:, ::1], float64[:, ::1], float64[:, ::1], "
+           "float64[:, ::1])"))
 def visual_field_maps(directions, valid, v, u, h, method, cap, sigma, tau, position_index,
                       cos_sigma):
     """σ, τ [rad], position index and cos σ of every pixel (see field.visual_field).

@@ -210,7 +210,8 @@ class FieldSums:
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot="Tuple((float64[:, ::1], int64[:, ::1]))(float64[::1], float64[::1], float64[::1], float64[::1], boolean[::1], int64)")
+      aot=("Tuple((float64[:, ::1], int64[:, ::1]))(float64[::1], float64[::1], float64[::1], "
+           "float64[::1], boolean[::1], int64)"))
 def _field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask, chunk):
     n = luminance.size
     n_chunks = (n + chunk - 1) // chunk
@@ -314,7 +315,9 @@ class NoiseMoments:
     quadratic_variance: float
 
 
-@njit(cache=True, error_model="numpy", nogil=True)
+@njit(cache=True, error_model="numpy", nogil=True,
+      aot=("Tuple((float64[::1], float64[:, ::1], float64[:, ::1], float64[::1]))(float64[::1], "
+           "float64[::1], float64[::1], float64[::1], int64[::1], float64[::1], int64)"))
 def _noise_moments(luminance, solid_angle, cos_sigma, position_index, labels, variance, n):
     background = np.zeros(3)
     means = np.zeros((n, 3))

@@ -198,7 +198,8 @@ def _close(directions, r1, c1, r2, c2, chord):
 
 
 @njit(**_OPTIONS,
-      aot="int64(int32[:, ::1], int64[::1], int64[::1], float64[:, :, :], float64, int64[::1], int64[::1], int64[:, ::1])")
+      aot=("int64(int32[:, ::1], int64[::1], int64[::1], float64[:, :, :], float64, "
+           "int64[::1], int64[::1], int64[:, ::1])"))
 def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, labels):
     """Union–find over the nodes: neighbouring pixels (right, down, down-right, down-left)
     within ``chord``, and the given boundary pairs; writes labels 1…n numbered in the order of
@@ -285,7 +286,8 @@ def _link(mask, directions, separation):
 
 
 @njit(**_OPTIONS,
-      aot="Tuple((float64[:, ::1], float64[::1], float64[::1], int64[::1]))(int64[:, ::1], int64, float64[:, :], float64[:, :, :], float64[:, :])")
+      aot=("Tuple((float64[:, ::1], float64[::1], float64[::1], int64[::1]))(int64[:, ::1], "
+           "int64, float64[:, :], float64[:, :, :], float64[:, :])"))
 def _source_sums(labels, n, luminance, directions, solid_angle):
     """Per label 1…n, in row-major pixel order (as np.bincount): Σω, ΣL·ω, ΣL·ω·d̂,
     ΣL·ω·row, ΣL·ω·col, max and min L and the pixel count."""

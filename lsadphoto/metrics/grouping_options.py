@@ -81,7 +81,9 @@ def smoothing_radius_px(directions, search_angle):
     return check_positive(search_angle, "search_angle") / delta / 1.75
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True,
+      aot=("void(int64[:, ::1], boolean[:, ::1], float64[:, ::1], int64[:, :], float64, "
+           "int64, int64[:, ::1])"))
 def _smooth(labels, primary, solid_angle, candidates, radius, n_sources, out):
     """evalglare's add_secondary_gs for every candidate pixel; arrays in evalglare's (y, x)
     order, y from the bottom."""

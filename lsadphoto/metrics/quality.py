@@ -236,7 +236,9 @@ def _weight(P, m):
 
 
 @njit(parallel=True, **_KERNEL_OPTIONS,
-      aot="void(float64[:, ::1], float64[:, ::1], float64[:, ::1], boolean[:, ::1], float64[:, :, ::1], float64, boolean, boolean, boolean, boolean[:, ::1], float32[:, ::1], int64[::1], float64[:, ::1], int64[:, ::1], boolean[:, ::1])")
+      aot=("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], boolean[:, ::1], "
+           "float64[:, :, ::1], float64, boolean, boolean, boolean, boolean[:, ::1], "
+           "float32[:, ::1], int64[::1], float64[:, ::1], int64[:, ::1], boolean[:, ::1])"))
 def _field_kernel(L, omega, P, valid, d, m, use_p, use_valid, weighted, field, filled, counts,
                   sums, extent, flags):
     """The field, the filled map and the field sums, row by row, in float32 as the numpy
@@ -293,7 +295,8 @@ def _field_kernel(L, omega, P, valid, d, m, use_p, use_valid, weighted, field, f
 
 
 @njit(parallel=True, **_KERNEL_OPTIONS,
-      aot="void(float32[:, ::1], float32[:, ::1], boolean[:, ::1], float64[:, ::1], int64, int64, float64, boolean[:, ::1], int64[::1], float64[::1])")
+      aot=("void(float32[:, ::1], float32[:, ::1], boolean[:, ::1], float64[:, ::1], int64, "
+           "int64, float64, boolean[:, ::1], int64[::1], float64[::1])"))
 def _candidate_counts(lu, lv, evaluated, omega, r0, c0, limit, candidate, counts, omega_sums):
     """Per row of the box: the evaluated pixels whose screen bound |(L_u, L_v)| reaches
     ``limit`` (marked in ``candidate``, counted in ``counts``), and Σω (float32 ω, float64
@@ -410,7 +413,8 @@ def _metric(directions, i, cols):
 
 
 @njit(parallel=True, **_KERNEL_OPTIONS,
-      aot="void(int64[::1], int64[::1], float64[:, ::1], float32[::1], float32[::1], int64, float64[::1])")
+      aot=("void(int64[::1], int64[::1], float64[:, ::1], float32[::1], float32[::1], int64, "
+           "float64[::1])"))
 def _gradient_kernel(index, local, directions, lu, lv, cols, out):
     for k in prange(index.size):
         e, f, g = _metric(directions, index[k], cols)

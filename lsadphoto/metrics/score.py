@@ -72,7 +72,10 @@ _CHUNK = 1 << 16
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot="void(float32[::1], boolean[::1], float64[::1], float64[::1], boolean[::1], float64[::1], float64[::1])")
+      aot=("void(float32[::1], boolean[::1], float64[::1], float64[::1], boolean[::1], "
+           "float64[::1], float64[::1])",
+           "void(float64[::1], boolean[::1], float64[::1], float64[::1], boolean[::1], "
+           "float64[::1], float64[::1])"))
 def _field_inputs_kernel(image, evaluated, solid_angle, cos_sigma, valid, luminance, omega):
     n = image.size
     for k in prange((n + _CHUNK - 1) // _CHUNK):
