@@ -17,9 +17,12 @@ twice:
   ``range``), with the host CPU's instruction set and each kernel's own error model;
 * **just in time** (``numba.njit`` with the same options, ``parallel`` included, cached by
   numba) for a call whose arguments match none of the kernel's ``aot`` signatures, for
-  pictures of at least :data:`PARALLEL_PIXELS` pixels, where the threads pay for loading
-  numba, with ``LSADPHOTO_KERNELS=jit``, and where the ahead-of-time build failed (no C
-  compiler: the reason is kept beside the cache key, ``build.failed``).
+  calls on arrays of :data:`PARALLEL_BYTES` and more (large pictures, where the threads can
+  pay for loading numba), and where the ahead-of-time build failed (no C compiler: the reason is kept in
+  ``build.failed`` in the cache folder).
+
+``LSADPHOTO_KERNELS`` chooses: ``auto`` (default, as above), ``aot`` (ahead of time at every
+size where a signature matches) or ``jit`` (numba only).
 
 The ahead-of-time functions do not check their arguments (a float32 array where float64 is
 compiled would be read as garbage), so each call is matched here against the declared
@@ -54,7 +57,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Kernel", "PARALLEL_PIXELS", "intrinsic", "njit", "prange"]
+__all__ = ["Kernel", "PARALLEL_BYTES", "intrinsic", "njit", "prange"]
 
 #: Modules whose kernels go into the ahead-of-time extension (their sources key the cache).
 MODULES = (
@@ -69,13 +72,13 @@ MODULES = (
 )
 #: Name of the extension module (its ``PyInit_`` symbol).
 EXTENSION = "_lsadphoto_kernels"
-#: Calls whose largest array has at least this many elements per plane run just in time,
-#: on numba's threads: 4 MP, where the parallel kernels save more than loading numba costs
-#: (docs/performance.md).
-PARALLEL_PIXELS = 4_000_000
+#: Calls with an array argument of at least this many bytes run just in time, on numba's
+#: threads: the per-pixel directions (24 bytes a pixel) of a picture of 11 MP and more, where
+#: the threads can save more than loading numba costs (docs/performance.md).
+PARALLEL_BYTES = 1 << 28
 
 _KERNELS = []
-_STATE = {"numba": None, "library": None}
+_STATE = {"numba": None, "library": None, "mode": os.environ.get("LSADPHOTO_KERNELS", "auto")}
 
 
 def prange(*args):
@@ -166,14 +169,9 @@ def _matches(specs, args):
     return True
 
 
-def _plane_size(args):
-    """Largest number of elements per 2-d plane (pixels) of the array arguments."""
-    largest = 0
-    for a in args:
-        if isinstance(a, np.ndarray):
-            n = a.size if a.ndim < 3 else a.shape[0] * a.shape[1]
-            largest = max(largest, n)
-    return largest
+def _largest_bytes(args):
+    """Size [bytes] of the largest array argument."""
+    return max((a.nbytes for a in args if isinstance(a, np.ndarray)), default=0)
 
 
 class Kernel:
@@ -216,7 +214,7 @@ class Kernel:
             library = _library() if self._specs else {}
             self._compiled = [(spec, library[name]) for spec, name in
                               zip(self._specs, self.export_names, strict=True) if name in library]
-        if self._compiled and _plane_size(args) < PARALLEL_PIXELS:
+        if self._compiled and (_STATE["mode"] == "aot" or _largest_bytes(args) < PARALLEL_BYTES):
             for spec, function in self._compiled:
                 if _matches(spec, args):
                     return function(*args)
@@ -296,7 +294,7 @@ def _library():
     if _STATE["library"] is not None:
         return _STATE["library"]
     _STATE["library"] = {}
-    if os.environ.get("LSADPHOTO_KERNELS", "auto") == "jit":
+    if _STATE["mode"] == "jit":
         return _STATE["library"]
     try:
         folder = cache_folder()

@@ -378,7 +378,9 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
         if peak_mask.any():
             peak_labels, n_peak = _link(peak_mask, directions, separation)
             rest = np.where(peak_mask, 0, labels)
-            kept = np.unique(rest[rest > 0])
+            # The labels left after peak extraction, in increasing order (np.unique would
+            # import numpy.ma, 0.05 s of a short process).
+            kept = np.flatnonzero(np.bincount(rest[rest > 0], minlength=n + 1))
             renumber = np.zeros(n + 1, dtype=np.int64)
             renumber[kept] = np.arange(1, kept.size + 1)
             labels = np.where(peak_mask, peak_labels + kept.size, renumber[rest])

@@ -425,7 +425,7 @@ def _gradient_kernel(index, local, directions, lu, lv, cols, out):
         out[k] = math.sqrt(0.0 if value < 0 else value) if det > 0 else np.nan
 
 
-@njit(**_KERNEL_OPTIONS)
+@njit(**_KERNEL_OPTIONS, aot="void(int64[::1], float64[:, ::1], int64, float64[:, ::1])")
 def _metric_kernel(index, directions, cols, out):
     for k in range(index.size):
         out[k, 0], out[k, 1], out[k, 2] = _metric(directions, index[k], cols)
