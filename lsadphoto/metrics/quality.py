@@ -319,15 +319,18 @@ def _candidate_counts(lu, lv, evaluated, omega, r0, c0, limit, candidate, counts
 
 
 @njit(parallel=True, **_KERNEL_OPTIONS,
-      aot="void(boolean[:, ::1], int64[::1], int64[::1])")
-def _candidate_fill(candidate, offsets, local):
-    """Flat box indices of the ``candidate`` pixels, in order (row ``i`` from ``offsets[i]``)."""
+      aot="void(boolean[:, ::1], int64[::1], int64, int64, int64, int64[::1], int64[::1])")
+def _candidate_fill(candidate, offsets, r0, c0, image_cols, local, index):
+    """Flat box indices (``local``) and flat image indices (``index``; the box's corner at
+    (``r0``, ``c0``) of an image ``image_cols`` wide) of the ``candidate`` pixels, in order
+    (row ``i`` from ``offsets[i]``)."""
     rows, cols = candidate.shape
     for i in prange(rows):
         k = offsets[i]
         for j in range(cols):
             if candidate[i, j]:
                 local[k] = i * cols + j
+                index[k] = (i + r0) * image_cols + j + c0
                 k += 1
 
 
@@ -598,8 +601,8 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
         offsets = np.zeros(box_rows, dtype=np.int64)
         np.cumsum(row_counts[:-1], out=offsets[1:])
         local = np.empty(int(row_counts.sum()), dtype=np.int64)
-        _candidate_fill(candidate, offsets, local)
-        index = to_image(local)
+        index = np.empty_like(local)
+        _candidate_fill(candidate, offsets, r0, c0, cols, local, index)
         grad = _angular_gradient(index, local, flat_directions, lu.ravel(), lv.ravel(), cols)
         key = grad * alpha
     if weighted:
