@@ -26,7 +26,11 @@ size where a signature matches) or ``jit`` (numba only).
 
 The ahead-of-time functions do not check their arguments (a float32 array where float64 is
 compiled would be read as garbage), so each call is matched here against the declared
-signatures (dtype, dimensions, C order, scalar kinds) before it is handed over. A kernel's
+signatures (dtype, dimensions, C order, alignment, scalar kinds) before it is handed over.
+Read-only flags are not compared: the signatures are compiled for writable arrays, and a
+kernel writes only to the output arrays its callers allocate (numba's typing, which does
+see the flag, refuses a kernel that writes to a read-only input). Old builds stay in the
+cache folder until deleted (about 1 MB each). A kernel's
 result does not depend on which compilation ran it: the kernels keep their parallel loops
 free of floating-point reductions across iterations, and neither compilation allows
 fast-math (tests/test_compiled.py compares the two).
@@ -81,9 +85,12 @@ _KERNELS = []
 _STATE = {"numba": None, "library": None, "mode": os.environ.get("LSADPHOTO_KERNELS", "auto")}
 
 
-def prange(*args):
+def _prange(*args):
     """``range`` until numba compiles the kernel (then numba's ``prange``)."""
     return range(*args)
+
+
+prange = _prange
 
 
 class _Intrinsic:
@@ -249,14 +256,12 @@ def _numba():
                 continue
             space = vars(module)
             for key, value in list(space.items()):
-                if value is prange_placeholder:
+                if value is _prange:
                     space[key] = numba.prange
                 elif isinstance(value, _Intrinsic):
                     space[key] = numba_intrinsic(value.definition)
     return _STATE["numba"]
 
-
-prange_placeholder = prange
 
 
 # --- the ahead-of-time extension --------------------------------------------------------------
