@@ -7,6 +7,7 @@ Every error lsadphoto raises on purpose becomes one line on stderr and a non-zer
 import argparse
 import gc
 import json
+import math
 import os
 import sys
 import warnings
@@ -400,6 +401,13 @@ def _evalglare_options(args):
 
 def _format(value, digits=3):
     return "—" if value is None else f"{value:.{digits}f}"
+
+
+def _percent(fraction):
+    """A relative error as a percentage to 2 significant digits ("—" where undefined)."""
+    if fraction is None or not math.isfinite(fraction):
+        return "—"
+    return f"{100 * fraction:.2g} %"
 
 
 def cmd_score(args):
@@ -838,9 +846,12 @@ def cmd_render(args):
     else:
         p = lmap.provenance
         print(f"wrote {args.output}: {projection.width}×{projection.height} px, field-mean luminance "
-              f"{_format(p.get('field_mean_luminance'), 4)} cd/m², relative Monte Carlo error "
-              f"{_format(p.get('achieved_relative_error'), 4)}"
-              f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}")
+              f"{_format(p.get('field_mean_luminance'), 4)} cd/m² (relative Monte Carlo error "
+              f"{_percent(p.get('achieved_relative_error'))}); per-pixel relative error: median "
+              f"{_percent(p.get('pixel_relative_error_median'))}, 95th percentile "
+              f"{_percent(p.get('pixel_relative_error_p95'))}"
+              f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}"
+              f"{' — plus the cache interpolation bias' if p.get('interpolation_bias') else ''}")
     return 0
 
 

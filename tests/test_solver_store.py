@@ -106,6 +106,29 @@ def test_render_provenance_and_errors(room, store):
     assert clamp.provenance["near_field_biased"] is True
 
 
+def test_per_pixel_errors_are_reported_and_honest(room):
+    # Two independent simulations of one view: their per-pixel difference has variance
+    # se₁² + se₂², so the median of |d|/√(se₁² + se₂²) is that of |N(0, 1)|, 0.674, when the
+    # reported per-pixel errors are honest; the provenance states their median and 95th
+    # percentile (relative), which the field mean's error understates.
+    proj, pose = view_args(room)
+    maps = [render(simulate(room, samples=2048, seed=s), proj, **pose) for s in (11, 12)]
+    a, b = maps
+    sigma = np.hypot(a.uncertainty, b.uncertainty)
+    ok = np.isfinite(a.luminance) & (sigma > 0)  # (luminaires seen directly are exact: σ = 0)
+    assert ok.sum() > 150
+    z = np.abs(a.luminance[ok] - b.luminance[ok]) / sigma[ok]
+    # ~200 pixels give the median of |z| to ±0.056 (1σ: 0.5/(√n·2φ(0.674))), so ±3σ about
+    # 0.69, the median for Student's t with 15 degrees of freedom (errors from B = 16 batches)
+    assert 0.52 < np.median(z) < 0.86, np.median(z)
+    p = a.provenance
+    lit = np.isfinite(a.luminance) & (a.luminance > 0)
+    rel = a.uncertainty[lit] / a.luminance[lit]
+    assert math.isclose(p["pixel_relative_error_median"], np.median(rel), rel_tol=1e-6)
+    assert math.isclose(p["pixel_relative_error_p95"], np.percentile(rel, 95), rel_tol=1e-6)
+    assert p["pixel_relative_error_median"] > 5 * p["achieved_relative_error"]
+
+
 def test_target_error_is_reached(room):
     calls = []
     store = simulate(room, target_error=0.001, samples=256, seed=3,
