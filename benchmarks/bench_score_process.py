@@ -25,9 +25,9 @@ Usage::
         [--kernels auto,jit]
 
 ``--kernels`` compares the kernels' compilations (``LSADPHOTO_KERNELS``, see
-``lsadphoto._compiled``): ``auto`` (the default: ahead of time, numba's parallel code for the
-largest arrays), ``aot`` (ahead of time at every size) and ``jit`` (numba only, as every
-process ran before the ahead-of-time build); their runs interleave with evalglare's.
+``lsadphoto._compiled``): ``auto`` (the default: ahead of time) and ``jit`` (numba only, its
+parallel code, as every process ran before the ahead-of-time build); their runs interleave
+with evalglare's.
 
 Sizes above ``--large-mp`` megapixels run evalglare ``--evalglare-runs-large`` times (at
 24 MP one evalglare run takes about five minutes). The machine may be shared: the load
@@ -245,7 +245,7 @@ def main():
     parser.add_argument("--evalglare-runs-large", type=int, default=1)
     parser.add_argument("--stages", type=int, default=3, help="processes timed stage by stage")
     parser.add_argument("--kernels", default="auto",
-                        help="LSADPHOTO_KERNELS values to compare, comma-separated (auto, aot, jit)")
+                        help="LSADPHOTO_KERNELS values to compare, comma-separated (auto, jit)")
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:

@@ -16,13 +16,13 @@ twice:
   on one thread (numba's ahead-of-time compiler has no ``parallel``: a ``prange`` is a
   ``range``), with the host CPU's instruction set and each kernel's own error model;
 * **just in time** (``numba.njit`` with the same options, ``parallel`` included, cached by
-  numba) for a call whose arguments match none of the kernel's ``aot`` signatures, for
-  calls on arrays of :data:`PARALLEL_BYTES` and more (large pictures, where the threads can
-  pay for loading numba), and where the ahead-of-time build failed (no C compiler: the reason is kept in
-  ``build.failed`` in the cache folder).
+  numba) for a call whose arguments match none of the kernel's ``aot`` signatures, where the
+  ahead-of-time build failed (no C compiler: the reason is kept in ``build.failed`` in the
+  cache folder), and for every call with ``LSADPHOTO_KERNELS=jit``.
 
-``LSADPHOTO_KERNELS`` chooses: ``auto`` (default, as above), ``aot`` (ahead of time at every
-size where a signature matches) or ``jit`` (numba only).
+The ahead-of-time code runs at every size by default: on the 2 cores measured, numba's
+threads did not pay for loading numba even at 24 MP (docs/performance.md); on a machine
+with many cores ``LSADPHOTO_KERNELS=jit`` runs the kernels on all of them.
 
 The ahead-of-time functions do not check their arguments (a float32 array where float64 is
 compiled would be read as garbage), so each call is matched here against the declared
@@ -61,7 +61,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Kernel", "PARALLEL_BYTES", "intrinsic", "njit", "prange"]
+__all__ = ["Kernel", "intrinsic", "njit", "prange"]
 
 #: Modules whose kernels go into the ahead-of-time extension (their sources key the cache).
 MODULES = (
@@ -76,10 +76,6 @@ MODULES = (
 )
 #: Name of the extension module (its ``PyInit_`` symbol).
 EXTENSION = "_lsadphoto_kernels"
-#: Calls with an array argument of at least this many bytes run just in time, on numba's
-#: threads: the per-pixel directions (24 bytes a pixel) of a picture of 11 MP and more, where
-#: the threads can save more than loading numba costs (docs/performance.md).
-PARALLEL_BYTES = 1 << 28
 
 _KERNELS = []
 _STATE = {"numba": None, "library": None, "mode": os.environ.get("LSADPHOTO_KERNELS", "auto")}
@@ -176,11 +172,6 @@ def _matches(specs, args):
     return True
 
 
-def _largest_bytes(args):
-    """Size [bytes] of the largest array argument."""
-    return max((a.nbytes for a in args if isinstance(a, np.ndarray)), default=0)
-
-
 class Kernel:
     """A numba function compiled ahead of time (where an ``aot`` signature matches the
     call) or just in time (numba's dispatcher, made on first need)."""
@@ -221,10 +212,9 @@ class Kernel:
             library = _library() if self._specs else {}
             self._compiled = [(spec, library[name]) for spec, name in
                               zip(self._specs, self.export_names, strict=True) if name in library]
-        if self._compiled and (_STATE["mode"] == "aot" or _largest_bytes(args) < PARALLEL_BYTES):
-            for spec, function in self._compiled:
-                if _matches(spec, args):
-                    return function(*args)
+        for spec, function in self._compiled:
+            if _matches(spec, args):
+                return function(*args)
         return self.dispatcher(*args)
 
 
