@@ -29,11 +29,13 @@ compiled would be read as garbage), so each call is matched here against the dec
 signatures (dtype, dimensions, C order, alignment, scalar kinds) before it is handed over.
 Read-only flags are not compared: the signatures are compiled for writable arrays, and a
 kernel writes only to the output arrays its callers allocate (numba's typing, which does
-see the flag, refuses a kernel that writes to a read-only input). Old builds stay in the
-cache folder until deleted (about 1 MB each). A kernel's
-result does not depend on which compilation ran it: the kernels keep their parallel loops
-free of floating-point reductions across iterations, and neither compilation allows
-fast-math (tests/test_compiled.py compares the two).
+see the flag, refuses a kernel that writes to a read-only input). A kernel's result does
+not depend on which compilation ran it: the kernels keep their parallel loops free of
+floating-point reductions across iterations, and neither compilation allows fast-math
+(tests/test_compiled.py compares the two).
+
+Old builds stay in the cache folder until deleted (about 1 MB each); a failed build is not
+retried for the same key until its folder is deleted (e.g. after installing a C compiler).
 
 Kernel modules import :func:`njit`, :data:`prange` and :func:`intrinsic` from here instead of
 numba; once numba is needed, :func:`_numba` puts numba's own ``prange`` and intrinsics into
@@ -44,18 +46,18 @@ and inline helpers as plain numba functions do.
 References
 ----------
 numba documentation, "Compiling code ahead of time" (``numba.pycc``, pending deprecation
-since numba 0.57 with no replacement yet) and "Flexible specializations with
-``@generated_jit``/extending: ``_numba_type_``".
+since numba 0.57 with no replacement yet); numba 0.68 sources: ``numba/core/typing/typeof.py``
+(an object with a ``_numba_type_`` is typed by it), ``numba/core/untyped_passes.py``
+(``InlineInlinables`` reads a callee's ``targetoptions`` and ``py_func``),
+``numba/pycc/compiler.py`` (one ``Flags`` for every export, error model "python").
 """
 
 import hashlib
 import importlib
 import importlib.machinery
 import importlib.util
-import json
 import os
 import platform
-import subprocess
 import sys
 from pathlib import Path
 
@@ -324,6 +326,8 @@ def _build(folder):
             pass
         if _extension_path(folder).exists() or (folder / "build.failed").exists():
             return
+        import subprocess
+
         env = dict(os.environ, LSADPHOTO_KERNELS="jit")
         done = subprocess.run([sys.executable, "-m", __name__, str(folder)], env=env,
                               capture_output=True, text=True)
@@ -335,6 +339,7 @@ def _build(folder):
 def build_extension(folder):
     """Compile every kernel's ``aot`` signatures into the extension in ``folder`` (run in a
     child process with ``LSADPHOTO_KERNELS=jit``: it imports numba and its ``pycc``)."""
+    import json
     import tempfile
     import warnings
 
