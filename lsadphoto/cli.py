@@ -668,12 +668,10 @@ def cmd_survey(args):
 
 
 def _load_any_scene(path):
-    """Our TOML scene, or a Radiance scene (.rad) converted with 179 lm/W."""
-    from .solver import load_scene, read_radiance_scene
+    """Our TOML scene, or a Radiance scene (.rad): :func:`lsadphoto.solver.read_scene`."""
+    from .solver import read_scene
 
-    if Path(path).suffix.lower() == ".rad":
-        return read_radiance_scene(Path(path))
-    return load_scene(path)
+    return read_scene(path)
 
 
 def cmd_simulate(args):
@@ -727,7 +725,9 @@ def _render_pose(args, scene):
         if not args.size:
             raise BadInputError("--view needs --size WxH")
         width, height = _size(args.size)
-        view = parse_view(args.view, strict=True)
+        from .solver.formats.views import view_options
+
+        view = parse_view(view_options(args.view), strict=True)  # -vf files expanded
         if "vp" not in view:
             raise BadInputError(f"--view {args.view!r} gives no eye position (-vp X Y Z [m])")
         projection = projection_from_view(view, width, height)
@@ -1116,7 +1116,7 @@ def _build_parser():
     ren = sub.add_parser("render", help="render a luminance map of a view from a store or a scene")
     ren.add_argument("source", help="store (.npz) from 'simulate', or a scene (TOML or Radiance .rad)")
     ren.add_argument("--profile", help="camera profile (TOML) whose lens model is the projection")
-    ren.add_argument("--view", metavar="RADIANCE_VIEW", help='Radiance view, e.g. "-vta -vp 1 2 1.2 -vd 1 0 0 -vu 0 0 1 -vh 180 -vv 180"')
+    ren.add_argument("--view", metavar="RADIANCE_VIEW", help='Radiance view, e.g. "-vta -vp 1 2 1.2 -vd 1 0 0 -vu 0 0 1 -vh 180 -vv 180" or "-vf room.vf"')
     ren.add_argument("--view-name", help="a [[views]] entry of the scene (default: its first)")
     ren.add_argument("--size", metavar="WxH", help="image size (with --view; with --profile a binning of its size)")
     ren.add_argument("--position", metavar="X,Y,Z", help="eye position [m] (with --profile)")

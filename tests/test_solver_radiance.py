@@ -10,7 +10,7 @@ import pytest
 from lsadphoto.errors import BadInputError
 from lsadphoto.solver import render, simulate
 from lsadphoto.solver.examples import canonical_room, canonical_room_rad
-from lsadphoto.solver.radiance import read_radiance_scene
+from lsadphoto.solver.formats import read_radiance_scene
 
 #: The canonical room as a Radiance scene (the same file goes to our reader and to oconv).
 ROOM_RAD = canonical_room_rad()

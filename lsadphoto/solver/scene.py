@@ -1,11 +1,12 @@
-"""Scene model of the solver: Lambertian surfaces, luminaires and views, from TOML.
+"""Scene model of the solver: Lambertian surfaces, luminaires and views, and its TOML structure.
 
 A scene is a set of triangles (every shape is triangulated when it is read), each with a
 Lambertian reflectance and possibly a Lambertian emission, plus point-like luminaires with
 a luminous intensity distribution, plus named views. Lengths are in metres, flux in lumens,
 intensity in candelas, luminance in cd·m⁻². The TOML schema is declared in
 :data:`SCENE_SCHEMA` and documented in ``docs/user-guide-solver.md``;
-:func:`scene_from_dict` accepts the same structure as a Python ``dict``.
+:func:`scene_from_dict` accepts the same structure as a Python ``dict``. Files (TOML,
+Radiance) are read by :func:`lsadphoto.solver.formats.read_scene`.
 
 Surfaces reflect on both sides (the shading normal is turned towards the side a ray comes
 from); Lambertian luminaires emit from their front side only, the side towards which the
@@ -25,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._schema import ArrayOf, Key, MapOf, Table, Variants, read_toml, validate
+from .._schema import ArrayOf, Key, MapOf, Table, Variants, validate
 from ..errors import BadInputError, SolverWarning
 from ..geometry.base import Projection, projection_from_dict
 from ..geometry.observer import orthonormal_pair
@@ -37,8 +38,8 @@ __all__ = [
     "SCENE_SCHEMA",
     "Scene",
     "View",
+    "build_scene",
     "camera_to_world",
-    "load_scene",
     "polygon_triangles",
     "scene_from_dict",
 ]
@@ -146,7 +147,11 @@ def polygon_triangles(vertices, name="polygon"):
             cross = (a1[0] - a0[0]) * (a2[1] - a0[1]) - (a1[1] - a0[1]) * (a2[0] - a0[0])
             if cross <= 1e-14 * size * size:
                 continue  # reflex or collinear corner
-            others = [j for j in idx if j not in (i0, i1, i2)]
+            # other vertices inside the ear forbid it, except copies of its own corners (the
+            # two sides of a seam that joins a hole to the outline, as genprism and genbox -i write)
+            others = [j for j in idx if j not in (i0, i1, i2)
+                      and min(np.abs(xy[j] - a0).max(), np.abs(xy[j] - a1).max(),
+                              np.abs(xy[j] - a2).max()) > 1e-12 * size]
             if others and _points_in_triangle(xy[others], a0, a1, a2).any():
                 continue
             tris.append((i0, i1, i2))
@@ -475,30 +480,6 @@ SCENE_SCHEMA = Table({
 })
 
 
-def load_scene(path, *, photometry_reader=None):
-    """Read a scene from a TOML file checked against :data:`SCENE_SCHEMA` (documented in
-    ``docs/user-guide-solver.md``).
-
-    Relative file names inside (meshes, photometric files) are taken relative to the
-    TOML file's folder. Every problem with the file is reported as one
-    :class:`~lsadphoto.errors.BadInputError` naming the offending entry.
-
-    Parameters
-    ----------
-    path : str or Path
-        The TOML scene file.
-    photometry_reader : callable, optional
-        ``reader(path) -> Photometry`` for ``photometry = "file"`` luminaires; default
-        :func:`lsadphoto.solver.photometry.read_photometry`.
-
-    References
-    ----------
-    TOML v1.0.0, https://toml.io/en/v1.0.0.
-    """
-    data = read_toml(path, SCENE_SCHEMA, what="scene")
-    return _build_scene(data, base=Path(path).parent, photometry_reader=photometry_reader, source=str(path))
-
-
 def _shape_triangles(spec, ctx, base, material_of):
     """List of (triangles, material name) of one checked shape table."""
     kind = spec["type"]
@@ -587,13 +568,14 @@ def _projection(spec, ctx):
 
 def scene_from_dict(data, *, base=None, photometry_reader=None):
     """Build a :class:`Scene` from the TOML structure (a ``dict``), checked against
-    :data:`SCENE_SCHEMA`; see :func:`load_scene`."""
+    :data:`SCENE_SCHEMA`; see :func:`lsadphoto.solver.formats.load_scene`."""
     data = validate(data, SCENE_SCHEMA, source="scene")
-    return _build_scene(data, base=base, photometry_reader=photometry_reader, source="scene")
+    return build_scene(data, base=base, photometry_reader=photometry_reader, source="scene")
 
 
-def _build_scene(data, *, base, photometry_reader, source):
-    """The :class:`Scene` of a document that passed :data:`SCENE_SCHEMA`."""
+def build_scene(data, *, base, photometry_reader, source):
+    """The :class:`Scene` of a document that passed :data:`SCENE_SCHEMA` (relative file names
+    in it are taken relative to ``base``; ``source`` names the document in errors)."""
     try:
         return _build_checked(data, base, photometry_reader)
     except BadInputError as exc:

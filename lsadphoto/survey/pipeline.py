@@ -308,10 +308,10 @@ def _compare_with_model(task, photo, options):
     Returns the model map, the :class:`~lsadphoto.compare.Comparison` and its JSON record.
     """
     from ..compare import compare_maps
-    from ..solver import camera_to_world, load_scene, render, simulate
+    from ..solver import camera_to_world, read_scene, render, simulate
 
     spec = task["model"]
-    scene = load_scene(spec["scene"])
+    scene = read_scene(spec["scene"])
     store = simulate(scene, samples=spec["samples"], seed=spec["seed"])
     rotation = camera_to_world(spec["direction"], spec.get("up", [0.0, 0.0, 1.0]))
     model = render(store, photo.projection, position=spec["position"], rotation=rotation,
