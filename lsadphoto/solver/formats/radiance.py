@@ -377,7 +377,9 @@ class _Reader:
             try:
                 reals = tuple(float(x) for x in args[2])
             except ValueError:
-                raise BadInputError(f"{where}: {ptype} {ident!r}: real arguments must be numbers") from None
+                word = next(x for x in args[2] if not _is_number(x))
+                raise BadInputError(f"{where}: {ptype} {ident!r}: real argument {word!r} is not a number "
+                                    "(too few arguments for the count given?)") from None
             if not all(math.isfinite(r) for r in reals):
                 raise BadInputError(f"{where}: {ptype} {ident!r}: real arguments must be finite")
             if ptype in _SURFACES or ptype in _REFUSED_SURFACES:
@@ -432,7 +434,9 @@ class _Reader:
                     f"{material.reals[3]:g}: Radiance then lights only nearby (or, if negative, no) surfaces, "
                     "which no physical emitter does; use 0 (lights everything) or a light")
             if patterns:
-                self.patterned_emitter(material, patterns, tris, ident, where, what)
+                # a sphere's projected area is πr² in every direction: kept exact, not tessellated
+                disc = math.pi * (reals[3] * transform.scale) ** 2 if ptype == "sphere" else None
+                self.patterned_emitter(material, patterns, tris, disc, ident, where, what)
                 return
             if luminance <= 0:
                 self.add(tris, None, -1)
@@ -505,7 +509,7 @@ class _Reader:
         except BadInputError as exc:
             raise BadInputError(f"{name}: {exc}") from None
 
-    def patterned_emitter(self, light, patterns, tris, ident, where, what):
+    def patterned_emitter(self, light, patterns, tris, disc, ident, where, what):
         pattern = patterns[0]
         if pattern.kind != "brightdata" or len(patterns) > 1:
             raise BadInputError(
@@ -514,7 +518,7 @@ class _Reader:
         key = id(pattern)
         if key not in self.luminaire_parts:
             self.luminaire_parts[key] = (pattern, [])
-        self.luminaire_parts[key][1].append((light, tris, ident, where))
+        self.luminaire_parts[key][1].append((light, tris, disc, ident))
 
     # commands
     def command(self, text, where, transform, override, prefix, depth):
@@ -562,7 +566,8 @@ class _Reader:
                 raise BadInputError(f"{where}: !{text}: {stage[0]!r} is not one of the Radiance programs "
                                     f"that pyradiance ships ({folder})")
             try:
-                done = subprocess.run([str(program), *stage[1:]], input=data, capture_output=True,
+                done = subprocess.run([str(program), *stage[1:]], input=data if data is not None else b"",
+                                      capture_output=True,
                                       cwd=self.base, env=env, timeout=max(0.001, deadline - time.monotonic()))
             except subprocess.TimeoutExpired:
                 raise BadInputError(f"{where}: !{text}: did not finish within {self.timeout:g} s "
@@ -591,6 +596,8 @@ class _Reader:
                 k += 1
             elif w in TRANSFORM_WORDS:
                 n = TRANSFORM_WORDS[w]
+                if len(args) < k + 1 + n or not all(_is_number(v) for v in args[k + 1:k + 1 + n]):
+                    raise BadInputError(f"{where}: !{text}: {w} needs {n} number(s)")
                 words.extend(args[k:k + 1 + n])
                 k += 1 + n
             elif w.startswith("-") and len(w) > 1:
@@ -653,10 +660,16 @@ class _Reader:
                                 f"{len(coords)} coordinates")
         xf = pattern.transform
         tris = np.concatenate([t for _, t, _, _ in parts])
-        luminance = np.concatenate([np.full(len(t), lt.emitted_luminance()) for lt, t, _, _ in parts])
-        normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])  # 2·area·n
+        facets = [(lt, t) for lt, t, disc, _ in parts if disc is None]  # projected area from triangles
+        spheres = sum(lt.emitted_luminance() * disc for lt, _, disc, _ in parts if disc is not None)
+        if facets:
+            normals = np.concatenate([t for _, t in facets])
+            normals = np.cross(normals[:, 1] - normals[:, 0], normals[:, 2] - normals[:, 0])  # 2·area·n
+            luminance = np.concatenate([np.full(len(t), lt.emitted_luminance()) for lt, t in facets])
+        else:
+            normals, luminance = np.zeros((0, 3)), np.zeros(0)
         flat = function == "flatcorr"
-        area = _areas(tris)
+        area = 0.5 * np.linalg.norm(normals, axis=1)
         nadir = xf.vector([0.0, 0.0, -1.0])
         frame = luminaire_frame(nadir, xf.vector([1.0, 0.0, 0.0]))
 
@@ -682,7 +695,7 @@ class _Reader:
             for k in range(0, len(flat_world), 2048):
                 cosines = flat_world[k:k + 2048] @ normals.T * 0.5  # area · cos per triangle
                 weights = np.where(cosines > 0, area if flat else cosines, 0.0)
-                out[k:k + 2048] = weights @ luminance
+                out[k:k + 2048] = weights @ luminance + spheres
             return out.reshape(world.shape[:-1])
 
         gamma = np.radians(_angle_grid(180.0, 1.0, [table.axes[k] for k, n in enumerate(coords)
@@ -702,12 +715,22 @@ class _Reader:
         pts = tris.reshape(-1, 3) - centroid
         u, v = pts @ frame[0], pts @ frame[1]
         length, width = float(np.ptp(u)), float(np.ptp(v))
-        down = float(np.maximum(0.0, normals @ frame[2]).sum() * 0.5)  # projected area towards the nadir
+        # projected area towards the nadir
+        down = float(np.maximum(0.0, normals @ frame[2]).sum() * 0.5) + sum(
+            disc for _, _, disc, _ in parts if disc is not None)
         if down > 0 and length * width > 0:  # a rectangle of the projected area towards the nadir
             scale = math.sqrt(down / (length * width))
             length, width = length * scale, width * scale
-        name = parts[0][2].rsplit(".", 1)[0] if len(parts) > 1 else parts[0][2]
+        name = parts[0][3].rsplit(".", 1)[0] if len(parts) > 1 else parts[0][3]
         return PointLuminaire(name, centroid, itable, frame, (length, width), 1.0)
+
+
+def _is_number(word):
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True
 
 
 def _phi_nodes(axis, name):
