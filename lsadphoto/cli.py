@@ -7,6 +7,7 @@ Every error lsadphoto raises on purpose becomes one line on stderr and a non-zer
 import argparse
 import gc
 import json
+import math
 import os
 import sys
 import warnings
@@ -402,6 +403,13 @@ def _format(value, digits=3):
     return "—" if value is None else f"{value:.{digits}f}"
 
 
+def _percent(fraction):
+    """A relative error as a percentage to 2 significant digits ("—" where undefined)."""
+    if fraction is None or not math.isfinite(fraction):
+        return "—"
+    return f"{100 * fraction:.2g} %"
+
+
 def cmd_score(args):
     from .io import read_map
     from .metrics.score import score_map
@@ -705,7 +713,7 @@ def cmd_simulate(args):
 
 def _build_cache(store, args):
     from ._progress import progress_callback
-    from .solver.surface_cache import build_surface_cache
+    from .solver.integrators.surface_cache import build_surface_cache
 
     callback, close = progress_callback("surface cache", enabled=False if args.quiet else None)
     try:
@@ -810,7 +818,7 @@ def cmd_render(args):
             raise BadInputError(f"--nodes-per-pixel must be a positive integer, 'all' or 'auto', got {nodes!r}") from None
     if args.estimator == "cache":
         from .solver import simulate
-        from .solver.surface_cache import render_cached
+        from .solver.integrators.surface_cache import render_cached
 
         store = store_or_scene
         if not isinstance(store, LsadStore):
@@ -838,9 +846,12 @@ def cmd_render(args):
     else:
         p = lmap.provenance
         print(f"wrote {args.output}: {projection.width}×{projection.height} px, field-mean luminance "
-              f"{_format(p.get('field_mean_luminance'), 4)} cd/m², relative Monte Carlo error "
-              f"{_format(p.get('achieved_relative_error'), 4)}"
-              f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}")
+              f"{_format(p.get('field_mean_luminance'), 4)} cd/m² (relative Monte Carlo error "
+              f"{_percent(p.get('achieved_relative_error'))}); per-pixel relative error: median "
+              f"{_percent(p.get('pixel_relative_error_median'))}, 95th percentile "
+              f"{_percent(p.get('pixel_relative_error_p95'))}"
+              f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}"
+              f"{' — plus the cache interpolation bias' if p.get('interpolation_bias') else ''}")
     return 0
 
 
@@ -1104,7 +1115,7 @@ def _build_parser():
     sim.add_argument("--target-error", type=float,
                      help="stop at this relative standard error of the scene's mean luminance (e.g. 0.01)")
     sim.add_argument("--seed", type=int, default=0)
-    sim.add_argument("--near-field", choices=_Choices("lsadphoto.solver.rendering", "NEAR_FIELD_TREATMENTS"),
+    sim.add_argument("--near-field", choices=_Choices("lsadphoto.solver.integrators.local_estimate", "NEAR_FIELD_TREATMENTS"),
                      help="near-field treatment (default: the first; clamp is biased and reported as such)")
     _add_cache_options(sim)
     sim.add_argument("--surface-cache", action="store_true",

@@ -15,7 +15,7 @@ from lsadphoto.solver import (
 )
 from lsadphoto.solver.chains import trace_chains
 from lsadphoto.solver.examples import canonical_room
-from lsadphoto.solver.rendering import _engine_for
+from lsadphoto.solver.engine import engine_for
 
 NODE_FIELDS = ("position", "normal", "coefficient", "kind", "luminaire", "batch", "depth", "triangle")
 
@@ -50,7 +50,7 @@ def test_chunk_size_does_not_change_a_render(room, nodes_per_pixel):
 
 
 def test_simulation_in_rounds_equals_one_run(room):
-    engine = _engine_for(room)
+    engine = engine_for(room)
     whole = trace_chains(room, engine, seed=5, first_block=0, blocks=4, batches=16)
     part = trace_chains(room, engine, seed=5, first_block=0, blocks=1, batches=16)
     part.extend(trace_chains(room, engine, seed=5, first_block=1, blocks=3, batches=16))
@@ -104,6 +104,29 @@ def test_render_provenance_and_errors(room, store):
     assert np.all(np.isnan(lmap.luminance[~valid]))  # outside the fisheye circle
     clamp = render(store, proj, **pose, near_field="clamp")
     assert clamp.provenance["near_field_biased"] is True
+
+
+def test_per_pixel_errors_are_reported_and_honest(room):
+    # Two independent simulations of one view: their per-pixel difference has variance
+    # se₁² + se₂², so the median of |d|/√(se₁² + se₂²) is that of |N(0, 1)|, 0.674, when the
+    # reported per-pixel errors are honest; the provenance states their median and 95th
+    # percentile (relative), which the field mean's error understates.
+    proj, pose = view_args(room)
+    maps = [render(simulate(room, samples=2048, seed=s), proj, **pose) for s in (11, 12)]
+    a, b = maps
+    sigma = np.hypot(a.uncertainty, b.uncertainty)
+    ok = np.isfinite(a.luminance) & (sigma > 0)  # (luminaires seen directly are exact: σ = 0)
+    assert ok.sum() > 150
+    z = np.abs(a.luminance[ok] - b.luminance[ok]) / sigma[ok]
+    # ~200 pixels give the median of |z| to ±0.056 (1σ: 0.5/(√n·2φ(0.674))), so ±3σ about
+    # 0.69, the median for Student's t with 15 degrees of freedom (errors from B = 16 batches)
+    assert 0.52 < np.median(z) < 0.86, np.median(z)
+    p = a.provenance
+    lit = np.isfinite(a.luminance) & (a.luminance > 0)
+    rel = a.uncertainty[lit] / a.luminance[lit]
+    assert math.isclose(p["pixel_relative_error_median"], np.median(rel), rel_tol=1e-6)
+    assert math.isclose(p["pixel_relative_error_p95"], np.percentile(rel, 95), rel_tol=1e-6)
+    assert p["pixel_relative_error_median"] > 5 * p["achieved_relative_error"]
 
 
 def test_target_error_is_reached(room):
@@ -193,7 +216,7 @@ def test_worker_threads_do_not_change_results(room):
 
 
 def test_auto_gather_chooses_by_cost(room, store, monkeypatch):
-    import lsadphoto.solver.rendering as render_module
+    import lsadphoto.solver.integrators.local_estimate as render_module
 
     proj, pose = view_args(room)
     assert render(store, proj, **pose).provenance["nodes_per_pixel"] == "all"
