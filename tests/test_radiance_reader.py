@@ -119,6 +119,23 @@ def test_internal_xform_equals_radiance_xform(tmp_path):
     assert np.allclose(ours.normals, theirs.normals, atol=1e-9)
 
 
+@pytest.mark.realdata
+def test_a_mesh_is_read_from_its_obj_source_as_radiance_s_obj2rad_reads_it():
+    # Peer: Radiance's obj2rad on the same real OBJ (Radiance's cab.obj, 124 faces), its
+    # polygons read by this reader; the mesh path reads the OBJ with trimesh. Same triangles'
+    # area to rounding, and the mesh's transform words (-s 2 -t …) scale it by s² = 4.
+    obj = realdata("radiance/renders/cab.obj")
+    text = subprocess.run([radiance_tool("obj2rad"), str(obj)], capture_output=True, text=True,
+                          check=True).stdout
+    mods = sorted({line.split()[0] for line in text.splitlines() if " polygon " in line})
+    head = "".join(f"void plastic {m} 0 0 5 .5 .5 .5 0 0\n" for m in mods)
+    lamp = "lamp polygon p 0 0 12 0 0 99 1 0 99 1 1 99 0 1 99\n"
+    polygons = read_radiance_scene(GREY + head + text + lamp)
+    mesh = read_radiance_scene(GREY + f"grey mesh cab 7 {obj.with_suffix('.rtm')} -s 2 -t 1 0 0\n0\n0\n" + lamp)
+    passive = [s.areas[s.emitter < 0].sum() for s in (polygons, mesh)]
+    assert passive[1] == pytest.approx(4 * passive[0], rel=1e-12)
+
+
 # --- luminaires from ies2rad and Radiance's own fixture ----------------------------------------
 
 def _ies2rad(tmp_path, ies):
@@ -208,7 +225,7 @@ REFUSALS = [
     ("grey polygon p 0 0 12 0 0 0 1 0 0 1 1 0.2 0 1 0\n", r"scene.rad:3: polygon 'p': vertices are not coplanar"),
     ("nothing polygon p 0 0 9 0 0 0 1 0 0 0 1 0\n", r"scene.rad:3: polygon 'p': modifier 'nothing' is not defined"),
     ("void source sun 0 0 4 0 0 1 .5\n", r"scene.rad:3: source 'sun': a distant source"),
-    ("void mesh m 1 m.rtm 0 0\n", r"scene.rad:3: mesh 'm': compiled meshes"),
+    ("void mesh m 1 m.rtm 0 0\n", r"scene.rad:3: mesh 'm': m.rtm is a compiled \(binary\) mesh and its source m.obj"),
     ("void instance i 1 i.oct 0 0\n", r"scene.rad:3: instance 'i': octree instances"),
     ("void brightdata d 5 flatcorr none.dat source.cal src_phi src_theta 0 0\nd light l 0 0 3 1 1 1\n"
      "l polygon p 0 0 12 0 0 1 1 0 1 1 1 1 0 1 1\n", r"scene.rad:3: brightdata 'd': data file none.dat not found"),

@@ -35,10 +35,11 @@ What is read, as Radiance reads it:
   ``xform`` is applied here (its files are read by this reader, so their lines are named in
   errors; transforms ``-t -rx -ry -rz -s -mx -my -mz -a -i``, ``-n``, ``-m``).
 
-Everything else is refused with one line (:class:`~lsadphoto.errors.BadInputError`) naming
-the file, the line, the primitive or modifier: distant ``source``\\ s, ``instance`` and
-``mesh`` (their octrees and compiled meshes are binary files; give the geometry as text or
-through ``!obj2rad``), patterns and textures on materials, other functions or ``.cal``
+A ``mesh`` is read from the OBJ it was compiled from (``name.obj`` beside ``name.rtm``,
+through trimesh; one modifier for all faces). Everything else is refused with one line
+(:class:`~lsadphoto.errors.BadInputError`) naming the file, the line, the primitive or
+modifier: distant ``source``\\ s, ``instance`` (octrees are binary), compiled meshes
+without their OBJ (or with per-face ``usemtl``: use ``!obj2rad``), patterns and textures on materials, other functions or ``.cal``
 files. Colour is reduced to luminance with Radiance's own RGB weights (those of its
 primaries, ``color.h``), the weights the photo pipeline uses for Radiance pictures
 (:mod:`lsadphoto.io.hdr`), so a model's luminance is what Radiance's ``pvalue`` would give
@@ -83,7 +84,6 @@ _SURFACES = {"polygon", "sphere", "bubble", "cone", "cup", "cylinder", "tube", "
 _REFUSED_SURFACES = {
     "source": "a distant source (sun or sky) is not supported",
     "instance": "octree instances are binary files; give the geometry as Radiance text",
-    "mesh": "compiled meshes (.rtm) are binary files; read the OBJ with '!obj2rad file.obj' instead",
 }
 _MATERIALS = {"plastic", "metal", "trans", "plastic2", "metal2", "trans2", "glass", "dielectric",
               "interface", "mirror", "light", "glow", "illum", "spotlight", "mist", "prism1", "prism2",
@@ -382,7 +382,9 @@ class _Reader:
                                     "(too few arguments for the count given?)") from None
             if not all(math.isfinite(r) for r in reals):
                 raise BadInputError(f"{where}: {ptype} {ident!r}: real arguments must be finite")
-            if ptype in _SURFACES or ptype in _REFUSED_SURFACES:
+            if ptype == "mesh":
+                self.mesh(override or modifier, prefix + ident, args[0], where, transform, folder)
+            elif ptype in _SURFACES or ptype in _REFUSED_SURFACES:
                 self.surface(override or modifier, ptype, prefix + ident, reals, where, transform)
             elif ptype in _MATERIALS or ptype in _PATTERNS:
                 self.define(modifier, ptype, ident, tuple(args[0]), reals, where, transform)
@@ -425,6 +427,11 @@ class _Reader:
         if ptype in _REFUSED_SURFACES:
             raise BadInputError(f"{where}: {what}: {_REFUSED_SURFACES[ptype]}")
         tris = self.tessellate(ptype, what, reals, where, transform)
+        self.place(modifier, ident, ptype, reals, tris, where, transform)
+
+    def place(self, modifier, ident, ptype, reals, tris, where, transform):
+        """Add a surface's triangles with the material (or emission) its modifier gives."""
+        what = f"{ptype} {ident!r}"
         material, patterns = self.material_of(self.resolve(modifier, where, what), where, what)
         if material.kind in ("light", "glow"):
             luminance = material.emitted_luminance()
@@ -459,6 +466,40 @@ class _Reader:
             self.add(tris, material, -1)
         except BadInputError as exc:
             raise BadInputError(f"{where}: {what} uses {exc}") from None
+
+    def mesh(self, modifier, ident, strings, where, transform, folder):
+        """A ``mesh`` from the OBJ file it was compiled from (``name.obj`` beside ``name.rtm``),
+        with the mesh's transform words and its modifier on every face."""
+        what = f"mesh {ident!r}"
+        if not strings:
+            raise BadInputError(f"{where}: {what} names no mesh file")
+        compiled = Path(strings[0])
+        if len(strings) > 1:
+            transform = transform @ parse_transform(strings[1:], f"{where}: {what}")[0][1]
+        source = next((f / compiled.with_suffix(".obj") for f in (folder, self.base)
+                       if (f / compiled.with_suffix(".obj")).is_file()), None)
+        if source is None:
+            raise BadInputError(f"{where}: {what}: {compiled.name} is a compiled (binary) mesh and its source "
+                                f"{compiled.with_suffix('.obj').name} is not beside it; give the OBJ "
+                                "(read from its source) or '!obj2rad file.obj'")
+        text = source.read_text(encoding="utf-8", errors="replace")
+        if any(line.split()[:1] == ["usemtl"] for line in text.splitlines()):
+            raise BadInputError(f"{where}: {what}: {source.name} assigns materials per face (usemtl); "
+                                "read it with '!obj2rad' and define those modifiers")
+        import trimesh
+
+        try:
+            mesh = trimesh.load(source, force="mesh", process=False)
+        except Exception as exc:  # noqa: BLE001 - trimesh raises many kinds; report in one line
+            raise BadInputError(f"{where}: {what}: cannot read {source} ({exc})") from None
+        tris = np.asarray(mesh.triangles, float)
+        tris = tris[_areas(tris) > 0]  # meshes often carry slivers
+        if tris.size == 0:
+            raise BadInputError(f"{where}: {what}: {source} has no triangles")
+        tris = transform.point(tris)
+        if transform.mirrored:
+            tris = tris[:, ::-1]
+        self.place(modifier, ident, "mesh", None, tris, where, transform)
 
     @staticmethod
     def material_of(record, where, what):
