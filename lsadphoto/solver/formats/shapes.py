@@ -8,7 +8,7 @@ pushed out radially by the factor that makes the tessellated **area equal to the
 area** (to rounding). So fluxes of emitting surfaces and the reflecting area are exact, and
 the surface lies within about ε·r of the true one; a projected area (the solid angle a
 shape subtends, seen from afar) therefore differs from the exact one by a relative amount
-of order ε (measured in ``tests/test_radiance_shapes.py`` over 200 directions: at most
+of order ε (measured in ``tests/test_radiance_reader.py`` over 200 directions: at most
 0.7 ε for spheres and 0.2 ε for cylinders; exact for rings).
 
 Every function returns triangles ``(k, 3, 3)`` [m] wound counter-clockwise seen from the
