@@ -121,7 +121,7 @@ def radiance_programs():
     return folder if folder.is_dir() else None
 
 
-@dataclass
+@dataclass(eq=False)  # identity: two definitions with equal words are still two modifiers
 class RadianceMaterial:
     """A Radiance modifier (material or pattern) as read from a scene file.
 
@@ -226,8 +226,8 @@ def _tokens(text, source):
         line = _strip_comment(line)
         if not line.strip():
             continue
-        try:
-            words = shlex.split(line, posix=True)
+        try:  # quotes (ies2rad writes 'names') need shlex; plain lines split faster
+            words = shlex.split(line, posix=True) if "'" in line or '"' in line else line.split()
         except ValueError as exc:
             raise BadInputError(f"{source}:{number}: cannot read this line ({exc})") from None
         out.extend(("word", w, number) for w in words)
@@ -317,13 +317,14 @@ class _Reader:
         self.timeout = command_timeout
         self.defs = {}
         self.triangles, self.material, self.emitter = [], [], []
+        self.count = 0  # triangles so far
         self.names, self.rho, self.index = [], [], {}
         self.area_luminaires, self.luminaire_parts = [], {}
-        self.folder_of = {}  # id(pattern) -> folder of the file that defined it
+        self.folder_of = {}  # definition -> folder of the file that defined it
 
     # the scene's materials (reflectance) by record
     def _material_index(self, record):
-        key = id(record) if record is not None else "black"
+        key = record if record is not None else "black"
         if key not in self.index:
             if record is None:
                 name, rho = "black", 0.0
@@ -388,7 +389,7 @@ class _Reader:
                 self.surface(override or modifier, ptype, prefix + ident, reals, where, transform)
             elif ptype in _MATERIALS or ptype in _PATTERNS:
                 self.define(modifier, ptype, ident, tuple(args[0]), reals, where, transform)
-                self.folder_of[id(self.defs[ident])] = folder
+                self.folder_of[self.defs[ident]] = folder
             else:
                 raise BadInputError(f"{where}: unknown primitive type {ptype!r} ({modifier} {ptype} {ident})")
 
@@ -409,6 +410,7 @@ class _Reader:
         if modifier != "void":
             new.modifier = self.resolve(modifier, where, f"alias {ident!r}")
         self.defs[ident] = new
+        self.folder_of[new] = self.folder_of.get(record, self.base)
 
     def define(self, modifier, ptype, ident, strings, reals, where, transform):
         record = RadianceMaterial(ptype, ident, self.resolve(modifier, where, f"{ptype} {ident!r}"),
@@ -450,7 +452,7 @@ class _Reader:
                 return
             area = float(_areas(tris).sum())
             k = len(self.area_luminaires)
-            first = sum(len(t) for t in self.triangles)
+            first = self.count
             self.add(tris, None, k)
             self.area_luminaires.append(AreaLuminaire(ident, math.pi * area * luminance,
                                                       np.arange(first, first + len(tris))))
@@ -519,6 +521,7 @@ class _Reader:
 
     def add(self, tris, material, emitter):
         self.triangles.append(tris)
+        self.count += len(tris)
         self.material.append(np.full(len(tris), self._material_index(material)))
         self.emitter.append(np.full(len(tris), emitter))
 
@@ -556,10 +559,7 @@ class _Reader:
             raise BadInputError(
                 f"{where}: {what}: {light.describe()} is modified by {pattern.describe()}; only the "
                 "brightdata patterns of source.cal that ies2rad writes are supported")
-        key = id(pattern)
-        if key not in self.luminaire_parts:
-            self.luminaire_parts[key] = (pattern, [])
-        self.luminaire_parts[key][1].append((light, tris, disc, ident))
+        self.luminaire_parts.setdefault(pattern, []).append((light, tris, disc, ident))
 
     # commands
     def command(self, text, where, transform, override, prefix, depth):
@@ -669,7 +669,7 @@ class _Reader:
     # brightdata luminaires
     def luminaires(self):
         out = []
-        for pattern, parts in self.luminaire_parts.values():
+        for pattern, parts in self.luminaire_parts.items():
             out.append(self.luminaire(pattern, parts))
         return out
 
@@ -690,7 +690,7 @@ class _Reader:
         a = pattern.reals
         if not low <= len(a) <= high:
             raise BadInputError(f"{where}: {function} takes {low}–{high} real arguments, got {len(a)}")
-        folders = [self.folder_of.get(id(pattern), self.base), self.base]
+        folders = [self.folder_of.get(pattern, self.base), self.base]
         path = next((f / datafile for f in folders if (f / datafile).is_file()), None)
         if path is None:
             raise BadInputError(f"{where}: data file {datafile} not found "
