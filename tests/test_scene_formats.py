@@ -79,3 +79,23 @@ def test_cli_renders_a_radiance_scene_through_a_view_file(tmp_path):
     assert proc.returncode == 0, proc.stderr
     pose = read_exr(tmp_path / "m.exr").provenance["view_pose"]
     assert pose["vp"] == [1.0, 2.0, 1.2] and np.allclose(pose["vd"], [1, 0, 0])
+
+
+@pytest.mark.parametrize("specularity, message", [("0", None), (".05", "specularity 0.05")])
+def test_survey_manifest_reads_radiance_models_through_read_scene(tmp_path, specularity, message):
+    # The survey checks a view's model when the manifest is read (one line naming the view
+    # and the field); a Radiance model is read there by the same read_scene.
+    from lsadphoto.survey import load_manifest
+    from .test_survey import MANIFEST, make_survey
+
+    path = make_survey(tmp_path, MANIFEST.replace('scene = "model.toml"', 'scene = "model.rad"', 1))
+    room = canonical_room_rad().replace("0 0 5 0.5 0.5 0.5 0 0", f"0 0 5 0.5 0.5 0.5 {specularity} 0", 1)
+    assert room != canonical_room_rad() or specularity == "0"
+    (path.parent / "model.rad").write_text(room)
+    if message is None:
+        load_manifest(path)
+        return
+    with pytest.raises(BadInputError) as info:
+        load_manifest(path)
+    assert "\n" not in str(info.value)
+    assert "view 'single': model.scene: " in str(info.value) and message in str(info.value)
