@@ -132,6 +132,11 @@ def polygon_triangles(vertices, name="polygon"):
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(normal, e1)
     xy = np.stack([pts @ e1, pts @ e2], axis=1)
+    edges = np.roll(xy, -1, axis=0) - xy
+    turns = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
+    if np.all(turns > 1e-14 * size * size):  # strictly convex: a fan, no clipping needed
+        k = np.arange(1, len(pts) - 1)
+        return pts[np.stack([np.zeros_like(k), k, k + 1], axis=1)]
     idx = list(range(len(pts)))
     tris = []
     guard = 0
