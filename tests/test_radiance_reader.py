@@ -175,6 +175,12 @@ def test_ies2rad_luminaire_placed_by_xform_has_the_ies_intensities(tmp_path, ies
     expected = phot.intensity(cc, gg)
     assert np.allclose(lum.intensity(world), expected, rtol=1e-4, atol=1e-4 * expected.max())
     assert lum.flux == pytest.approx(phot.luminous_flux, rel=2e-3)  # both bilinear; grids differ
+    # an array of three, as xform -a makes it: three luminaires, each the file's
+    (tmp_path / "row.rad").write_text(GREY + FLOOR.replace(" 0  ", " -3  ").replace(" 0\n", " -3\n")
+                                      + f"!xform -a 3 -t 1.5 0 0 -i 1 -t 0 0 2.5 {stem}.rad\n")
+    row = read_scene(tmp_path / "row.rad").point_luminaires
+    assert [lm.position.round(3).tolist() for lm in row] == [[0, 0, 2.5], [1.5, 0, 2.5], [3, 0, 2.5]]
+    assert [lm.flux for lm in row] == pytest.approx([lum.flux] * 3, rel=1e-12)
 
 
 @pytest.mark.realdata
