@@ -134,9 +134,13 @@ def polygon_triangles(vertices, name="polygon"):
     xy = np.stack([pts @ e1, pts @ e2], axis=1)
     edges = np.roll(xy, -1, axis=0) - xy
     turns = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
-    if np.all(turns > 1e-14 * size * size):  # strictly convex: a fan, no clipping needed
-        k = np.arange(1, len(pts) - 1)
-        return pts[np.stack([np.zeros_like(k), k, k + 1], axis=1)]
+    if np.all(turns > 1e-14 * size * size):
+        # strictly convex: the triangles ear clipping below makes, (n−1, j, j+1) and last
+        # (n−3, n−2, n−1), without its search (same order, so the same random streams)
+        n = len(pts)
+        j = np.arange(n - 3)
+        fan = np.stack([np.full_like(j, n - 1), j, j + 1], axis=1)
+        return pts[np.concatenate([fan, [[n - 3, n - 2, n - 1]]])]
     idx = list(range(len(pts)))
     tris = []
     guard = 0
