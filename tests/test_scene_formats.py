@@ -25,6 +25,12 @@ def test_read_scene_dispatches_on_the_file_ending(tmp_path):
     # the same room written in both formats (solver.examples): same flux and surface areas
     assert rad.total_flux == pytest.approx(toml.total_flux, rel=1e-12)
     assert rad.areas.sum() == pytest.approx(toml.areas.sum(), rel=1e-12)
+    # views given as [[views]] tables (the TOML structure) or as View objects, in that order
+    table = {"name": "t", "position": [1, 2, 1.2], "line_of_sight": [1, 0, 0]}
+    view = read_view("-vta -vp 1 2 1.2 -vd 1 0 0 -vh 180 -vv 180", 8, 8, name="v")
+    both = read_scene(tmp_path / "room.rad", views=[table, view])
+    assert [v.name for v in both.views] == ["v", "t"]
+    assert np.allclose(both.views[0].rotation, both.views[1].rotation)
 
 
 @pytest.mark.parametrize("name, options, message", [

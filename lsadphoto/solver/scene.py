@@ -38,6 +38,7 @@ __all__ = [
     "SCENE_SCHEMA",
     "Scene",
     "View",
+    "as_views",
     "build_scene",
     "camera_to_world",
     "polygon_triangles",
@@ -660,15 +661,7 @@ def _build_checked(data, base, photometry_reader):
             if "extent" in spec:
                 extent = tuple(spec["extent"])
             point_lums.append(PointLuminaire(lname, position, table, frame, extent, spec["multiplier"]))
-    views = []
-    for k, spec in enumerate(data.get("views", [])):
-        ctx = f"views[{k}]"
-        try:
-            rotation = camera_to_world(spec["line_of_sight"], spec["up"])
-        except BadInputError as exc:
-            raise BadInputError(f"{ctx}: {exc}") from None
-        views.append(View(spec.get("name", f"view{k}"), np.asarray(spec["position"], float), rotation,
-                          _projection(spec.get("projection", {}), ctx)))
+    views = _views(data.get("views", []))
     if not tri_list:
         raise BadInputError("scene has no surfaces")
     if not area_lums and not point_lums:
@@ -676,6 +669,29 @@ def _build_checked(data, base, photometry_reader):
     return Scene(np.concatenate(tri_list), np.concatenate(mat_list), names, np.asarray(rho),
                  np.concatenate(emit_list), area_lums, point_lums, views, name=name,
                  source=data)
+
+
+def _views(specs):
+    views = []
+    for k, spec in enumerate(specs):
+        ctx = f"views[{k}]"
+        try:
+            rotation = camera_to_world(spec["line_of_sight"], spec["up"])
+        except BadInputError as exc:
+            raise BadInputError(f"{ctx}: {exc}") from None
+        views.append(View(spec.get("name", f"view{k}"), np.asarray(spec["position"], float), rotation,
+                          _projection(spec.get("projection", {}), ctx)))
+    return views
+
+
+def as_views(items):
+    """:class:`View`\\ s of a list of views and ``[[views]]`` tables (the TOML structure,
+    checked against :data:`SCENE_SCHEMA`), e.g. to add views to a scene read from another
+    format; views are kept, tables built, in that order."""
+    items = list(items or [])
+    tables = [v for v in items if not isinstance(v, View)]
+    built = _views(validate({"views": tables}, SCENE_SCHEMA, source="views")["views"]) if tables else []
+    return [v for v in items if isinstance(v, View)] + built
 
 
 def _photometry_table(file, ctx, base, reader):

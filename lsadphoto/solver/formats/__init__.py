@@ -15,6 +15,7 @@ with Radiance*, Morgan Kaufmann.
 from pathlib import Path
 
 from ...errors import BadInputError
+from ..scene import as_views
 from .radiance import read_radiance_scene
 from .toml import load_scene
 from .views import read_view
@@ -33,8 +34,9 @@ def read_scene(path, *, views=None, **radiance_options):
     path : str or Path
         A TOML scene (``.toml``) or a Radiance scene (``.rad``). A bare mesh (``.obj``, …) is
         refused with a line saying how to use it: it has neither materials nor luminaires.
-    views : list of View, optional
-        Views added to the scene's own (TOML ``[[views]]``).
+    views : list of View or dict, optional
+        Views added to the scene's own: :class:`~lsadphoto.solver.View`\\ s or ``[[views]]``
+        tables of the TOML structure.
     **radiance_options
         ``tessellation_error``, ``command_timeout`` of :func:`read_radiance_scene` (Radiance
         scenes only).
@@ -54,7 +56,7 @@ def read_scene(path, *, views=None, **radiance_options):
         raise BadInputError(f"{path}: {', '.join(radiance_options)} apply to Radiance scenes (.rad) only")
     if suffix == ".toml":
         scene = load_scene(path)
-        scene.views.extend(views or [])
+        scene.views.extend(as_views(views))
         return scene
     if suffix in MESH_SUFFIXES:
         raise BadInputError(f"{path}: a bare mesh has no materials or luminaires; reference it from a "

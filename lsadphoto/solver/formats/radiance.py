@@ -70,7 +70,7 @@ import numpy as np
 from ...constants import RADIANCE_RGB_LUMINANCE_WEIGHTS, RADIANCE_WHITE_EFFICACY
 from ...errors import BadInputError
 from ..intensity import IntensityTable, luminaire_frame
-from ..scene import AreaLuminaire, PointLuminaire, Scene, polygon_triangles
+from ..scene import AreaLuminaire, PointLuminaire, Scene, as_views, polygon_triangles
 from .shapes import DEFAULT_TESSELLATION_ERROR, annulus_triangles, cone_triangles, sphere_triangles
 from .xform import TRANSFORM_WORDS, Transform, parse_transform
 
@@ -807,8 +807,10 @@ def read_radiance_scene(path_or_text, *, views=None, tessellation_error=DEFAULT_
     path_or_text : str or Path
         A ``.rad`` file, or scene text containing a newline (commands then run in the
         current folder).
-    views : list of View, optional
-        Views to attach (e.g. from :func:`lsadphoto.solver.formats.read_view`).
+    views : list of View or dict, optional
+        Views to attach: :class:`~lsadphoto.solver.View`\\ s (e.g. from
+        :func:`lsadphoto.solver.formats.read_view`) or ``[[views]]`` tables as in the TOML
+        structure.
     tessellation_error : float
         Largest sagitta of tessellated curves relative to their radius [–]
         (:mod:`~lsadphoto.solver.formats.shapes`; areas are exact whatever the value).
@@ -842,6 +844,7 @@ def read_radiance_scene(path_or_text, *, views=None, tessellation_error=DEFAULT_
         raise BadInputError(f"{name}: the scene has no surfaces")
     if not reader.area_luminaires and not points:
         raise BadInputError(f"{name}: the scene has no light sources (light, glow or ies2rad luminaires)")
+    views = as_views(views)
     return Scene(np.concatenate(reader.triangles), np.concatenate(reader.material), reader.names,
                  np.asarray(reader.rho), np.concatenate(reader.emitter), reader.area_luminaires, points,
-                 list(views or []), name=Path(name).stem, source={"radiance": name})
+                 views, name=Path(name).stem, source={"radiance": name})
