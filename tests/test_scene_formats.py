@@ -105,3 +105,33 @@ def test_survey_manifest_reads_radiance_models_through_read_scene(tmp_path, spec
         load_manifest(path)
     assert "\n" not in str(info.value)
     assert "view 'single': model.scene: " in str(info.value) and message in str(info.value)
+
+
+def test_rif_project_reads_its_materials_scene_and_views(tmp_path):
+    # A rad project file: the same scene as the .rad that includes the same files, and views
+    # whose picture sizes are rpict's with square pixels (peer: vwrays -d -pa 1, which prints
+    # the resolution rpict would use for the same view and RESOLUTION).
+    (tmp_path / "m.mat").write_text("void plastic wall 0 0 5 .5 .5 .5 0 0\nvoid light lamp 0 0 3 9 9 9\n")
+    (tmp_path / "lamp.rad").write_text("lamp polygon panel 0 0 12 1 1 2.9 1 3 2.9 3 3 2.9 3 1 2.9\n")
+    (tmp_path / "eye.vf").write_text("rview -vta -vp 2 2 1.2 -vd 1 0 0 -vh 180 -vv 150\n")
+    views = {"def": "-vf eye.vf", "top": "-vtv -vp 2 2 2.5 -vd 0 0 -1 -vu 0 1 0 -vh 60 -vv 40",
+             "hemi": "-vth -vp 2 2 1 -vd 0 0 1 -vu 0 1 0 -vh 170 -vv 170"}
+    (tmp_path / "p.rif").write_text(
+        "# project\nOCTREE = p.oct\nmaterials = m.mat\nscene = \"!genbox wall box 4 4 3 -i\" \\\n  lamp.rad\n"
+        "RES = 64 48\nQUAL = Med\n" + "".join(f"view = {k} {v}\n" for k, v in views.items()))
+    (tmp_path / "same.rad").write_text("!xform m.mat\n!genbox wall box 4 4 3 -i\n!xform lamp.rad\n")
+    rif, rad = read_scene(tmp_path / "p.rif"), read_scene(tmp_path / "same.rad")
+    assert np.array_equal(rif.triangles, rad.triangles) and rif.total_flux == rad.total_flux
+    assert [v.name for v in rif.views] == list(views)
+    for view, options in zip(rif.views, views.values()):
+        size = subprocess.run([radiance_tool("vwrays"), "-d", "-x", "64", "-y", "48", "-pa", "1",
+                               *options.split()], capture_output=True, text=True, check=True, cwd=tmp_path).stdout
+        assert f"-x {view.projection.width} -y {view.projection.height}" == size.strip()
+
+
+@pytest.mark.realdata
+def test_radiance_s_own_rif_is_refused_for_its_glossy_floor():
+    path = realdata("radiance/renders/glass.rif")
+    with pytest.raises(BadInputError, match=r"diorama_walls.rad:109: polygon 'wall.9' uses .*basic.mat:14: "
+                                             r"plastic 'floor_mat': specularity 0.02"):
+        read_scene(path)

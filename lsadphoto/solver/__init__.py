@@ -21,7 +21,7 @@ from .._lazy import lazy_exports
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
     ".intensity": ["IntensityTable"],
-    ".formats": ["load_scene", "read_radiance_scene", "read_scene", "read_view"],
+    ".formats": ["load_scene", "read_radiance_scene", "read_rif_scene", "read_scene", "read_view"],
     ".integrators.path_tracer": ["render_path_traced"],
     ".rendering": ["SolverWarning", "render"],
     ".scene": ["AreaLuminaire", "PointLuminaire", "Scene", "View", "camera_to_world",

@@ -3,7 +3,8 @@
 - ``.toml``: the solver's own structure (:func:`load_scene`; meshes — OBJ, PLY, STL — enter
   as ``[[surfaces]] type = "mesh"``, read with trimesh);
 - ``.rad``: Radiance scene descriptions (:func:`read_radiance_scene`), with their ``!``
-  commands, ``xform`` transforms and ies2rad luminaires;
+  commands, ``xform`` transforms and ies2rad luminaires; ``.rif``: rad's project files, their
+  materials, scene and views (:func:`read_rif_scene`);
 - views: Radiance view options and ``.vf`` files (:func:`read_view`).
 
 References
@@ -16,11 +17,11 @@ from pathlib import Path
 
 from ...errors import BadInputError
 from ..scene import as_views
-from .radiance import read_radiance_scene
+from .radiance import read_radiance_scene, read_rif_scene
 from .toml import load_scene
 from .views import read_view
 
-__all__ = ["MESH_SUFFIXES", "load_scene", "read_radiance_scene", "read_scene", "read_view"]
+__all__ = ["MESH_SUFFIXES", "load_scene", "read_radiance_scene", "read_rif_scene", "read_scene", "read_view"]
 
 #: File endings of bare meshes: geometry without materials or luminaires.
 MESH_SUFFIXES = (".obj", ".ply", ".stl", ".off", ".glb", ".gltf")
@@ -32,7 +33,8 @@ def read_scene(path, *, views=None, **radiance_options):
     Parameters
     ----------
     path : str or Path
-        A TOML scene (``.toml``) or a Radiance scene (``.rad``). A bare mesh (``.obj``, …) is
+        A TOML scene (``.toml``), a Radiance scene (``.rad``) or a rad input file (``.rif``,
+        with its views). A bare mesh (``.obj``, …) is
         refused with a line saying how to use it: it has neither materials nor luminaires.
     views : list of View or dict, optional
         Views added to the scene's own: :class:`~lsadphoto.solver.View`\\ s or ``[[views]]``
@@ -46,12 +48,16 @@ def read_scene(path, *, views=None, **radiance_options):
     >>> read_scene("room.dwg")
     Traceback (most recent call last):
     ...
-    lsadphoto.errors.BadInputError: room.dwg: unknown scene format '.dwg'; give a TOML scene (.toml) or a Radiance scene (.rad)
+    lsadphoto.errors.BadInputError: room.dwg: unknown scene format '.dwg'; give a TOML scene (.toml), a Radiance scene (.rad) or a rad file (.rif)
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix == ".rad":
         return read_radiance_scene(path, views=views, **radiance_options)
+    if suffix == ".rif":
+        scene = read_rif_scene(path, **radiance_options)
+        scene.views.extend(as_views(views))
+        return scene
     if radiance_options:
         raise BadInputError(f"{path}: {', '.join(radiance_options)} apply to Radiance scenes (.rad) only")
     if suffix == ".toml":
@@ -61,5 +67,5 @@ def read_scene(path, *, views=None, **radiance_options):
     if suffix in MESH_SUFFIXES:
         raise BadInputError(f"{path}: a bare mesh has no materials or luminaires; reference it from a "
                             "TOML scene ([[surfaces]] type = \"mesh\") or a Radiance scene (!obj2rad)")
-    raise BadInputError(f"{path}: unknown scene format {path.suffix!r}; give a TOML scene (.toml) or a "
-                        "Radiance scene (.rad)")
+    raise BadInputError(f"{path}: unknown scene format {path.suffix!r}; give a TOML scene (.toml), a "
+                        "Radiance scene (.rad) or a rad file (.rif)")

@@ -69,13 +69,14 @@ import numpy as np
 
 from ...constants import RADIANCE_RGB_LUMINANCE_WEIGHTS, RADIANCE_WHITE_EFFICACY
 from ...errors import BadInputError
+from ...io.hdr import parse_view
 from ..intensity import IntensityTable, luminaire_frame
 from ..scene import AreaLuminaire, PointLuminaire, Scene, as_views, polygon_triangles
 from .shapes import DEFAULT_TESSELLATION_ERROR, annulus_triangles, cone_triangles, sphere_triangles
 from .xform import TRANSFORM_WORDS, Transform, parse_transform
 
 __all__ = ["DEFAULT_COMMAND_TIMEOUT", "RadianceMaterial", "radiance_luminance", "radiance_programs",
-           "read_radiance_scene"]
+           "read_radiance_scene", "read_rif_scene"]
 
 #: Default time limit of one ``!`` command line (all its piped stages together) [s].
 DEFAULT_COMMAND_TIMEOUT = 60.0
@@ -666,6 +667,17 @@ class _Reader:
                 self.read(path.read_text(encoding="utf-8", errors="replace"), str(path), inner,
                           folder=path.parent, override=modifier, prefix=tag, depth=depth + 1)
 
+    def scene(self, name, views):
+        """The :class:`Scene` of everything read."""
+        points = self.luminaires()
+        if not self.triangles:
+            raise BadInputError(f"{name}: the scene has no surfaces")
+        if not self.area_luminaires and not points:
+            raise BadInputError(f"{name}: the scene has no light sources (light, glow or ies2rad luminaires)")
+        return Scene(np.concatenate(self.triangles), np.concatenate(self.material), self.names,
+                     np.asarray(self.rho), np.concatenate(self.emitter), self.area_luminaires, points,
+                     views, name=Path(name).stem, source={"radiance": name})
+
     # brightdata luminaires
     def luminaires(self):
         out = []
@@ -835,16 +847,120 @@ def read_radiance_scene(path_or_text, *, views=None, tessellation_error=DEFAULT_
         if not path.is_file():
             raise BadInputError(f"Radiance scene {path} does not exist")
         text, name, base = path.read_text(encoding="utf-8", errors="replace"), str(path), path.resolve().parent
+    reader = _reader(base, tessellation_error, command_timeout)
+    reader.read(text, name, Transform(), folder=base)
+    return reader.scene(name, as_views(views))
+
+
+def _reader(base, tessellation_error, command_timeout):
     if not command_timeout > 0:
         raise BadInputError(f"command_timeout must be positive, got {command_timeout!r}")
-    reader = _Reader(base, tessellation_error, float(command_timeout))
-    reader.read(text, name, Transform(), folder=base)
-    points = reader.luminaires()
-    if not reader.triangles:
-        raise BadInputError(f"{name}: the scene has no surfaces")
-    if not reader.area_luminaires and not points:
-        raise BadInputError(f"{name}: the scene has no light sources (light, glow or ies2rad luminaires)")
-    views = as_views(views)
-    return Scene(np.concatenate(reader.triangles), np.concatenate(reader.material), reader.names,
-                 np.asarray(reader.rho), np.concatenate(reader.emitter), reader.area_luminaires, points,
-                 views, name=Path(name).stem, source={"radiance": name})
+    return _Reader(base, tessellation_error, float(command_timeout))
+
+
+#: Variables of rad's input files (``.rif``) and the shortest abbreviation rad accepts.
+_RIF_VARIABLES = {"OCTREE": 3, "ZONE": 2, "EXPOSURE": 3, "RESOLUTION": 3, "QUALITY": 3,
+                  "VARIABILITY": 3, "DETAIL": 3, "INDIRECT": 3, "PENUMBRAS": 3, "AMBFILE": 3,
+                  "OPTFILE": 3, "PICTURE": 3, "RAWFILE": 3, "ZFILE": 2, "REPORT": 3, "UP": 2,
+                  "materials": 3, "scene": 3, "objects": 3, "view": 2, "illum": 3, "mkillum": 3,
+                  "mkpmap": 3, "oconv": 3, "render": 3, "rvu": 3, "rpict": 3, "pfilt": 2}
+
+
+def _rif_variable(word, where):
+    for name, shortest in _RIF_VARIABLES.items():
+        if len(word) >= shortest and name.startswith(word):
+            return name
+    raise BadInputError(f"{where}: unknown rad variable {word!r}")
+
+
+def read_rif_scene(path, *, tessellation_error=DEFAULT_TESSELLATION_ERROR,
+                   command_timeout=DEFAULT_COMMAND_TIMEOUT):
+    """A :class:`~lsadphoto.solver.Scene` from a rad input file (``.rif``), with its views.
+
+    The ``materials`` files are read first, then the ``scene`` files and commands (as
+    ``oconv`` gets them from ``rad``), each as :func:`read_radiance_scene` reads a file; every
+    ``view`` (``[name] options``, ``-vf`` allowed, ``UP`` giving the default up axis) becomes
+    a view of ``RESOLUTION`` (default 512) reduced to square pixels as ``rpict -pa 1`` does
+    (the vertical angle then rounded to whole pixels). Rendering options (``QUALITY``,
+    ``render``, …) do not change the model and are not used; ``illum`` (mkillum's secondary
+    sources) is refused.
+
+    References
+    ----------
+    Radiance manual page ``rad(1)`` (variables, abbreviations, order of files).
+    """
+    from .views import view_from_options, view_options
+
+    path = Path(path)
+    if not path.is_file():
+        raise BadInputError(f"rad file {path} does not exist")
+    base = path.resolve().parent
+    values = {}
+    lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+    k = 0
+    while k < len(lines):
+        number, line = k + 1, _strip_comment(lines[k])
+        k += 1
+        while line.rstrip().endswith("\\") and k < len(lines):
+            line = line.rstrip()[:-1] + " " + _strip_comment(lines[k])
+            k += 1
+        if not line.strip():
+            continue
+        where = f"{path}:{number}"
+        if "=" not in line:
+            raise BadInputError(f"{where}: expected 'variable = value'")
+        name, value = (part.strip() for part in line.split("=", 1))
+        values.setdefault(_rif_variable(name, where), []).append((value, where))
+    if "illum" in values:
+        raise BadInputError(f"{values['illum'][0][1]}: illum (mkillum secondary sources) is not supported")
+    reader = _reader(base, tessellation_error, command_timeout)
+    for variable in ("materials", "scene"):
+        for value, where in values.get(variable, []):
+            try:
+                items = shlex.split(value)
+            except ValueError as exc:
+                raise BadInputError(f"{where}: cannot read {variable} ({exc})") from None
+            for item in items:
+                command = item[1:] if item.startswith("!") else f"xform {shlex.quote(item)}"
+                reader.command(command, where, Transform(), None, "", 0)
+    size = [int(v) for v in (values.get("RESOLUTION", [("512", "")])[-1][0].split() + ["0"])[:2]]
+    xres, yres = size[0], size[1] or size[0]
+    up = {"X": "1 0 0", "-X": "-1 0 0", "Y": "0 1 0", "-Y": "0 -1 0", "Z": "0 0 1", "-Z": "0 0 -1"}
+    axis = values.get("UP", [("Z", "")])[-1][0].upper()
+    if axis not in up:
+        raise BadInputError(f"{values['UP'][-1][1]}: UP must be one of {', '.join(up)}, got {axis!r}")
+    views = []
+    for n, (value, where) in enumerate(values.get("view", []), 1):
+        words = value.split(None, 1)
+        name, options = (words[0], words[1] if len(words) > 1 else "") if words and not words[0].startswith("-") \
+            else (str(n), value)
+        try:
+            view = parse_view(f"-vu {up[axis]} " + view_options(options, base=base), strict=True)
+            if "vp" not in view:
+                raise BadInputError(f"view {name!r} gives no eye position -vp (rad's standard views from "
+                                    "ZONE are not supported)")
+            width, height, view = _square_pixels(view, xres, yres)
+            views.append(view_from_options(view, width, height, name=name))
+        except BadInputError as exc:
+            raise BadInputError(f"{where}: {exc}") from None
+    return reader.scene(str(path), views)
+
+
+def _square_pixels(view, xres, yres):
+    """Picture size within ``xres`` × ``yres`` with square pixels (``rpict -pa 1``), and the
+    view with its vertical angle made a whole number of pixels."""
+    kind = view.get("type", "v")
+    vh, vv = math.radians(view.get("vh", 45.0)), math.radians(view.get("vv", 45.0))
+    forward = {"v": (lambda a: math.tan(a / 2), lambda t: 2 * math.atan(t)),
+               "a": (lambda a: a, lambda t: t), "h": (lambda a: math.sin(a / 2), lambda t: 2 * math.asin(t)),
+               "s": (lambda a: math.tan(a / 4), lambda t: 4 * math.atan(t))}
+    if kind not in forward:
+        return xres, yres, view  # refused with its reason by the projection
+    f, inverse = forward[kind]
+    aspect = f(vv) / f(vh)
+    if aspect * xres <= yres:
+        width, height = xres, max(1, round(xres * aspect))
+    else:
+        width, height = max(1, round(yres / aspect)), yres
+    view = dict(view, vv=math.degrees(inverse(f(vh) * height / width)))
+    return width, height, view

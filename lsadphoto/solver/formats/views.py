@@ -20,7 +20,7 @@ from ...errors import BadInputError
 from ...io.hdr import parse_view, projection_from_view
 from ..scene import View, camera_to_world
 
-__all__ = ["read_view", "view_options"]
+__all__ = ["read_view", "view_from_options", "view_options"]
 
 _PROGRAMS = ("rvu", "rview", "rpict", "rtrace", "VIEW=")
 
@@ -85,10 +85,15 @@ def read_view(text, width, height, *, name="view", base=None):
     >>> v.position.tolist(), type(v.projection).__name__
     ([0.0, 0.0, 1.5], 'PinholeProjection')
     """
-    options = view_options(text, base=base)
-    view = parse_view(options, strict=True)
+    view = parse_view(view_options(text, base=base), strict=True)
     if "vp" not in view:
         raise BadInputError(f"view {text!r} gives no eye position (-vp X Y Z [m])")
+    return view_from_options(view, width, height, name=name)
+
+
+def view_from_options(view, width, height, *, name="view"):
+    """A :class:`~lsadphoto.solver.View` of parsed view options (:func:`~lsadphoto.io.hdr.parse_view`)
+    with an eye position ``vp``, for a picture of ``width`` × ``height`` [px]."""
     projection = projection_from_view(view, width, height)
     rotation = camera_to_world(view.get("vd", [0.0, 1.0, 0.0]), view.get("vu", [0.0, 0.0, 1.0]))
     return View(name, np.asarray(view["vp"], float), rotation, projection)
