@@ -69,8 +69,8 @@ from .._atomic import atomic_text
 from ..io.falsecolour import false_colour_range
 from ..luminance_map import LuminanceMap
 
-__all__ = ["GEOMETRY_STRIDE", "PREVIEW_PIXELS", "check_same_geometry", "read_source_labels", "report_viewer",
-           "viewer_assets", "viewer_fragment", "write_source_labels", "write_viewer"]
+__all__ = ["GEOMETRY_STRIDE", "PREVIEW_PIXELS", "check_same_geometry", "read_source_labels",
+           "report_viewer", "viewer_assets", "viewer_fragment", "write_source_labels", "write_viewer"]
 
 #: Rows and columns between the embedded geometry samples [px] (at most; see _geometry).
 GEOMETRY_STRIDE = 8
