@@ -707,7 +707,7 @@ def cmd_simulate(args):
 
 def _build_cache(store, args):
     from ._progress import progress_callback
-    from .solver.surface_cache import build_surface_cache
+    from .solver.integrators.surface_cache import build_surface_cache
 
     callback, close = progress_callback("surface cache", enabled=False if args.quiet else None)
     try:
@@ -810,7 +810,7 @@ def cmd_render(args):
             raise BadInputError(f"--nodes-per-pixel must be a positive integer, 'all' or 'auto', got {nodes!r}") from None
     if args.estimator == "cache":
         from .solver import simulate
-        from .solver.surface_cache import render_cached
+        from .solver.integrators.surface_cache import render_cached
 
         store = store_or_scene
         if not isinstance(store, LsadStore):
@@ -1104,7 +1104,7 @@ def _build_parser():
     sim.add_argument("--target-error", type=float,
                      help="stop at this relative standard error of the scene's mean luminance (e.g. 0.01)")
     sim.add_argument("--seed", type=int, default=0)
-    sim.add_argument("--near-field", choices=_Choices("lsadphoto.solver.rendering", "NEAR_FIELD_TREATMENTS"),
+    sim.add_argument("--near-field", choices=_Choices("lsadphoto.solver.integrators.local_estimate", "NEAR_FIELD_TREATMENTS"),
                      help="near-field treatment (default: the first; clamp is biased and reported as such)")
     _add_cache_options(sim)
     sim.add_argument("--surface-cache", action="store_true",

@@ -15,7 +15,7 @@ from lsadphoto.solver import (
 )
 from lsadphoto.solver.chains import trace_chains
 from lsadphoto.solver.examples import canonical_room
-from lsadphoto.solver.rendering import _engine_for
+from lsadphoto.solver.engine import engine_for
 
 NODE_FIELDS = ("position", "normal", "coefficient", "kind", "luminaire", "batch", "depth", "triangle")
 
@@ -50,7 +50,7 @@ def test_chunk_size_does_not_change_a_render(room, nodes_per_pixel):
 
 
 def test_simulation_in_rounds_equals_one_run(room):
-    engine = _engine_for(room)
+    engine = engine_for(room)
     whole = trace_chains(room, engine, seed=5, first_block=0, blocks=4, batches=16)
     part = trace_chains(room, engine, seed=5, first_block=0, blocks=1, batches=16)
     part.extend(trace_chains(room, engine, seed=5, first_block=1, blocks=3, batches=16))
@@ -193,7 +193,7 @@ def test_worker_threads_do_not_change_results(room):
 
 
 def test_auto_gather_chooses_by_cost(room, store, monkeypatch):
-    import lsadphoto.solver.rendering as render_module
+    import lsadphoto.solver.integrators.local_estimate as render_module
 
     proj, pose = view_args(room)
     assert render(store, proj, **pose).provenance["nodes_per_pixel"] == "all"

@@ -22,7 +22,8 @@ from .._lazy import lazy_exports
 __getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
     ".intensity": ["IntensityTable"],
     ".radiance": ["read_radiance_scene"],
-    ".rendering": ["SolverWarning", "render", "render_path_traced"],
+    ".integrators.path_tracer": ["render_path_traced"],
+    ".rendering": ["SolverWarning", "render"],
     ".scene": ["AreaLuminaire", "PointLuminaire", "Scene", "View", "camera_to_world",
                "load_scene", "scene_from_dict"],
     ".simulation": ["simulate"],
