@@ -223,6 +223,9 @@ def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, ex
     field_b = (omega[:, None] * lum_b).sum(axis=0) / omega.sum()
     field_mean = float(field_b.mean())
     field_se = float(math.sqrt(field_b.var(ddof=1) / B + (omega ** 2 * shared).sum() / omega.sum() ** 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = se / mean
+    rel = rel[np.isfinite(rel) & (mean > 0)]
     provenance = {
         **build_provenance(),
         "solver": "lsadphoto.solver",
@@ -231,6 +234,10 @@ def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, ex
         "field_mean_luminance": field_mean,
         "field_mean_standard_error": field_se,
         "achieved_relative_error": field_se / field_mean if field_mean > 0 else float("nan"),
+        # the per-pixel relative standard errors (of pixels with light), which the field mean's
+        # error above understates by orders of magnitude
+        "pixel_relative_error_median": float(np.median(rel)) if rel.size else float("nan"),
+        "pixel_relative_error_p95": float(np.percentile(rel, 95)) if rel.size else float("nan"),
         "render_time_s": float(elapsed),
         "scene": model.scene.name if hasattr(model, "scene") else model.name,
         "view_pose": view_pose(*pose),
