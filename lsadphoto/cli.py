@@ -797,12 +797,15 @@ def cmd_render(args):
                                     ("--cache-nodes", args.cache_nodes)) if v is not None]
     if cache_options and args.estimator != "cache":
         raise BadInputError(f"{', '.join(cache_options)} apply to --estimator cache only")
+    if args.target_error is not None and args.estimator != "local":
+        raise BadInputError("--target-error applies to --estimator local (the per-pixel estimate)")
     if source.suffix.lower() == ".npz":
         store_or_scene = load_store(source)
         scene = store_or_scene.scene
-        if args.samples is not None:
-            raise BadInputError(f"--samples applies when rendering a scene directly; the store "
-                                f"{source} holds {store_or_scene.chains} chains (simulate again for more)")
+        for option, value in (("--samples", args.samples), ("--target-error", args.target_error)):
+            if value is not None:
+                raise BadInputError(f"{option} applies when rendering a scene directly; the store "
+                                    f"{source} holds {store_or_scene.chains} chains (simulate again for more)")
         if cache_options and store_or_scene.surface_cache is not None:
             raise BadInputError(f"{', '.join(cache_options)} cannot apply: the store {source} already holds "
                                 f"a surface cache (spacing {store_or_scene.surface_cache.spacing:.3g} m); "
@@ -832,7 +835,7 @@ def cmd_render(args):
                                  seed=args.seed, workers=os.cpu_count() or 1, progress=callback)
         else:
             lmap = render(store_or_scene, projection, position=position, rotation=rotation,
-                          samples=args.samples, seed=args.seed,
+                          samples=args.samples, target_error=args.target_error, seed=args.seed,
                           nodes_per_pixel=None if nodes == "all" else nodes, progress=callback)
     finally:
         close()
@@ -852,6 +855,10 @@ def cmd_render(args):
               f"{_percent(p.get('pixel_relative_error_p95'))}"
               f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}"
               f"{' — plus the cache interpolation bias' if p.get('interpolation_bias') else ''}")
+        if p.get("target_error") is not None:
+            chains = " → ".join(str(r["chains"]) for r in p["rounds"])
+            print(f"target per-pixel error {_percent(p['target_error'])} "
+                  f"{'reached' if p['target_reached'] else 'NOT reached'} (chains per round: {chains})")
     return 0
 
 
@@ -1134,6 +1141,9 @@ def _build_parser():
     ren.add_argument("--line-of-sight", metavar="X,Y,Z", help="optical axis in the scene (with --profile)")
     ren.add_argument("--up", metavar="X,Y,Z", help="up in the scene (with --profile; default 0,0,1)")
     ren.add_argument("--samples", type=int, help="light chains when rendering a scene directly")
+    ren.add_argument("--target-error", type=float, metavar="E",
+                     help="rendering a scene: simulate in rounds until the median per-pixel relative "
+                          "error is at most E (e.g. 0.02; the local estimator)")
     ren.add_argument("--estimator", choices=_Choices("lsadphoto.solver.rendering", "ESTIMATORS"), default="local",
                      help="local: the double local estimate per pixel (unbiased reference); cache: direct "
                           "light per pixel, indirect interpolated from the store's surface cache (built if "

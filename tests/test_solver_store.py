@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from lsadphoto.errors import BadInputError, UnsupportedFileError
+from lsadphoto.errors import BadInputError, SolverWarning, UnsupportedFileError
 from lsadphoto.solver import (
     camera_to_world,
     load_store,
@@ -127,6 +127,32 @@ def test_per_pixel_errors_are_reported_and_honest(room):
     assert math.isclose(p["pixel_relative_error_median"], np.median(rel), rel_tol=1e-6)
     assert math.isclose(p["pixel_relative_error_p95"], np.percentile(rel, 95), rel_tol=1e-6)
     assert p["pixel_relative_error_median"] > 5 * p["achieved_relative_error"]
+
+
+def test_render_to_a_per_pixel_target_error(room):
+    # Rounds: 1/√chains predicts the chains; the reported median is the honest per-pixel error
+    # (test above), so reaching the target means the map has it.
+    proj, pose = view_args(room)
+    lmap = render(room, proj, **pose, samples=1024, target_error=0.01)
+    p = lmap.provenance
+    assert p["target_reached"] is True and p["pixel_relative_error_median"] <= 0.01
+    assert len(p["rounds"]) >= 2 and p["rounds"][0]["chains"] == 1024  # 1024 give ≈ 2 %
+    assert p["rounds"][-1]["chains"] == p["chains"]
+    errors = [r["pixel_relative_error_median"] for r in p["rounds"]]
+    assert all(b < a for a, b in zip(errors, errors[1:]))
+
+
+def test_render_target_error_says_when_it_stalls_or_applies_not(room, store):
+    proj, pose = view_args(room)
+    # One node per pixel and batch: more chains do not lower a pixel's error.
+    with pytest.warns(SolverWarning, match="stopped falling"):
+        lmap = render(room, proj, **pose, samples=1024, target_error=0.002, nodes_per_pixel=1,
+                      max_samples=4096)
+    assert lmap.provenance["target_reached"] is False
+    with pytest.raises(BadInputError, match="chains are fixed"):
+        render(store, proj, **pose, target_error=0.05)
+    with pytest.raises(BadInputError, match="per-pixel relative error"):
+        render(room, proj, **pose, target_error=1e-5)
 
 
 def test_target_error_is_reached(room):
