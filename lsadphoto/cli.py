@@ -676,7 +676,7 @@ def cmd_survey(args):
 
 
 def _load_any_scene(path):
-    """Our TOML scene, or a Radiance scene (.rad): :func:`lsadphoto.solver.read_scene`."""
+    """Our TOML scene, a Radiance scene (.rad) or rad file (.rif): :func:`lsadphoto.solver.read_scene`."""
     from .solver import read_scene
 
     return read_scene(path)
@@ -1116,7 +1116,7 @@ def _build_parser():
     sv.set_defaults(func=cmd_survey)
 
     sim = sub.add_parser("simulate", help="Monte Carlo light chains of a scene model → view-independent store")
-    sim.add_argument("scene", help="scene model: our TOML, or a Radiance scene (.rad)")
+    sim.add_argument("scene", help="scene model: our TOML, a Radiance scene (.rad) or rad file (.rif)")
     sim.add_argument("-o", "--output", required=True, help="store to write (.npz)")
     sim.add_argument("--samples", type=int, help="light chains (default 65536 unless --target-error)")
     sim.add_argument("--target-error", type=float,
@@ -1132,7 +1132,7 @@ def _build_parser():
     sim.set_defaults(func=cmd_simulate)
 
     ren = sub.add_parser("render", help="render a luminance map of a view from a store or a scene")
-    ren.add_argument("source", help="store (.npz) from 'simulate', or a scene (TOML or Radiance .rad)")
+    ren.add_argument("source", help="store (.npz) from 'simulate', or a scene (TOML, Radiance .rad or .rif)")
     ren.add_argument("--profile", help="camera profile (TOML) whose lens model is the projection")
     ren.add_argument("--view", metavar="RADIANCE_VIEW", help='Radiance view, e.g. "-vta -vp 1 2 1.2 -vd 1 0 0 -vu 0 0 1 -vh 180 -vv 180" or "-vf room.vf"')
     ren.add_argument("--view-name", help="a [[views]] entry of the scene (default: its first)")
