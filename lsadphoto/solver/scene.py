@@ -85,12 +85,16 @@ def _vector(value, name, size=3):
 
 def _newell_normal(points):
     p = points
-    q = np.roll(points, -1, axis=0)
+    q = np.concatenate([points[1:], points[:1]])  # the next vertex (np.roll, without its overhead)
     return np.array([
         np.sum((p[:, 1] - q[:, 1]) * (p[:, 2] + q[:, 2])),
         np.sum((p[:, 2] - q[:, 2]) * (p[:, 0] + q[:, 0])),
         np.sum((p[:, 0] - q[:, 0]) * (p[:, 1] + q[:, 1])),
     ])
+
+
+def _cross3(a, b):
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def polygon_triangles(vertices, name="polygon"):
@@ -113,7 +117,7 @@ def polygon_triangles(vertices, name="polygon"):
     if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
         raise BadInputError(f"{name}: vertices must be a list of [x, y, z] points")
     # drop repeated consecutive vertices (and a closing copy of the first)
-    keep = np.linalg.norm(pts - np.roll(pts, 1, axis=0), axis=1) > 0
+    keep = np.any(pts != np.concatenate([pts[-1:], pts[:-1]]), axis=1)
     pts = pts[keep] if keep.any() else pts[:1]
     if len(pts) < 3:
         raise BadInputError(f"{name}: needs at least 3 distinct vertices, got {len(pts)}")
@@ -129,12 +133,13 @@ def polygon_triangles(vertices, name="polygon"):
             f"{name}: vertices are not coplanar (off the plane by {np.abs(offset).max():.3g} m)")
     # 2-D coordinates in the plane, counter-clockwise seen from the front
     a = np.eye(3)[np.argmin(np.abs(normal))]
-    e1 = np.cross(normal, a)
+    e1 = _cross3(normal, a)
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(normal, e1)
-    xy = np.stack([pts @ e1, pts @ e2], axis=1)
-    edges = np.roll(xy, -1, axis=0) - xy
-    turns = edges[:, 0] * np.roll(edges, -1, axis=0)[:, 1] - edges[:, 1] * np.roll(edges, -1, axis=0)[:, 0]
+    e2 = _cross3(normal, e1)
+    xy = pts @ np.stack([e1, e2], axis=1)
+    edges = np.concatenate([xy[1:], xy[:1]]) - xy
+    after = np.concatenate([edges[1:], edges[:1]])
+    turns = edges[:, 0] * after[:, 1] - edges[:, 1] * after[:, 0]
     if np.all(turns > 1e-14 * size * size):
         # strictly convex: the triangles ear clipping below makes, (n−1, j, j+1) and last
         # (n−3, n−2, n−1), without its search (same order, so the same random streams)
