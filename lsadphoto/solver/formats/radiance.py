@@ -535,6 +535,11 @@ class _Reader:
             vertices = transform.point(np.reshape(r, (-1, 3)))
             if transform.mirrored:
                 vertices = vertices[::-1]
+            if len(vertices) == 3:  # a triangle (most of obj2rad's output) needs no triangulation
+                v = vertices
+                size = float(np.ptp(v, axis=0).max())
+                if float(np.linalg.norm(np.cross(v[1] - v[0], v[2] - v[0]))) > 1e-12 * size * size:
+                    return v[None]
             return polygon_triangles(vertices, name)
         if len(r) != need[ptype]:
             raise BadInputError(f"{name} needs {need[ptype]} real arguments, got {len(r)}")
