@@ -10,6 +10,9 @@ light per pixel, indirect light from the store's surface cache,
 cross-check.
 """
 
+import math
+import warnings
+
 from ..errors import BadInputError, SolverWarning
 from .integrators.local_estimate import render_local_estimate
 from .integrators.path_tracer import render_path_traced
@@ -17,7 +20,16 @@ from .scene import Scene
 from .simulation import simulate
 from .store import LsadStore
 
-__all__ = ["ESTIMATORS", "SolverWarning", "render", "render_path_traced"]
+__all__ = ["ESTIMATORS", "FIRST_RENDER_CHAINS", "MAX_RENDER_CHAINS", "MIN_PIXEL_TARGET_ERROR",
+           "SolverWarning", "render", "render_path_traced"]
+
+#: Chains of the first round of a ``target_error`` render (unless ``samples`` says).
+FIRST_RENDER_CHAINS = 16_384
+#: Default cap on chains of a ``target_error`` render.
+MAX_RENDER_CHAINS = 1 << 22
+#: Smallest per-pixel target [1]: each pixel's error falls as 1/√chains from a few per cent at
+#: 10⁴ chains (the canonical room), so 10⁻³ already needs of the order of 10⁷ chains.
+MIN_PIXEL_TARGET_ERROR = 1e-3
 
 #: Estimators of a view: "local", the per-pixel double local estimate (:func:`render`, the
 #: unbiased reference); "cache", direct light per pixel and indirect light interpolated from
@@ -25,9 +37,9 @@ __all__ = ["ESTIMATORS", "SolverWarning", "render", "render_path_traced"]
 ESTIMATORS = ("local", "cache")
 
 
-def render(store_or_scene, projection, *, position, rotation, samples=None, seed=0,
-           near_field=None, near_distance=None, nodes_per_pixel="auto", chunk_pixels=2048,
-           workers=1, progress=None):
+def render(store_or_scene, projection, *, position, rotation, samples=None, target_error=None,
+           max_samples=MAX_RENDER_CHAINS, seed=0, near_field=None, near_distance=None,
+           nodes_per_pixel="auto", chunk_pixels=2048, workers=1, progress=None):
     """Luminance map of a view by the double local estimate [cd·m⁻²].
 
     Parameters
@@ -42,7 +54,19 @@ def render(store_or_scene, projection, *, position, rotation, samples=None, seed
     rotation : array_like, shape (3, 3)
         Camera-to-world rotation (see :func:`~lsadphoto.solver.camera_to_world`).
     samples : int, optional
-        Light chains to simulate when given a scene (ignored for a store).
+        Light chains to simulate when given a scene (an error for a store, whose chains are
+        fixed); with ``target_error``, those of the first round.
+    target_error : float, optional
+        With a scene: the per-pixel relative standard error to reach — the median over the
+        pixels with light (``provenance["pixel_relative_error_median"]``). The scene is
+        simulated in rounds, each with the chains that 1/√chains predicts from the last
+        (2–16 times as many), up to ``max_samples``; a
+        :class:`~lsadphoto.errors.SolverWarning` says when the target is not reached, or
+        when the error stops falling with more chains because each pixel connects to a
+        fixed number of nodes (``nodes_per_pixel``: then ask for ``"all"`` or a larger K).
+        ``provenance`` records the target, the rounds and whether it was reached.
+    max_samples : int
+        Cap on chains for ``target_error`` (default :data:`MAX_RENDER_CHAINS`).
     seed : int
         Seed of the near-field rays (and of the simulation when given a scene).
     near_field : {"unbiased", "clamp"}, optional
@@ -102,14 +126,59 @@ def render(store_or_scene, projection, *, position, rotation, samples=None, seed
     >>> round(float(lmap.luminance[0, 0]), 4), lmap.provenance["near_field"]
     (3.9789, 'unbiased')
     """
-    if isinstance(store_or_scene, Scene):
+    options = {"position": position, "rotation": rotation, "seed": seed, "near_field": near_field,
+               "near_distance": near_distance, "nodes_per_pixel": nodes_per_pixel,
+               "chunk_pixels": chunk_pixels, "workers": workers}
+    if isinstance(store_or_scene, LsadStore):
+        if samples is not None or target_error is not None:
+            raise BadInputError("samples and target_error apply when rendering a scene; a store's "
+                                f"{store_or_scene.chains} chains are fixed (simulate again for more)")
+        return render_local_estimate(store_or_scene, projection, progress=progress, **options)
+    if not isinstance(store_or_scene, Scene):
+        raise BadInputError("render needs an LsadStore or a Scene")
+    if target_error is None:
         store = simulate(store_or_scene, samples=samples, seed=seed,
                          near_field=near_field or "unbiased")
-    elif isinstance(store_or_scene, LsadStore):
-        store = store_or_scene
-    else:
-        raise BadInputError("render needs an LsadStore or a Scene")
-    return render_local_estimate(store, projection, position=position, rotation=rotation,
-                                 seed=seed, near_field=near_field, near_distance=near_distance,
-                                 nodes_per_pixel=nodes_per_pixel, chunk_pixels=chunk_pixels,
-                                 workers=workers, progress=progress)
+        return render_local_estimate(store, projection, progress=progress, **options)
+    return _render_to_target(store_or_scene, projection, options, samples=samples,
+                             target_error=target_error, max_samples=max_samples, progress=progress)
+
+
+def _render_to_target(scene, projection, options, *, samples, target_error, max_samples, progress):
+    """Rounds of simulate + render until the median per-pixel relative error ≤ target."""
+    target = float(target_error)
+    if not MIN_PIXEL_TARGET_ERROR <= target < 1:
+        raise BadInputError(f"target_error must be a per-pixel relative error from "
+                            f"{MIN_PIXEL_TARGET_ERROR:g} to below 1, got {target_error!r}")
+    if int(max_samples) != max_samples or max_samples < 1:
+        raise BadInputError(f"max_samples must be a positive integer, got {max_samples!r}")
+    chains = min(int(samples or FIRST_RENDER_CHAINS), int(max_samples))
+    rounds = []
+    while True:
+        store = simulate(scene, samples=chains, seed=options["seed"],
+                         near_field=options["near_field"] or "unbiased")
+        lmap = render_local_estimate(store, projection, progress=progress, **options)
+        error = lmap.provenance["pixel_relative_error_median"]
+        rounds.append({"chains": int(store.chains), "pixel_relative_error_median": error})
+        reached = bool(error <= target)
+        stalled = (len(rounds) > 1 and lmap.provenance["nodes_per_pixel"] != "all"
+                   and error > 0.8 * rounds[-2]["pixel_relative_error_median"])
+        if reached or stalled or not math.isfinite(error) or chains >= max_samples:
+            break
+        # σ ∝ 1/√chains: the chains that reach the target, with a 20 % margin; at least 2× and
+        # at most 16× per round (a stalling error shows before the budget is spent)
+        predicted = math.ceil(1.2 * chains * (error / target) ** 2)
+        chains = min(int(max_samples), max(2 * chains, min(16 * chains, predicted)))
+    lmap.provenance.update({"target_error": target, "target_reached": reached,
+                            "target_measure": "median per-pixel relative standard error",
+                            "rounds": rounds})
+    if stalled and not reached:
+        warnings.warn(f"per-pixel error {error:.2g} stopped falling with more chains "
+                      f"({rounds[-2]['chains']} → {rounds[-1]['chains']}): each pixel connects to "
+                      f"{lmap.provenance['nodes_per_pixel']} nodes per batch; render with "
+                      "nodes_per_pixel='all' or a larger number to reach the target", SolverWarning,
+                      stacklevel=3)
+    elif not reached:
+        warnings.warn(f"per-pixel error {error:.2g} above the target {target:g} after "
+                      f"{rounds[-1]['chains']} chains (max_samples)", SolverWarning, stacklevel=3)
+    return lmap

@@ -54,7 +54,7 @@ def _error_estimate(store):
         factor = max(1, math.ceil(max(view.projection.shape) / _ERROR_VIEW_SIDE))
         proj = view.projection.binned(factor) if factor > 1 else view.projection
         lmap = render_local_estimate(store, proj, position=view.position, rotation=view.rotation,
-                      seed=store.seed, nodes_per_pixel=_ERROR_VIEW_NODES)
+                                     seed=store.seed, nodes_per_pixel=_ERROR_VIEW_NODES)
         return lmap.provenance["achieved_relative_error"], "field-mean luminance of view " + repr(view.name)
     total = np.zeros(store.batches)
     surf = store.depth > 0

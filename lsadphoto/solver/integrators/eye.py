@@ -14,6 +14,7 @@ import math
 import time
 import warnings
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,7 +24,7 @@ from ...geometry.base import Projection
 from ...luminance_map import LuminanceMap
 from .._sampling import cosine_directions
 
-__all__ = ["PIXEL_BLOCK", "check_pose", "emitted_luminance", "luminance_map_from_batches",
+__all__ = ["PIXEL_BLOCK", "ChunkHits", "check_pose", "chunk_hits", "chunk_size", "emitted_luminance", "luminance_map_from_batches",
            "luminous_openings", "near_step", "primary_rays", "run_chunks", "view_pose",
            "warn_odd_view"]
 
@@ -56,6 +57,42 @@ def primary_rays(scene, engine, projection, position, rotation):
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     prim, dist = engine.closest_hit(np.broadcast_to(position, d.shape), d)
     return valid, prim, dist, d
+
+
+@dataclass(frozen=True)
+class ChunkHits:
+    """The primary hits of one chunk of pixels: what every estimator starts from.
+
+    ``index``: positions in the view's hit list (pixels along the valid-pixel order);
+    ``triangle``, ``point`` [m], ``normal`` (the side facing the eye), ``front`` (whether that
+    is the triangle's front side), ``reflectance`` and ``emitted`` (luminance towards the eye
+    [cd·m⁻²]) per hit; ``block`` the random-stream block of each hit.
+    """
+
+    index: np.ndarray
+    triangle: np.ndarray
+    point: np.ndarray
+    normal: np.ndarray
+    front: np.ndarray
+    reflectance: np.ndarray
+    emitted: np.ndarray
+    block: np.ndarray
+
+
+def chunk_size(chunk_pixels):
+    """Pixels per processing chunk: ``chunk_pixels`` rounded up to whole stream blocks."""
+    return max(PIXEL_BLOCK, math.ceil(chunk_pixels / PIXEL_BLOCK) * PIXEL_BLOCK)
+
+
+def chunk_hits(scene, position, hit, prim, dist, d, start, chunk):
+    """:class:`ChunkHits` of the hits ``hit[start:start + chunk]`` of rays from ``position``
+    along ``d`` that hit triangles ``prim`` at distances ``dist`` (:func:`primary_rays`)."""
+    h = hit[start:start + chunk]
+    t = prim[h]
+    normal, front = scene.facing_normals(t, d[h])
+    return ChunkHits(h, t, position + dist[h, None] * d[h], normal, front,
+                     scene.triangle_reflectance[t], emitted_luminance(scene, t, -d[h]),
+                     (start + np.arange(h.size)) // PIXEL_BLOCK)
 
 
 #: Primary hits closer than this many ray offsets count as "the eye lies on a surface".

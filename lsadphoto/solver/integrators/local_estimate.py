@@ -54,8 +54,9 @@ from ...errors import BadInputError
 from .._sampling import stream
 from ..engine import engine_for
 from ..store import KIND_COSINE, LsadStore
-from .eye import (PIXEL_BLOCK, check_pose, emitted_luminance, luminance_map_from_batches,
-                  luminous_openings, near_step, primary_rays, run_chunks, warn_odd_view)
+from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance,
+                  luminance_map_from_batches, luminous_openings, near_step, primary_rays,
+                  run_chunks, warn_odd_view)
 
 __all__ = ["AUTO_NODES_PER_PIXEL", "FULL_GATHER_PAIRS", "NEAR_FIELD_TREATMENTS",
            "RELATIVE_NEAR_DISTANCE", "render_local_estimate"]
@@ -323,20 +324,15 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
                             f"got {nodes_per_pixel!r}")
     gatherer = _Gatherer(store, engine, near_field=near_field, near_distance=near_distance,
                          per_pixel=nodes_per_pixel, seed=seed)
-    chunk = max(PIXEL_BLOCK, math.ceil(chunk_pixels / PIXEL_BLOCK) * PIXEL_BLOCK)
+    chunk = chunk_size(chunk_pixels)
 
     def work(start):
-        h = hit[start:start + chunk]
-        t = prim[h]
-        x = position + dist[h, None] * d[h]
-        nrm, _ = scene.facing_normals(t, d[h])
-        rho = scene.triangle_reflectance[t]
-        emitted = emitted_luminance(scene, t, -d[h])
-        block_ids = (start + np.arange(h.size)) // PIXEL_BLOCK
+        c = chunk_hits(scene, position, hit, prim, dist, d, start, chunk)
+        x, nrm, rho, block_ids = c.point, c.normal, c.reflectance, c.block
         refl = rho > 0
-        out = np.empty((h.size, B))
+        out = np.empty((c.index.size, B))
         for b in range(B):
-            value = emitted.copy()
+            value = c.emitted.copy()
             if refl.any():
                 e = gatherer.gather(x[refl], nrm[refl], b, block_ids[refl])
                 value[refl] += rho[refl] / math.pi * e / n_b
@@ -345,7 +341,7 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
                                                      rho[refl], b, block_ids[refl], seed,
                                                      near_distance, n_b)
             out[:, b] = value
-        return h, out
+        return c.index, out
 
     run_chunks(work, range(0, hit.size, chunk), lum_b, workers, progress, t0, hit.size)
     openings = luminous_openings(scene, position, d, dist)

@@ -21,7 +21,7 @@ from ..chains import EmissionSampler
 from ..engine import engine_for
 from ..scene import Scene
 from ..store import KIND_COSINE, KIND_POINT
-from .eye import (PIXEL_BLOCK, check_pose, emitted_luminance, luminance_map_from_batches,
+from .eye import (PIXEL_BLOCK, check_pose, chunk_hits, chunk_size, luminance_map_from_batches,
                   luminous_openings, primary_rays, run_chunks, warn_odd_view)
 
 __all__ = ["render_path_traced"]
@@ -86,14 +86,11 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
     hit = np.flatnonzero(prim >= 0)
     lum_b = np.zeros((valid.size, batches))
     eps = engine.epsilon
-    chunk = max(PIXEL_BLOCK, math.ceil(chunk_pixels / PIXEL_BLOCK) * PIXEL_BLOCK)
+    chunk = chunk_size(chunk_pixels)
 
     def work(start):
-        h = hit[start:start + chunk]
-        t = prim[h]
-        x0 = position + dist[h, None] * d[h]
-        n0, _ = scene.facing_normals(t, d[h])
-        emitted = emitted_luminance(scene, t, -d[h])
+        c = chunk_hits(scene, position, hit, prim, dist, d, start, chunk)
+        h, t, x0, n0, emitted = c.index, c.triangle, c.point, c.normal, c.emitted
         # paths ordered by (batch, pixel block, pixel, sample); one stream per (batch, block)
         local_block = np.arange(h.size) // PIXEL_BLOCK
         n_blocks = int(local_block[-1]) + 1

@@ -60,7 +60,7 @@ from ..cache_grid import SurfaceCache, grid_index
 from ..direct import DIRECT_SAMPLES, direct_illuminance
 from ..engine import engine_for
 from ..store import LsadStore
-from .eye import (PIXEL_BLOCK, check_pose, emitted_luminance, luminance_map_from_batches,
+from .eye import (check_pose, chunk_hits, chunk_size, luminance_map_from_batches,
                   luminous_openings, near_step, primary_rays, run_chunks, warn_odd_view)
 
 __all__ = ["CACHE_NODES", "RELATIVE_CACHE_SPACING", "build_surface_cache",
@@ -561,25 +561,22 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     G = cache.values.shape[1]
     lum_b = np.zeros((valid.size, G))
     direct_var = np.zeros(valid.size)
-    chunk = max(PIXEL_BLOCK, math.ceil(chunk_pixels / PIXEL_BLOCK) * PIXEL_BLOCK)
+    chunk = chunk_size(chunk_pixels)
 
     def work(start):
-        h = hit[start:start + chunk]
-        t = prim[h]
-        x = position + dist[h, None] * d[h]
-        nrm, facing = scene.facing_normals(t, d[h])
-        rho = scene.triangle_reflectance[t]
-        out = np.repeat(emitted_luminance(scene, t, -d[h])[:, None], G, axis=1)
-        refl = np.flatnonzero(rho > 0)
+        c = chunk_hits(scene, position, hit, prim, dist, d, start, chunk)
+        out = np.repeat(c.emitted[:, None], G, axis=1)
+        refl = np.flatnonzero(c.reflectance > 0)
         if refl.size:
-            blocks = (start + refl) // PIXEL_BLOCK
-            e_dir, var = direct_illuminance(scene, engine, x[refl], nrm[refl],
-                                            samples=direct_samples, seed=seed, block_ids=blocks)
-            e_ind = cache.interpolate(scene, t[refl], x[refl], np.where(facing[refl], 0, 1))
-            k = (rho[refl] / math.pi)[:, None]
+            x = c.point[refl]
+            e_dir, var = direct_illuminance(scene, engine, x, c.normal[refl],
+                                            samples=direct_samples, seed=seed,
+                                            block_ids=c.block[refl])
+            e_ind = cache.interpolate(scene, c.triangle[refl], x, np.where(c.front[refl], 0, 1))
+            k = (c.reflectance[refl] / math.pi)[:, None]
             out[refl] += k * (e_dir[:, None] + e_ind)
-            direct_var[h[refl]] = (rho[refl] / math.pi) ** 2 * var
-        return h, out
+            direct_var[c.index[refl]] = k[:, 0] ** 2 * var
+        return c.index, out
 
     run_chunks(work, range(0, hit.size, chunk), lum_b, int(workers), progress, t0, hit.size)
     openings = luminous_openings(scene, position, d, dist)
