@@ -144,8 +144,6 @@ def smoothing_labels(labels, source_mask, solid_angle, valid, *, radius):
         np.asarray(source_mask, dtype=bool)[flip])
     omega = np.ascontiguousarray(np.asarray(solid_angle, dtype=np.float64)[flip])
     cand = np.asarray(valid, dtype=bool)[flip] & (lab == 0)
-    from scipy.ndimage import distance_transform_edt
-
     # Only pixels within the radius of a source pixel can qualify.
     from scipy.ndimage import distance_transform_edt  # only where smoothing is asked for
 
