@@ -16,6 +16,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 
 from lsadphoto import _compiled
 from lsadphoto.datasets import window_scene
@@ -42,6 +43,7 @@ def _score(path, **env):
     return json.loads(done.stdout), json.loads(done.stderr.strip().splitlines()[-1])
 
 
+@pytest.mark.slow  # a fresh machine compiles the score's kernels just in time here (1–2 min)
 def test_ahead_of_time_and_just_in_time_scores_are_identical(tmp_path):
     # A daylit window of about 1 sr with gradients and a mullion (grouping, Q, statistics).
     cam = IdealFisheyeProjection("equidistant", 119.5, 119.5, 120.0, 180.0, 240, 240)
