@@ -85,24 +85,30 @@ def _sparse(weights):
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True)
-def _source_pass(cols, vals, lum, cos_omega, u, threshold, peak, luminance, mask, is_peak, e_dir, u_sum):
+def _source_pass(cols, vals, lum, cos_omega, u, threshold, peak, byte_of, shift_of, luminance, packed,
+                 e_dir, u_sum):
     """Luminance of the possible source pixels as superpose forms it (float64 sum in column
-    order, float32 rounding), the source and peak masks, E_dir = ΣL·cos σ·ω and ΣL²ω/P²."""
-    n_designs, n_pixels = mask.shape
+    order, rounded to float32), E_dir = ΣL·cos σ·ω and ΣL²ω/P² over the sources, and each
+    pixel's code (1 source, 3 source and peak) packed two bits a pixel, component by component."""
+    n_designs, n_pixels = luminance.shape
     for d in prange(n_designs):
+        acc = np.zeros(n_pixels)
+        for k in range(cols.shape[1]):
+            c = cols[d, k]
+            if c < 0:
+                continue
+            w = vals[d, k]
+            for j in range(n_pixels):
+                acc[j] += w * np.float64(lum[c, j])
+        packed[d, :] = 0
         s_e, s_u = 0.0, 0.0
         for j in range(n_pixels):
-            acc = 0.0
-            for k in range(cols.shape[1]):
-                c = cols[d, k]
-                if c >= 0:
-                    acc += vals[d, k] * np.float64(lum[c, j])
-            L = np.float64(np.float32(acc))
-            luminance[d, j] = L
-            src = L > threshold
-            mask[d, j] = src
-            is_peak[d, j] = src & (L >= peak)
-            if src:
+            L32 = np.float32(acc[j])
+            luminance[d, j] = L32
+            L = np.float64(L32)
+            if L > threshold:
+                code = 3 if L >= peak else 1
+                packed[d, byte_of[j]] |= np.uint8(code << shift_of[j])
                 s_e += L * cos_omega[j]
                 term = L * L * u[j]
                 if math.isfinite(term):
@@ -112,38 +118,44 @@ def _source_pass(cols, vals, lum, cos_omega, u, threshold, peak, luminance, mask
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True)
-def _group_pass(labels, luminance, omega, directions, rows, cols_px, n_groups, sums):
-    """Per design and group: Σω, ΣL·ω, ΣL·ω·d̂, ΣL·ω·row, ΣL·ω·col in row-major pixel order
-    (as evalglare's grouping does), rows and columns relative to the sources' bounding box
-    (whose corner is stored in sums[..., 7:9] of group 0)."""
-    n_designs, n_pixels = labels.shape
+def _group_pass(pattern_of, table_pixel, table_label, table_start, offsets, luminance, omega,
+                directions, rows, cols_px, sums):
+    """Per design and group slot: Σω, ΣL·ω, ΣL·ω·d̂, ΣL·ω·row, ΣL·ω·col in row-major pixel
+    order (as evalglare's grouping does), rows and columns relative to the sources' bounding
+    box, whose corner is stored in sums[d, 0, 7:9]. Pattern p of a component has the source
+    pixels ``table_pixel`` (in row-major order) with group labels ``table_label`` from
+    ``table_start[p]``; the component's groups go to its slots from ``offsets``."""
+    n_designs, n_comp = pattern_of.shape
     for d in prange(n_designs):
         r0, c0 = 1 << 60, 1 << 60
-        for j in range(n_pixels):
-            if labels[d, j] > 0:
+        for k in range(n_comp):
+            p = pattern_of[d, k]
+            for m in range(table_start[p], table_start[p + 1]):
+                j = table_pixel[m]
                 r0 = min(r0, rows[j])
                 c0 = min(c0, cols_px[j])
-        for j in range(n_pixels):
-            g = labels[d, j] - 1
-            if g < 0:
-                continue
-            L = luminance[d, j]
-            w = omega[j]
-            lw = L * w
-            sums[d, g, 0] += w
-            sums[d, g, 1] += lw
-            for a in range(3):
-                sums[d, g, 2 + a] += lw * directions[j, a]
-            sums[d, g, 5] += lw * (rows[j] - r0)
-            sums[d, g, 6] += lw * (cols_px[j] - c0)
-        if n_groups > 0:
-            sums[d, 0, 7] = r0
-            sums[d, 0, 8] = c0
+        for k in range(n_comp):
+            p = pattern_of[d, k]
+            for m in range(table_start[p], table_start[p + 1]):
+                g = offsets[k] + table_label[m] - 1
+                j = table_pixel[m]
+                L = np.float64(luminance[d, j])
+                w = omega[j]
+                lw = L * w
+                sums[d, g, 0] += w
+                sums[d, g, 1] += lw
+                for a in range(3):
+                    sums[d, g, 2 + a] += lw * directions[j, a]
+                sums[d, g, 5] += lw * (rows[j] - r0)
+                sums[d, g, 6] += lw * (cols_px[j] - c0)
+        sums[d, 0, 7] = r0
+        sums[d, 0, 8] = c0
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True)
 def _q_pass(cols, vals, a, b, wo, tile_start, tile_max, cut, out):
-    """Σ w·ω·g over the pixels with g·α ≥ cut, tiles skipped by the bound Σ w_c·max g_c."""
+    """Σ w·ω·g over the pixels with g·α ≥ cut; a tile is skipped where its bound
+    Σ_c w_c·max_tile g_c (``tile_max``: candidates × tiles) stays below the cut."""
     n_designs = cols.shape[0]
     n_tiles = tile_start.size - 1
     width = 0
@@ -152,15 +164,17 @@ def _q_pass(cols, vals, a, b, wo, tile_start, tile_max, cut, out):
     for d in prange(n_designs):
         acc_a = np.zeros(width)
         acc_b = np.zeros(width)
+        bound = np.zeros(n_tiles)
+        for k in range(cols.shape[1]):
+            c = cols[d, k]
+            if c >= 0:
+                w = vals[d, k]
+                for t in range(n_tiles):
+                    bound[t] += w * tile_max[c, t]
         total = 0.0
         limit = cut[d] / _ALPHA
         for t in range(n_tiles):
-            bound = 0.0
-            for k in range(cols.shape[1]):
-                c = cols[d, k]
-                if c >= 0:
-                    bound += vals[d, k] * tile_max[t, c]
-            if bound * (1.0 + _MARGIN) < limit:
+            if bound[t] * (1.0 + _MARGIN) < limit:
                 continue
             s, e = tile_start[t], tile_start[t + 1]
             n = e - s
@@ -239,7 +253,18 @@ class _View:
                                             search_angle=DEFAULT_SEARCH_ANGLE, peak_luminance=None)
         comp = labels.ravel()[index] - 1
         self.components = [np.flatnonzero(comp == k) for k in range(int(comp.max()) + 1 if comp.size else 0)]
-        self.patterns = [dict() for _ in self.components]
+        sizes = np.array([m.size for m in self.components], np.int64)
+        comp_start = np.r_[0, np.cumsum(sizes)].astype(np.int64)
+        members = np.concatenate(self.components).astype(np.int64) if self.components else np.zeros(0, np.int64)
+        # two bits a pixel, each component from a byte of its own
+        self.byte_start = np.r_[0, np.cumsum((2 * sizes + 7) // 8)].astype(np.int64)
+        rank = np.empty(index.size, np.int64)
+        rank[members] = np.arange(index.size) - np.repeat(comp_start[:-1], sizes)
+        self.byte_of = (self.byte_start[:-1][comp] + 2 * rank // 8) if index.size else np.zeros(0, np.int64)
+        self.shift_of = (2 * rank % 8).astype(np.int64)
+        self.patterns = [dict() for _ in self.components]   # packed codes → pattern id
+        self.tables = []                  # per pattern id: its source pixels and their labels
+        self.widths = np.zeros(len(self.components), np.int64)  # most groups of a component
 
     def _q_setup(self, maps, valid):
         """Q's field, evaluated pixels and the tiles of gradient components per candidate."""
@@ -269,47 +294,49 @@ class _View:
             a[c], b[c] = ac, bc
         self.q_a, self.q_b = a, b
         norm = np.hypot(a.astype(np.float64), b.astype(np.float64))
-        self.q_tile_max = np.ascontiguousarray(np.maximum.reduceat(norm, self.tile_start[:-1], axis=1).T
-                                               if index.size else np.zeros((0, len(maps))))
+        # candidates × tiles
+        self.q_tile_max = np.ascontiguousarray(np.maximum.reduceat(norm, self.tile_start[:-1], axis=1)
+                                               if index.size else np.zeros((len(maps), 0)))
         weight = (np.float32(1.0) / self.pindex.ravel()[index].astype(np.float32)).astype(np.float64)
         self.q_wo = weight * omega32.ravel()[index].astype(np.float64)
 
-    def grouping(self, k, mask_bits, peak_bits, luminance):
-        """Labels (1…n over the component's pixels, 0 elsewhere) of component ``k`` for one
-        pattern of source and peak pixels, computed once by the metrics' own grouping."""
-        key = mask_bits.tobytes() + peak_bits.tobytes()
-        labels = self.patterns[k].get(key)
-        if labels is None:
-            members = self.components[k]
-            mask = np.zeros(self.shape, bool)
-            lum = np.full(self.shape, np.nan)
-            pix = self.src[members]
-            mask.ravel()[pix] = np.unpackbits(mask_bits, count=members.size).astype(bool)
-            lum.ravel()[pix] = luminance
-            _, image = group_sources_evalglare(lum, self.directions, self.omega, mask,
-                                               search_angle=DEFAULT_SEARCH_ANGLE,
-                                               peak_luminance=DEFAULT_PEAK_LUMINANCE)
-            labels = image.ravel()[pix].astype(np.int64)
-            self.patterns[k][key] = labels
-        return labels
+    def _pattern(self, k, key, luminance):
+        """The pattern id of component ``k`` for its packed codes ``key`` (bytes); a new
+        pattern's groups are computed once by the metrics' own grouping."""
+        found = self.patterns[k].get(key)
+        if found is not None:
+            return found
+        members = self.components[k]
+        pix = self.src[members]
+        codes = np.unpackbits(np.frombuffer(key, np.uint8), bitorder="little")[:2 * members.size]
+        mask = np.zeros(self.shape, bool)
+        mask.ravel()[pix] = codes[0::2].astype(bool)
+        lum = np.full(self.shape, np.nan)
+        lum.ravel()[pix] = luminance  # of a design with this pattern: its peaks are these
+        _, image = group_sources_evalglare(lum, self.directions, self.omega, mask,
+                                           search_angle=DEFAULT_SEARCH_ANGLE,
+                                           peak_luminance=DEFAULT_PEAK_LUMINANCE)
+        labels = image.ravel()[pix].astype(np.int64)
+        self.tables.append((members[labels > 0], labels[labels > 0]))
+        self.widths[k] = max(self.widths[k], int(labels.max(initial=0)))
+        self.patterns[k][key] = len(self.tables) - 1
+        return len(self.tables) - 1
 
     def evaluate(self, cols, vals):
         """Every view metric of a block of designs (sparse weights), as arrays."""
         n = cols.shape[0]
         e_v = (vals * np.where(cols >= 0, self.e_v[np.maximum(cols, 0)], 0.0)).sum(axis=1)
         m = self.src.size
-        luminance = np.empty((n, m))
-        mask = np.empty((n, m), bool)
-        peak = np.empty((n, m), bool)
+        luminance = np.empty((n, m), np.float32)
+        packed = np.empty((n, int(self.byte_start[-1])), np.uint8)
         e_dir = np.empty(n)
         u_sum = np.empty(n)
         _source_pass(cols, vals, self.src_lum, self.src_cos_omega, self.src_u, self.threshold,
-                     DEFAULT_PEAK_LUMINANCE, luminance, mask, peak, e_dir, u_sum)
+                     DEFAULT_PEAK_LUMINANCE, self.byte_of, self.shift_of, luminance, packed, e_dir, u_sum)
         l_b = (e_v - e_dir) / math.pi
-        n_src = mask.sum(axis=1)
+        grouped, dgp_sum, n_groups = self._groups(luminance, packed)
         with np.errstate(invalid="ignore", divide="ignore"):
-            ugr_pixel = np.where((n_src > 0) & (l_b > 0) & (u_sum > 0), 8.0 * np.log10(0.25 / l_b * u_sum), np.nan)
-        grouped, dgp_sum, n_groups = self._groups(luminance, mask, peak)
+            ugr_pixel = np.where((n_groups > 0) & (l_b > 0) & (u_sum > 0), 8.0 * np.log10(0.25 / l_b * u_sum), np.nan)
         with np.errstate(invalid="ignore", divide="ignore"):
             ugr_grouped = np.where((n_groups > 0) & (l_b > 0) & (grouped > 0),
                                    8.0 * np.log10(0.25 / l_b * grouped), np.nan)
@@ -319,30 +346,27 @@ class _View:
         return {"q": self._q(cols, vals), "ugr_pixel": ugr_pixel, "ugr_grouped": ugr_grouped,
                 "dgp": dgp, "E_v": e_v, "sources": n_groups}
 
-    def _groups(self, luminance, mask, peak):
+    def _groups(self, luminance, packed):
         """Grouped-UGR sum ΣL_s²ω_s/P_s², DGP's sum and the number of groups per design."""
-        n = mask.shape[0]
-        labels = np.zeros(mask.shape, np.int64)
-        offset = 0
-        for k, members in enumerate(self.components):
-            bits = np.packbits(mask[:, members], axis=1)
-            pbits = np.packbits(peak[:, members], axis=1)
-            both = np.ascontiguousarray(np.concatenate([bits, pbits], axis=1))
-            keys, first, inverse = np.unique(both.view(np.dtype((np.void, both.shape[1]))).ravel(),
+        n = packed.shape[0]
+        pattern_of = np.empty((n, len(self.components)), np.int64)
+        for k in range(len(self.components)):
+            part = np.ascontiguousarray(packed[:, self.byte_start[k]:self.byte_start[k + 1]])
+            keys, first, inverse = np.unique(part.view(np.dtype((np.void, part.shape[1]))).ravel(),
                                              return_index=True, return_inverse=True)
-            tables = [self.grouping(k, bits[f], pbits[f], luminance[f, members]) for f in first]
-            width = max(int(t.max()) for t in tables)
-            if width == 0:
-                continue
-            table = np.stack(tables)
-            local = table[inverse.ravel()]
-            labels[:, members] = np.where(local > 0, local + offset, 0)
-            offset += width
-        sums = np.zeros((n, max(offset, 1), 9))
-        _group_pass(labels, luminance, self.src_omega, self.src_dirs, self.src_rows, self.src_cols,
-                    offset, sums)
-        if offset == 0:
+            members = self.components[k]
+            ids = np.array([self._pattern(k, part[f].tobytes(), luminance[f, members]) for f in first])
+            pattern_of[:, k] = ids[inverse.ravel()]
+        offsets = np.r_[0, np.cumsum(self.widths)].astype(np.int64)
+        width = int(offsets[-1])
+        if width == 0:
             return np.zeros(n), np.zeros(n), np.zeros(n, np.int64)
+        table_pixel = np.concatenate([t[0] for t in self.tables]).astype(np.int64)
+        table_label = np.concatenate([t[1] for t in self.tables]).astype(np.int64)
+        table_start = np.r_[0, np.cumsum([t[0].size for t in self.tables])].astype(np.int64)
+        sums = np.zeros((n, width, 9))
+        _group_pass(pattern_of, table_pixel, table_label, table_start, offsets, luminance,
+                    self.src_omega, self.src_dirs, self.src_rows, self.src_cols, sums)
         omega, lw = sums[..., 0], sums[..., 1]
         present = omega > 0
         with np.errstate(invalid="ignore", divide="ignore"):
