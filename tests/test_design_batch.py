@@ -16,6 +16,9 @@ from lsadphoto.design.superposition import solve_candidate
 #: 8 ceiling positions of the worked example's office (6 × 4 m).
 POSITIONS = [(1.0, 1.0), (1.0, 3.0), (2.3, 1.3), (2.3, 2.7), (3.7, 1.3), (3.7, 2.7), (5.0, 1.0),
              (5.0, 3.0)]
+#: Light chains per candidate: few (the comparisons are between evaluations of the same
+#: candidates, whose noise does not matter to them).
+SAMPLES = 256
 
 
 def _problem(folder, *, size, positions, search=None):
@@ -25,7 +28,7 @@ def _problem(folder, *, size, positions, search=None):
     make_design_samples(folder, size=size)
     doc = tomllib.loads((folder / "problem.toml").read_text())
     doc["positions"] = [{"position": [x, y, 2.95]} for x, y in positions]
-    doc["simulation"] = {"samples": 1024, "grid_nodes": 64}
+    doc["simulation"] = {"samples": SAMPLES, "grid_nodes": 64}
     doc["grids"][0]["spacing"] = 1.5
     doc["search"] = search or {"method": "exhaustive", "max_exhaustive": 70000}
     (folder / "problem.toml").write_text(tomli_w.dumps(doc))
@@ -35,14 +38,14 @@ def _problem(folder, *, size, positions, search=None):
     for k, (i, kind) in enumerate((i, t) for i in range(len(problem.positions)) for t in problem.catalogue):
         lum = luminaire_entry(problem.catalogue[kind], problem.positions[i], name=f"p{i}-{kind}")
         solutions[(i, kind)] = solve_candidate(problem.space, lum, base=folder, grids=grids,
-                                               samples=1024, seed=k + 1, grid_options={"nodes": 64})
+                                               samples=SAMPLES, seed=k + 1, grid_options={"nodes": 64})
     return problem, solutions
 
 
 @pytest.fixture(scope="module")
 def eight(tmp_path_factory):
-    """8 positions × (off + 3 types), 20² fisheye views: 24 candidates solved once."""
-    return _problem(tmp_path_factory.mktemp("eight"), size=20, positions=POSITIONS)
+    """8 positions × (off + 3 types), 16² fisheye views: 24 candidates solved once."""
+    return _problem(tmp_path_factory.mktemp("eight"), size=16, positions=POSITIONS)
 
 
 def _close(batch, reference, *, rtol, atol):
@@ -52,12 +55,11 @@ def _close(batch, reference, *, rtol, atol):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("size", [32])
-def test_batch_equals_score_map_on_random_designs(tmp_path, size):
-    problem, solutions = _problem(tmp_path, size=size, positions=POSITIONS[:6])
+def test_batch_equals_score_map_on_random_designs(eight):
+    problem, solutions = eight
     evaluator = DesignEvaluator(problem, solutions)
     rng = np.random.default_rng(5)
-    genomes = [tuple(rng.integers(0, 4, 6)) for _ in range(40)] + [(0,) * 6, (3,) * 6, (1,) * 6]
+    genomes = [tuple(rng.integers(0, 4, 8)) for _ in range(30)] + [(0,) * 8, (3,) * 8, (1,) * 8]
     batch = evaluator.evaluate_many(genomes)
     checked = {"q": 0, "ugr_grouped": 0, "ugr_pixel": 0}
     for genome, record in zip(genomes, batch, strict=True):
@@ -81,8 +83,8 @@ def test_batch_equals_score_map_on_random_designs(tmp_path, size):
             for key in ("e_m", "e_min", "u0", "e_m_standard_error"):
                 assert math.isclose(record.grids[name][key], grid[key], rel_tol=1e-9, abs_tol=1e-12)
         assert record.objectives == pytest.approx(reference.objectives, rel=1e-6, abs=1e-5)
-    # the comparison is not vacuous: most designs have glare sources and a positive Q
-    assert min(checked.values()) >= 40, checked
+    # the comparison is not vacuous: designs with glare sources and with a positive Q
+    assert min(checked.values()) >= 10, checked
 
 
 def test_pareto_front_of_many_records_by_the_definition():

@@ -268,7 +268,9 @@ class _View:
 
     def _q_setup(self, maps, valid):
         """Q's field, evaluated pixels and the tiles of gradient components per candidate."""
-        probe = q_Budak2021(np.where(valid, self.lum[0], np.nan), self.directions, self.omega,
+        # Q's design-independent parts (blur, evaluated pixels, Σw·ω) from a map with light
+        # wherever any candidate has some (a dark probe would stop before them).
+        probe = q_Budak2021(np.where(valid, self.lum.sum(axis=0), np.nan), self.directions, self.omega,
                             self.pindex, n_thresholds=_N_THRESHOLDS, size_arcmin=_SIZE_ARCMIN,
                             valid=valid, **_THRESHOLD_OPTIONS)
         settings = probe.settings

@@ -197,7 +197,8 @@ class DesignEvaluator:
         return self._record(genome, views, grid_values)
 
     def _record(self, genome, views, grids):
-        _, _, chosen = self.combine(genome)
+        chosen = [None if c is None else {"type": c[0], "level": c[1]}
+                  for c in (self.choices[i][g] for i, g in enumerate(genome))]
         power = sum(self.problem.catalogue[c["type"]]["power_w"] * c["level"] for c in chosen if c)
         count = sum(1 for c in chosen if c)
         record = DesignRecord(genome=genome, choices=chosen, views=views, grids=grids,
@@ -312,10 +313,9 @@ def search(evaluator, *, progress=None):
 
 def _nsga2(evaluator, settings, progress):
     from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.core.mutation import Mutation
     from pymoo.core.problem import Problem
-    from pymoo.operators.crossover.sbx import SBX
-    from pymoo.operators.mutation.pm import PM
-    from pymoo.operators.repair.rounding import RoundingRepair
+    from pymoo.operators.crossover.ux import UniformCrossover
     from pymoo.operators.sampling.rnd import IntegerRandomSampling
     from pymoo.optimize import minimize
 
@@ -337,8 +337,15 @@ def _nsga2(evaluator, settings, progress):
             if progress is not None:
                 progress(min(1.0, self.generation / (generations + 1)), None)
 
+    class _Reset(Mutation):
+        """Random reset: each gene, with probability 1/genes, takes any of its choices. A
+        gene's choices (off, or a type at a level) are categories, without an order that a
+        small step (polynomial mutation) or a blend (SBX) could follow."""
+
+        def _do(self, problem, X, random_state=None, **kwargs):
+            reset = random_state.random(X.shape) < self.get_prob_var(problem, size=(len(X), 1))
+            return np.where(reset, random_state.integers(0, upper + 1, size=X.shape), X)
+
     algorithm = NSGA2(pop_size=settings["population"], sampling=IntegerRandomSampling(),
-                      crossover=SBX(prob=0.9, eta=15, vtype=float, repair=RoundingRepair()),
-                      mutation=PM(eta=20, vtype=float, repair=RoundingRepair()),
-                      eliminate_duplicates=True)
+                      crossover=UniformCrossover(), mutation=_Reset(), eliminate_duplicates=True)
     minimize(_Problem(), algorithm, ("n_gen", generations), seed=settings["seed"], verbose=False)
