@@ -44,8 +44,8 @@ def _problem(folder, *, size, positions, search=None):
 
 @pytest.fixture(scope="module")
 def eight(tmp_path_factory):
-    """8 positions × (off + 3 types), 16² fisheye views: 24 candidates solved once."""
-    return _problem(tmp_path_factory.mktemp("eight"), size=16, positions=POSITIONS)
+    """8 positions × (off + 3 types), 20² fisheye views: 24 candidates solved once."""
+    return _problem(tmp_path_factory.mktemp("eight"), size=20, positions=POSITIONS)
 
 
 def _close(batch, reference, *, rtol, atol):
@@ -81,7 +81,8 @@ def test_batch_equals_score_map_on_random_designs(eight):
                 checked[key] += ref[key] is not None and ref[key] > 0
         for name, grid in reference.grids.items():
             for key in ("e_m", "e_min", "u0", "e_m_standard_error"):
-                assert math.isclose(record.grids[name][key], grid[key], rel_tol=1e-9, abs_tol=1e-12)
+                a, b = record.grids[name][key], grid[key]  # U₀ is NaN in the dark design
+                assert (math.isnan(a) and math.isnan(b)) or math.isclose(a, b, rel_tol=1e-9, abs_tol=1e-12)
         assert record.objectives == pytest.approx(reference.objectives, rel=1e-6, abs=1e-5)
     # the comparison is not vacuous: designs with glare sources and with a positive Q
     assert min(checked.values()) >= 10, checked
@@ -106,17 +107,21 @@ def test_pareto_front_of_many_records_by_the_definition():
 def test_nsga2_against_exhaustive_on_65536_designs(eight):
     problem, solutions = eight
     assert problem.design_count == 4 ** 8
+    # Objectives with a front of many designs: the desk view's Q (through the batch
+    # evaluator's Q) and the grid's uniformity, both maximised; the worked example's
+    # constraints (Ē ≥ 300 lx, U₀ ≥ 0.4, grouped UGR ≤ 22 at both views).
+    problem.objectives = [{"metric": "q", "sense": "max", "view": "desk"},
+                          {"metric": "u0", "sense": "max", "grid": "work plane", "view": "all"}]
     exhaustive = search(DesignEvaluator(problem, solutions))
     assert exhaustive["method"] == "exhaustive" and exhaustive["evaluations"] == 65536
-    assert exhaustive["best"] is not None
     truth = {tuple(r.objectives) for r in exhaustive["pareto"]}
-    problem.search = dict(problem.search, method="nsga2", population=64, generations=60, seed=1)
+    assert len(truth) >= 5
+    # NSGA-II, 128 × 100 (≈ 6 500 designs, a tenth of the space): the setting that recovered
+    # the whole front at each of three seeds, for these objectives and for (Ē, power);
+    # 100 × 80 recovers 10–13 of these 13 points (docs/user-guide-design.md)
+    problem.search = dict(problem.search, method="nsga2", population=128, generations=100, seed=0)
     genetic = search(DesignEvaluator(problem, solutions))
     assert genetic["evaluations"] < 65536 // 8
-    # the optimum (best in the first objective, ties by the second) is found
     assert tuple(genetic["best"].objectives) == tuple(exhaustive["best"].objectives)
     found = {tuple(r.objectives) for r in genetic["pareto"]}
-    # every design NSGA-II reports as Pareto-optimal is on the exhaustive front (the front
-    # of all designs dominates anything else), and it recovers all of it
-    assert found <= truth
-    assert found == truth, f"{len(found)} of {len(truth)} Pareto points"
+    assert found == truth, f"{len(found & truth)} of {len(truth)} Pareto points, {len(found - truth)} off it"
