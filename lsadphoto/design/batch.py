@@ -252,10 +252,11 @@ class _View:
         _, labels = group_sources_evalglare(lum, self.directions, self.omega, mask,
                                             search_angle=DEFAULT_SEARCH_ANGLE, peak_luminance=None)
         comp = labels.ravel()[index] - 1
-        self.components = [np.flatnonzero(comp == k) for k in range(int(comp.max()) + 1 if comp.size else 0)]
+        count = int(comp.max()) + 1 if comp.size else 0
+        self.components = [np.flatnonzero(comp == k) for k in range(count)]
         sizes = np.array([m.size for m in self.components], np.int64)
         comp_start = np.r_[0, np.cumsum(sizes)].astype(np.int64)
-        members = np.concatenate(self.components).astype(np.int64) if self.components else np.zeros(0, np.int64)
+        members = np.concatenate(self.components + [np.zeros(0, np.int64)]).astype(np.int64)
         # two bits a pixel, each component from a byte of its own
         self.byte_start = np.r_[0, np.cumsum((2 * sizes + 7) // 8)].astype(np.int64)
         rank = np.empty(index.size, np.int64)
@@ -270,14 +271,16 @@ class _View:
         """Q's field, evaluated pixels and the tiles of gradient components per candidate."""
         # Q's design-independent parts (blur, evaluated pixels, Σw·ω) from a map with light
         # wherever any candidate has some (a dark probe would stop before them).
-        probe = q_Budak2021(np.where(valid, self.lum.sum(axis=0), np.nan), self.directions, self.omega,
-                            self.pindex, n_thresholds=_N_THRESHOLDS, size_arcmin=_SIZE_ARCMIN,
+        probe = q_Budak2021(np.where(valid, self.lum.sum(axis=0), np.nan), self.directions,
+                            self.omega, self.pindex, n_thresholds=_N_THRESHOLDS, size_arcmin=_SIZE_ARCMIN,
                             valid=valid, **_THRESHOLD_OPTIONS)
         settings = probe.settings
         omega32 = self.omega.astype(np.float32)
-        field = valid & (omega32 > 0) & ~np.isnan(self.pindex) & np.all(np.isfinite(self.directions), axis=-1)
+        field = valid & (omega32 > 0) & ~np.isnan(self.pindex) & \
+            np.all(np.isfinite(self.directions), axis=-1)
         self.q_omega = float(np.sum(omega32[field].astype(np.float64)))
-        self.q_lw = np.array([float(np.sum((L[field] * omega32[field]).astype(np.float64))) for L in self.lum])
+        self.q_lw = np.array([float(np.sum((L[field] * omega32[field]).astype(np.float64)))
+                              for L in self.lum])
         self.q_weighted = settings.get("weighted_solid_angle_sr", math.nan)
         self.q_ok = self.q_omega > 0 and np.isfinite(probe.contrast).any()
         evaluated = np.isfinite(probe.contrast)
@@ -292,8 +295,8 @@ class _View:
         b = np.empty((len(maps), index.size), np.float32)
         for c, L in enumerate(self.lum):
             filled = np.where(field, L, np.float32(0)).astype(np.float32)
-            ac, bc = gradient_components(filled, self.directions, index, sigma_px=settings.get("blur_sigma_px", 0.0))
-            a[c], b[c] = ac, bc
+            a[c], b[c] = gradient_components(filled, self.directions, index,
+                                             sigma_px=settings.get("blur_sigma_px", 0.0))
         self.q_a, self.q_b = a, b
         norm = np.hypot(a.astype(np.float64), b.astype(np.float64))
         # candidates × tiles
@@ -338,7 +341,8 @@ class _View:
         l_b = (e_v - e_dir) / math.pi
         grouped, dgp_sum, n_groups = self._groups(luminance, packed)
         with np.errstate(invalid="ignore", divide="ignore"):
-            ugr_pixel = np.where((n_groups > 0) & (l_b > 0) & (u_sum > 0), 8.0 * np.log10(0.25 / l_b * u_sum), np.nan)
+            ugr_pixel = np.where((n_groups > 0) & (l_b > 0) & (u_sum > 0),
+                                 8.0 * np.log10(0.25 / l_b * u_sum), np.nan)
         with np.errstate(invalid="ignore", divide="ignore"):
             ugr_grouped = np.where((n_groups > 0) & (l_b > 0) & (grouped > 0),
                                    8.0 * np.log10(0.25 / l_b * grouped), np.nan)
@@ -443,7 +447,7 @@ class BatchEvaluator:
                                         for c, w in choices] + [np.zeros(view.shape)], axis=0)
             view.bound_sources(upper)
             self.views[name] = view
-        self.grids = {g: (np.stack([np.ravel(s.grids[g].illuminance) for s in self.columns]).astype(np.float64),
+        self.grids = {g: (np.stack([np.ravel(s.grids[g].illuminance) for s in self.columns]).astype(float),
                           np.array([s.grids[g].average_standard_error for s in self.columns]))
                       for g in self.columns[0].grids}
 

@@ -2,18 +2,21 @@
 
 A design chooses, at every candidate position, no luminaire or one catalogue type at one
 dimming level (a *genome*: one choice index per position). Its maps and grids are the
-superposition of the chosen candidates' solutions (:func:`~lsadphoto.design.superpose`),
-scored by the same :func:`~lsadphoto.metrics.score_map` as photographs — so a design's
-numbers are the numbers ``lsadphoto score`` gives for its render. Grid values (Ē, U₀),
-installed power and the number of luminaires complete the record.
+superposition of the chosen candidates' solutions (:func:`~lsadphoto.design.superpose`);
+its view metrics are those :func:`~lsadphoto.metrics.score_map` gives for them — so a
+design's numbers are the numbers ``lsadphoto score`` gives for its render — evaluated for
+many designs at once, without forming the maps, by
+:class:`~lsadphoto.design.batch.BatchEvaluator`. Grid values (Ē, U₀), installed power and
+the number of luminaires complete the record.
 
 Undefined view metrics: a view without glare sources has no UGR or DGP from sources (NaN);
 for objectives and constraints such a view counts as free of glare (UGR, DGP = 0). A view
 whose Q or E_v is undefined counts as the worst possible.
 
-The search is **exhaustive** where the design space is small (every design evaluated, the
-exact Pareto set), otherwise **NSGA-II** (pymoo) over the integer genomes with the
-constraints as inequality constraints; the Pareto set reported is the non-dominated set of
+The search is **exhaustive** where the design space is small (every design evaluated, in
+batches, the exact Pareto set), otherwise **NSGA-II** (pymoo) over the integer genomes with
+the constraints as one inequality constraint, uniform crossover and random-reset mutation
+(a gene's choices are categories); the Pareto set reported is the non-dominated set of
 every design evaluated. The **best** design is the feasible Pareto design that is best in the
 first objective, ties broken by the following ones. When no design is feasible the records
 closest to feasibility (smallest summed relative violation) are reported instead.
