@@ -2,7 +2,8 @@
 and the whole worked example.
 
 Run: .venv/bin/python benchmarks/bench_design.py [--sizes 64,256] [--designs 20000]
-     [--before 5] [--samples 256] [--enumerate SIZE] [--example]   (from the repository root)
+     [--before 5] [--samples 256] [--enumerate SIZE] [--example] [--cache DIR]
+     (from the repository root)
 
 For each view size: the worked example's space (data_samples/design) with its two views at
 that size and its 18 candidates (6 positions × 3 types), each solved with ``--samples``
@@ -40,7 +41,7 @@ sys.path.insert(0, str(ROOT))
 
 from lsadphoto.datasets.design import make_design_samples  # noqa: E402
 from lsadphoto.design.problem import load_problem  # noqa: E402
-from lsadphoto.design.run import _grids, luminaire_entry  # noqa: E402
+from lsadphoto.design.run import _grids, _load_candidate, _save_candidate, luminaire_entry  # noqa: E402
 from lsadphoto.design.search import DesignEvaluator, search  # noqa: E402
 from lsadphoto.design.superposition import solve_candidate  # noqa: E402
 
@@ -48,7 +49,9 @@ from lsadphoto.design.superposition import solve_candidate  # noqa: E402
 EIGHT = [(1.0, 1.0), (1.0, 3.0), (2.3, 1.3), (2.3, 2.7), (3.7, 1.3), (3.7, 2.7), (5.0, 1.0), (5.0, 3.0)]
 
 
-def _solved(size, samples, positions=None, search_settings=None):
+def _solved(size, samples, positions=None, search_settings=None, cache=None):
+    """The worked example at ``size``² views and its candidates, solved (or read from
+    ``cache``, a folder of candidate files named by size, chains, position and type)."""
     import tomllib
 
     folder = make_design_samples(Path(tempfile.mkdtemp()), size=size)
@@ -63,8 +66,15 @@ def _solved(size, samples, positions=None, search_settings=None):
     solutions = {}
     for k, (i, kind) in enumerate((i, t) for i in range(len(problem.positions)) for t in problem.catalogue):
         lum = luminaire_entry(problem.catalogue[kind], problem.positions[i], name=f"p{i}-{kind}")
+        path = None if cache is None else \
+            Path(cache) / f"{size}-{samples}-{len(problem.positions)}-{i}-{kind}.npz"
+        if path is not None and path.is_file():
+            solutions[(i, kind)] = _load_candidate(path, grids)
+            continue
         solutions[(i, kind)] = solve_candidate(problem.space, lum, base=folder, grids=grids, samples=samples,
                                                seed=k + 1, grid_options={"nodes": 64})
+        if path is not None:
+            _save_candidate(solutions[(i, kind)], path)
     print(f"  ({len(solutions)} candidates at {size}², {samples} chains: {time.perf_counter() - t0:.0f} s)")
     return problem, solutions
 
@@ -75,8 +85,8 @@ def _timed(fn):
     return result, time.process_time() - cpu, time.perf_counter() - wall
 
 
-def evaluations(size, designs, before, samples):
-    problem, solutions = _solved(size, samples)
+def evaluations(size, designs, before, samples, cache):
+    problem, solutions = _solved(size, samples, cache=cache)
     evaluator = DesignEvaluator(problem, solutions)
     rng = np.random.default_rng(0)
     genomes = rng.integers(0, 4, (designs, len(problem.positions)))
@@ -98,8 +108,8 @@ def evaluations(size, designs, before, samples):
               f"{n / cpu:.0f} | {n / wall:.0f} |")
 
 
-def enumeration(size, samples):
-    problem, solutions = _solved(size, samples, positions=EIGHT,
+def enumeration(size, samples, cache):
+    problem, solutions = _solved(size, samples, positions=EIGHT, cache=cache,
                                  search_settings={"method": "exhaustive", "max_exhaustive": 70000})
     exhaustive, cpu, wall = _timed(lambda: search(DesignEvaluator(problem, solutions)))
     truth = {tuple(r.objectives) for r in exhaustive["pareto"]}
@@ -125,17 +135,18 @@ def main():
     ap.add_argument("--samples", type=int, default=256)
     ap.add_argument("--enumerate", type=int, default=0, metavar="SIZE")
     ap.add_argument("--example", action="store_true")
+    ap.add_argument("--cache", help="folder keeping solved candidates between runs")
     args = ap.parse_args()
     print("| views | evaluator | designs | CPU per design [µs] | wall per design [µs] | "
           "designs per CPU-second | designs per second (wall) |")
     print("|---|---|---|---|---|---|---|")
     for size in map(int, filter(None, args.sizes.split(","))):
-        evaluations(size, args.designs, args.before, args.samples)
+        evaluations(size, args.designs, args.before, args.samples, args.cache)
     if args.enumerate:
         print("| search | seed | designs evaluated | CPU [s] | wall [s] | optimum found | "
               "exhaustive Pareto points recovered |")
         print("|---|---|---|---|---|---|---|")
-        enumeration(args.enumerate, args.samples)
+        enumeration(args.enumerate, args.samples, args.cache)
     if args.example:
         out = Path(tempfile.mkdtemp()) / "out"
         t0 = time.perf_counter()

@@ -125,3 +125,37 @@ def test_nsga2_against_exhaustive_on_65536_designs(eight):
     assert tuple(genetic["best"].objectives) == tuple(exhaustive["best"].objectives)
     found = {tuple(r.objectives) for r in genetic["pareto"]}
     assert found == truth, f"{len(found & truth)} of {len(truth)} Pareto points, {len(found - truth)} off it"
+
+
+@pytest.mark.parametrize("focal", [40.0, 1200.0])
+def test_gradient_components_give_q_gradient(focal):
+    """a² + b² = g² of Q, without blur (40 px/rad: pitch ≫ α) and with it (1200 px/rad:
+    pitch 2.9′, a Gaussian of 1.4 px): Q's contrast at N = 0 keeps every evaluated pixel,
+    K = w·g/L̄, so g is read back from it; the components are linear in the map."""
+    from lsadphoto.geometry.field import pixel_geometry
+    from lsadphoto.geometry.pinhole import PinholeProjection
+    from lsadphoto.metrics.quality import gradient_components, q_Budak2021
+
+    projection = PinholeProjection(focal, focal, 23.5, 17.5, 48, 36)
+    geometry = pixel_geometry(projection)
+    rng = np.random.default_rng(3)
+    rows, cols = np.mgrid[0:36, 0:48]
+    maps = [(100 + 50 * np.sin(rows / 3.0 + k) * np.cos(cols / 5.0) + rng.random((36, 48))).astype(np.float32)
+            for k in range(2)]
+    P = np.full((36, 48), 2.0)
+    result = q_Budak2021(maps[0], geometry.directions, geometry.solid_angle, P, n_thresholds=0)
+    index = np.flatnonzero(np.isfinite(result.contrast))
+    assert index.size > 500 and (result.settings["blur_sigma_px"] > 0) == (focal > 100)
+    a, b = gradient_components(maps[0], geometry.directions, index,
+                               sigma_px=result.settings["blur_sigma_px"])
+    g = np.float32(1.0) / np.float32(2.0) * np.hypot(a, b) / result.mean_luminance
+    # K is stored as float32: relative 6e-8, so 1e-6
+    np.testing.assert_allclose(g, result.contrast.ravel()[index], rtol=1e-6)
+    combined = (maps[0].astype(np.float64) + 2.0 * maps[1]).astype(np.float32)
+    (a1, b1), (ac, bc) = (gradient_components(m, geometry.directions, index,
+                                              sigma_px=result.settings["blur_sigma_px"])
+                          for m in (maps[1], combined))
+    # linear to float32 rounding of the filtered maps (relative 1e-7 of the largest)
+    scale = 1e-6 * max(np.abs(ac).max(), np.abs(bc).max())
+    np.testing.assert_allclose(ac, a + 2.0 * a1, rtol=0, atol=scale)
+    np.testing.assert_allclose(bc, b + 2.0 * b1, rtol=0, atol=scale)
