@@ -49,8 +49,9 @@ from lsadphoto.solver import (
 )
 from lsadphoto.solver.direct import direct_illuminance
 from lsadphoto.solver.examples import canonical_room_rad
-from lsadphoto.solver.rendering import _emitted, _engine_for, _primary
-from lsadphoto.solver.surface_cache import (
+from lsadphoto.solver.engine import engine_for
+from lsadphoto.solver.integrators.eye import emitted_luminance, primary_rays
+from lsadphoto.solver.integrators.surface_cache import (
     build_surface_cache,
     indirect_illuminance,
     render_cached,
@@ -107,9 +108,9 @@ def reference(scene, view, *, step, chains, nodes, direct_samples):
     hit point, E_dir by the closed form with ``direct_samples`` occlusion samples, E_ind by
     the double local estimate with ``nodes`` node draws at that very point (no cache, no
     interpolation), from its own simulation. Returns flat pixel indices, L_ref, σ_ref."""
-    engine = _engine_for(scene)
+    engine = engine_for(scene)
     projection = view.projection
-    valid, prim, dist, d = _primary(scene, engine, projection, view.position, view.rotation)
+    valid, prim, dist, d = primary_rays(scene, engine, projection, view.position, view.rotation)
     r, c = np.unravel_index(valid, projection.shape)
     off = step // 2
     sel = np.flatnonzero((r % step == off) & (c % step == off) & (prim >= 0))
@@ -122,7 +123,7 @@ def reference(scene, view, *, step, chains, nodes, direct_samples):
     lit = rho > 0
     e_ind = np.zeros((len(sel), 16))
     e_ind[lit] = indirect_illuminance(store, x[lit], n[lit], nodes=nodes, seed=1000, key=7)
-    lum = _emitted(scene, t, -d[sel]) + rho / math.pi * (e_dir + e_ind.mean(axis=1))
+    lum = emitted_luminance(scene, t, -d[sel]) + rho / math.pi * (e_dir + e_ind.mean(axis=1))
     sigma = rho / math.pi * np.sqrt(v_dir + e_ind.var(axis=1, ddof=1) / e_ind.shape[1])
     return valid[sel], lum, sigma
 

@@ -7,6 +7,7 @@ Every error lsadphoto raises on purpose becomes one line on stderr and a non-zer
 import argparse
 import gc
 import json
+import math
 import os
 import sys
 import warnings
@@ -402,6 +403,13 @@ def _format(value, digits=3):
     return "—" if value is None else f"{value:.{digits}f}"
 
 
+def _percent(fraction):
+    """A relative error as a percentage to 2 significant digits ("—" where undefined)."""
+    if fraction is None or not math.isfinite(fraction):
+        return "—"
+    return f"{100 * fraction:.2g} %"
+
+
 def cmd_score(args):
     from .io import read_map
     from .metrics.score import score_map
@@ -668,12 +676,10 @@ def cmd_survey(args):
 
 
 def _load_any_scene(path):
-    """Our TOML scene, or a Radiance scene (.rad) converted with 179 lm/W."""
-    from .solver import load_scene, read_radiance_scene
+    """Our TOML scene, a Radiance scene (.rad) or rad file (.rif): :func:`lsadphoto.solver.read_scene`."""
+    from .solver import read_scene
 
-    if Path(path).suffix.lower() == ".rad":
-        return read_radiance_scene(Path(path))
-    return load_scene(path)
+    return read_scene(path)
 
 
 def cmd_simulate(args):
@@ -707,7 +713,7 @@ def cmd_simulate(args):
 
 def _build_cache(store, args):
     from ._progress import progress_callback
-    from .solver.surface_cache import build_surface_cache
+    from .solver.integrators.surface_cache import build_surface_cache
 
     callback, close = progress_callback("surface cache", enabled=False if args.quiet else None)
     try:
@@ -727,7 +733,9 @@ def _render_pose(args, scene):
         if not args.size:
             raise BadInputError("--view needs --size WxH")
         width, height = _size(args.size)
-        view = parse_view(args.view, strict=True)
+        from .solver.formats.views import view_options
+
+        view = parse_view(view_options(args.view), strict=True)  # -vf files expanded
         if "vp" not in view:
             raise BadInputError(f"--view {args.view!r} gives no eye position (-vp X Y Z [m])")
         projection = projection_from_view(view, width, height)
@@ -789,12 +797,15 @@ def cmd_render(args):
                                     ("--cache-nodes", args.cache_nodes)) if v is not None]
     if cache_options and args.estimator != "cache":
         raise BadInputError(f"{', '.join(cache_options)} apply to --estimator cache only")
+    if args.target_error is not None and args.estimator != "local":
+        raise BadInputError("--target-error applies to --estimator local (the per-pixel estimate)")
     if source.suffix.lower() == ".npz":
         store_or_scene = load_store(source)
         scene = store_or_scene.scene
-        if args.samples is not None:
-            raise BadInputError(f"--samples applies when rendering a scene directly; the store "
-                                f"{source} holds {store_or_scene.chains} chains (simulate again for more)")
+        for option, value in (("--samples", args.samples), ("--target-error", args.target_error)):
+            if value is not None:
+                raise BadInputError(f"{option} applies when rendering a scene directly; the store "
+                                    f"{source} holds {store_or_scene.chains} chains (simulate again for more)")
         if cache_options and store_or_scene.surface_cache is not None:
             raise BadInputError(f"{', '.join(cache_options)} cannot apply: the store {source} already holds "
                                 f"a surface cache (spacing {store_or_scene.surface_cache.spacing:.3g} m); "
@@ -810,7 +821,7 @@ def cmd_render(args):
             raise BadInputError(f"--nodes-per-pixel must be a positive integer, 'all' or 'auto', got {nodes!r}") from None
     if args.estimator == "cache":
         from .solver import simulate
-        from .solver.surface_cache import render_cached
+        from .solver.integrators.surface_cache import render_cached
 
         store = store_or_scene
         if not isinstance(store, LsadStore):
@@ -824,7 +835,7 @@ def cmd_render(args):
                                  seed=args.seed, workers=os.cpu_count() or 1, progress=callback)
         else:
             lmap = render(store_or_scene, projection, position=position, rotation=rotation,
-                          samples=args.samples, seed=args.seed,
+                          samples=args.samples, target_error=args.target_error, seed=args.seed,
                           nodes_per_pixel=None if nodes == "all" else nodes, progress=callback)
     finally:
         close()
@@ -838,9 +849,16 @@ def cmd_render(args):
     else:
         p = lmap.provenance
         print(f"wrote {args.output}: {projection.width}×{projection.height} px, field-mean luminance "
-              f"{_format(p.get('field_mean_luminance'), 4)} cd/m², relative Monte Carlo error "
-              f"{_format(p.get('achieved_relative_error'), 4)}"
-              f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}")
+              f"{_format(p.get('field_mean_luminance'), 4)} cd/m² (relative Monte Carlo error "
+              f"{_percent(p.get('achieved_relative_error'))}); per-pixel relative error: median "
+              f"{_percent(p.get('pixel_relative_error_median'))}, 95th percentile "
+              f"{_percent(p.get('pixel_relative_error_p95'))}"
+              f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}"
+              f"{' — plus the cache interpolation bias' if p.get('interpolation_bias') else ''}")
+        if p.get("target_error") is not None:
+            chains = " → ".join(str(r["chains"]) for r in p["rounds"])
+            print(f"target per-pixel error {_percent(p['target_error'])} "
+                  f"{'reached' if p['target_reached'] else 'NOT reached'} (chains per round: {chains})")
     return 0
 
 
@@ -1098,13 +1116,13 @@ def _build_parser():
     sv.set_defaults(func=cmd_survey)
 
     sim = sub.add_parser("simulate", help="Monte Carlo light chains of a scene model → view-independent store")
-    sim.add_argument("scene", help="scene model: our TOML, or a Radiance scene (.rad)")
+    sim.add_argument("scene", help="scene model: our TOML, a Radiance scene (.rad) or rad file (.rif)")
     sim.add_argument("-o", "--output", required=True, help="store to write (.npz)")
     sim.add_argument("--samples", type=int, help="light chains (default 65536 unless --target-error)")
     sim.add_argument("--target-error", type=float,
                      help="stop at this relative standard error of the scene's mean luminance (e.g. 0.01)")
     sim.add_argument("--seed", type=int, default=0)
-    sim.add_argument("--near-field", choices=_Choices("lsadphoto.solver.rendering", "NEAR_FIELD_TREATMENTS"),
+    sim.add_argument("--near-field", choices=_Choices("lsadphoto.solver.integrators.local_estimate", "NEAR_FIELD_TREATMENTS"),
                      help="near-field treatment (default: the first; clamp is biased and reported as such)")
     _add_cache_options(sim)
     sim.add_argument("--surface-cache", action="store_true",
@@ -1114,15 +1132,18 @@ def _build_parser():
     sim.set_defaults(func=cmd_simulate)
 
     ren = sub.add_parser("render", help="render a luminance map of a view from a store or a scene")
-    ren.add_argument("source", help="store (.npz) from 'simulate', or a scene (TOML or Radiance .rad)")
+    ren.add_argument("source", help="store (.npz) from 'simulate', or a scene (TOML, Radiance .rad or .rif)")
     ren.add_argument("--profile", help="camera profile (TOML) whose lens model is the projection")
-    ren.add_argument("--view", metavar="RADIANCE_VIEW", help='Radiance view, e.g. "-vta -vp 1 2 1.2 -vd 1 0 0 -vu 0 0 1 -vh 180 -vv 180"')
+    ren.add_argument("--view", metavar="RADIANCE_VIEW", help='Radiance view, e.g. "-vta -vp 1 2 1.2 -vd 1 0 0 -vu 0 0 1 -vh 180 -vv 180" or "-vf room.vf"')
     ren.add_argument("--view-name", help="a [[views]] entry of the scene (default: its first)")
     ren.add_argument("--size", metavar="WxH", help="image size (with --view; with --profile a binning of its size)")
     ren.add_argument("--position", metavar="X,Y,Z", help="eye position [m] (with --profile)")
     ren.add_argument("--line-of-sight", metavar="X,Y,Z", help="optical axis in the scene (with --profile)")
     ren.add_argument("--up", metavar="X,Y,Z", help="up in the scene (with --profile; default 0,0,1)")
     ren.add_argument("--samples", type=int, help="light chains when rendering a scene directly")
+    ren.add_argument("--target-error", type=float, metavar="E",
+                     help="rendering a scene: simulate in rounds until the median per-pixel relative "
+                          "error is at most E (e.g. 0.02; the local estimator)")
     ren.add_argument("--estimator", choices=_Choices("lsadphoto.solver.rendering", "ESTIMATORS"), default="local",
                      help="local: the double local estimate per pixel (unbiased reference); cache: direct "
                           "light per pixel, indirect interpolated from the store's surface cache (built if "

@@ -169,7 +169,25 @@ def test_options_that_cannot_apply_to_a_store_are_errors(store_path, tmp_path):
     view = "-vta -vp 1 2 1.2 -vd 1 0 0 -vu 0 0 1 -vh 180 -vv 180"
     out = tmp_path / "m.exr"
     for extra, message in ((["--samples", "100"], "--samples applies when rendering a scene directly"),
+                           (["--target-error", "0.02"], "--target-error applies when rendering a scene"),
                            (["--cache-nodes", "64"], "--cache-nodes apply to --estimator cache only")):
         code, _, err = cli("render", store_path, f"--view={view}", "--size", "8x8", "-o", out, *extra)
         assert code == 2 and message in err and err.count("\n") == 1, err
         assert not out.exists()
+
+
+def test_render_a_scene_to_a_per_pixel_target_error(tmp_path):
+    # The printed median per-pixel error is the map's own: recomputed here from its EXR
+    # (luminance and per-pixel uncertainty), it must be at most the target.
+    scene = tmp_path / "room.toml"
+    scene.write_text(canonical_room_toml(size=16))
+    out = tmp_path / "m.exr"
+    code, stdout, err = cli("render", scene, "--samples", "1024", "--target-error", "0.015",
+                            "--quiet", "-o", out)
+    assert code == 0, err
+    assert "target per-pixel error 1.5 % reached (chains per round: 1024 → " in stdout, stdout
+    lmap = read_exr(out)
+    lit = np.isfinite(lmap.luminance) & (lmap.luminance > 0)
+    assert np.median(lmap.uncertainty[lit] / lmap.luminance[lit]) <= 0.015
+    code, _, err = cli("render", scene, "--target-error", "0.02", "--estimator", "cache", "-o", out)
+    assert code == 2 and "--target-error applies to --estimator local" in err

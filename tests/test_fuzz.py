@@ -406,6 +406,23 @@ def test_cli_photometry_in_a_scene(record_property, seeds):
              check, examples=6)
 
 
+
+def test_cli_design_command(record_property, tmp_path):
+    # The worked example reduced to 2 positions × (off, downlight) = 4 designs on 16² views
+    # with few chains, so that a mutant that stays valid runs a whole design quickly.
+    from lsadphoto.datasets.design import make_design_samples
+
+    folder = tmp_path / "design"
+    make_design_samples(folder, size=16)
+    problem = tomllib.loads((folder / "problem.toml").read_text())
+    problem["catalogue"] = {"downlight": problem["catalogue"]["downlight"]}
+    problem["positions"] = problem["positions"][:2]
+    problem["simulation"] = {"samples": 512, "grid_nodes": 64}
+    (folder / "problem.toml").write_text(tomli_w.dumps(problem))
+    fuzz(record_property, "cli design (TOML problem)", folder / "problem.toml", toml_or_bytes,
+         lambda path, out: check_cli(["design", path, "-o", out / "d", "--quiet"], out, ("d",)),
+         examples=10, siblings=[p for p in sorted(folder.iterdir()) if p.name != "problem.toml"])
+
 # --------------------------------------------------------------------------- found by fuzzing
 
 

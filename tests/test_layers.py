@@ -43,14 +43,9 @@ LAYERS = [
 RANK = {name: rank for rank, names in enumerate(LAYERS) for name in names}
 
 #: Known cycles, each as the sorted modules of one strongly connected component, with the issue
-#: that removes it.
-ALLOWED_CYCLES = {
-    # Store ↔ simulation ↔ rendering ↔ surface cache ↔ chains call each other through deferred
-    # imports (a store renders itself, the cache re-simulates, …): issue 13 (the solver split
-    # into integrators/, store and chains as DESIGN.md lays them out).
-    ("lsadphoto.solver.chains", "lsadphoto.solver.rendering", "lsadphoto.solver.simulation",
-     "lsadphoto.solver.store", "lsadphoto.solver.surface_cache"): "issue 13",
-}
+#: that removes it. None today (issue 17 split the solver's estimators into solver/integrators/,
+#: below the simulation and the public render).
+ALLOWED_CYCLES = {}
 
 #: Known cross-package imports of private modules: (importer, private module) → issue. None
 #: today (issue 17 moved the grouped atomic writer from io/_atomic.py to the foundation).

@@ -29,9 +29,9 @@ from lsadphoto.solver import (
 )
 from lsadphoto.solver.direct import direct_illuminance, projected_solid_angle
 from lsadphoto.solver.examples import canonical_room, canonical_room_toml
-from lsadphoto.solver.rendering import _engine_for
-from lsadphoto.solver.surface_cache import (
-    SurfaceCache,
+from lsadphoto.solver.cache_grid import SurfaceCache
+from lsadphoto.solver.engine import engine_for
+from lsadphoto.solver.integrators.surface_cache import (
     build_surface_cache,
     indirect_illuminance,
     render_cached,
@@ -97,7 +97,7 @@ def test_direct_light_of_a_half_occluded_luminaire():
         "luminaires": [{"type": "area", "flux": flux, "material": "black", "shape": {
             "type": "polygon", "vertices": [[-0.5, -0.5, 2], [-0.5, 0.5, 2], [0.5, 0.5, 2], [0.5, -0.5, 2]]}}],
     })
-    engine = _engine_for(scene)
+    engine = engine_for(scene)
     luminance = flux / math.pi  # 1 m²
     half = quad([0, -0.5, 2], [0, 0.5, 2], [0.5, 0.5, 2], [0.5, -0.5, 2])
     point = np.array([[0.0, 0.05, 0.0]])
@@ -117,7 +117,7 @@ def test_direct_light_is_exact_where_luminaires_are_fully_visible():
     room = canonical_room(size=8)
     pts = np.array([[3.0, 2.0, 0.0], [0.0, 1.0, 1.5], [5.0, 3.5, 2.5]])
     nrm = np.array([[0, 0, 1.0], [1, 0, 0], [0, -1, 0]])
-    e, var = direct_illuminance(room, _engine_for(room), pts, nrm, samples=4)
+    e, var = direct_illuminance(room, engine_for(room), pts, nrm, samples=4)
     expected = sum(lum.luminance(room) * projected_solid_angle(pts, nrm, room.triangles[lum.triangles]).sum(axis=1)
                    for lum in room.area_luminaires)
     assert np.allclose(e, expected, rtol=1e-12)
@@ -133,7 +133,7 @@ def test_direct_light_of_a_point_luminaire():
         "luminaires": [{"type": "point", "position": [0, 0, 2], "flux": 400 * math.pi}],
     })
     pts = np.array([[0.0, 0, 0], [1.5, 0, 0], [0, -3, 0]])
-    e, var = direct_illuminance(scene, _engine_for(scene), pts, np.tile([0, 0, 1.0], (3, 1)))
+    e, var = direct_illuminance(scene, engine_for(scene), pts, np.tile([0, 0, 1.0], (3, 1)))
     d2 = (pts ** 2).sum(axis=1) + 4
     assert np.allclose(e, 100 * 2 / np.sqrt(d2) / d2, rtol=1e-4)  # 1° intensity table: 1e-4
     assert np.all(var == 0)
@@ -266,7 +266,7 @@ def test_bad_input():
     with pytest.raises(BadInputError):
         render_cached(room, room.views[0].projection, position=[1, 2, 1], rotation=np.eye(3))
     with pytest.raises(BadInputError):
-        direct_illuminance(room, _engine_for(room), [[1, 1, 0]], [[0, 0, 1]], samples=0)
+        direct_illuminance(room, engine_for(room), [[1, 1, 0]], [[0, 0, 1]], samples=0)
 
 
 def test_cli_simulate_with_cache_and_render_from_it(tmp_path, capsys):

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from lsadphoto.errors import BadInputError, UnsupportedFileError
+from lsadphoto.errors import BadInputError, SolverWarning, UnsupportedFileError
 from lsadphoto.solver import (
     camera_to_world,
     load_store,
@@ -15,7 +15,7 @@ from lsadphoto.solver import (
 )
 from lsadphoto.solver.chains import trace_chains
 from lsadphoto.solver.examples import canonical_room
-from lsadphoto.solver.rendering import _engine_for
+from lsadphoto.solver.engine import engine_for
 
 NODE_FIELDS = ("position", "normal", "coefficient", "kind", "luminaire", "batch", "depth", "triangle")
 
@@ -50,7 +50,7 @@ def test_chunk_size_does_not_change_a_render(room, nodes_per_pixel):
 
 
 def test_simulation_in_rounds_equals_one_run(room):
-    engine = _engine_for(room)
+    engine = engine_for(room)
     whole = trace_chains(room, engine, seed=5, first_block=0, blocks=4, batches=16)
     part = trace_chains(room, engine, seed=5, first_block=0, blocks=1, batches=16)
     part.extend(trace_chains(room, engine, seed=5, first_block=1, blocks=3, batches=16))
@@ -104,6 +104,60 @@ def test_render_provenance_and_errors(room, store):
     assert np.all(np.isnan(lmap.luminance[~valid]))  # outside the fisheye circle
     clamp = render(store, proj, **pose, near_field="clamp")
     assert clamp.provenance["near_field_biased"] is True
+
+
+@pytest.mark.slow
+def test_per_pixel_errors_are_reported_and_honest(room):
+    # Pairs of independent simulations of one view: a pixel's difference has variance
+    # se₁² + se₂², so with honest errors the median over pixels of |d|/√(se₁² + se₂²) is that
+    # of |t₁₅| (errors from B = 16 batches), 0.69. The pixels of one pair share their chains
+    # and are strongly correlated (one pair's median ranges over 0.4…1.5), so the pairs are the
+    # independent samples: their mean must lie within 3 of its standard errors of 0.69.
+    proj, pose = view_args(room)
+    medians = []
+    for k in range(10):
+        a, b = (render(simulate(room, samples=2048, seed=100 + 2 * k + i), proj, seed=2 * k + i, **pose)
+                for i in (0, 1))
+        sigma = np.hypot(a.uncertainty, b.uncertainty)
+        ok = np.isfinite(a.luminance) & (sigma > 0)  # (luminaires seen directly are exact: σ = 0)
+        assert ok.sum() > 150
+        medians.append(np.median(np.abs(a.luminance[ok] - b.luminance[ok]) / sigma[ok]))
+    se = np.std(medians, ddof=1) / math.sqrt(len(medians))
+    assert abs(np.mean(medians) - 0.69) < 3 * se, (np.mean(medians), se)
+    # the provenance states the median and 95th percentile of the relative errors, which the
+    # field mean's error understates
+    p = a.provenance
+    lit = np.isfinite(a.luminance) & (a.luminance > 0)
+    rel = a.uncertainty[lit] / a.luminance[lit]
+    assert math.isclose(p["pixel_relative_error_median"], np.median(rel), rel_tol=1e-6)
+    assert math.isclose(p["pixel_relative_error_p95"], np.percentile(rel, 95), rel_tol=1e-6)
+    assert p["pixel_relative_error_median"] > 5 * p["achieved_relative_error"]
+
+
+def test_render_to_a_per_pixel_target_error(room):
+    # Rounds: 1/√chains predicts the chains; the reported median is the honest per-pixel error
+    # (test above), so reaching the target means the map has it.
+    proj, pose = view_args(room)
+    lmap = render(room, proj, **pose, samples=1024, target_error=0.01)
+    p = lmap.provenance
+    assert p["target_reached"] is True and p["pixel_relative_error_median"] <= 0.01
+    assert len(p["rounds"]) >= 2 and p["rounds"][0]["chains"] == 1024  # 1024 give ≈ 2 %
+    assert p["rounds"][-1]["chains"] == p["chains"]
+    errors = [r["pixel_relative_error_median"] for r in p["rounds"]]
+    assert all(b < a for a, b in zip(errors, errors[1:]))
+
+
+def test_render_target_error_says_when_it_stalls_or_applies_not(room, store):
+    proj, pose = view_args(room)
+    # One node per pixel and batch: more chains do not lower a pixel's error.
+    with pytest.warns(SolverWarning, match="stopped falling"):
+        lmap = render(room, proj, **pose, samples=1024, target_error=0.002, nodes_per_pixel=1,
+                      max_samples=4096)
+    assert lmap.provenance["target_reached"] is False
+    with pytest.raises(BadInputError, match="chains are fixed"):
+        render(store, proj, **pose, target_error=0.05)
+    with pytest.raises(BadInputError, match="per-pixel relative error"):
+        render(room, proj, **pose, target_error=1e-5)
 
 
 def test_target_error_is_reached(room):
@@ -193,7 +247,7 @@ def test_worker_threads_do_not_change_results(room):
 
 
 def test_auto_gather_chooses_by_cost(room, store, monkeypatch):
-    import lsadphoto.solver.rendering as render_module
+    import lsadphoto.solver.integrators.local_estimate as render_module
 
     proj, pose = view_args(room)
     assert render(store, proj, **pose).provenance["nodes_per_pixel"] == "all"

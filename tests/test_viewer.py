@@ -151,6 +151,94 @@ def test_arrays_in_many_parts_are_decoded_by_workers_losslessly(browser, folder,
     assert _severe(browser) == []
 
 
+#: The page's test hook: a promise it awaits before decoding the full-resolution data.
+HOLD = ("window.lsadViewerHoldFullResolution = new Promise((release) => "
+        "{ window.lsadViewerRelease = release; });")
+
+
+@pytest.mark.slow
+def test_preview_is_drawn_before_the_full_data_and_never_probed(browser, folder, monkeypatch):
+    # A preview for maps above 100 000 px: the 1001 × 941 map gets blocks of 4 × 4 px. The
+    # page is held (its test hook) before decoding the full-resolution data, so that the
+    # preview state can be looked at; then released.
+    from lsadphoto.viewer import page
+
+    monkeypatch.setattr(page, "PREVIEW_PIXELS", 100_000)
+    lmap = _synthetic_map()
+    path = page.write_viewer(lmap, folder / "preview.html")
+    text = path.read_text(encoding="utf-8")
+    # The preview comes first, then the call that starts the viewer, then the full data.
+    first_array = text.index('data-array="map0.luminance"')
+    assert text.index('data-array="map0.preview"') < text.index("lsadViewerStart(") < first_array
+    assert all(text.index(f'data-array="{name}"') > first_array
+               for name in ("geometry.valid", "geometry.dx"))
+    hook = browser.execute_cdp_cmd("Page.addScriptToEvaluateOnNewDocument", {"source": HOLD})
+    try:
+        browser.get(path.resolve().as_uri())
+        state = browser.execute_async_script(
+            "const done = arguments[0]; window.lsadViewer.previewReady.then("
+            "(v) => done([v.state, v.display[0].block, Array.from(v.display[0].L)]),"
+            " (e) => done(['failed: ' + e]));")
+    finally:
+        browser.execute_cdp_cmd("Page.removeScriptToEvaluateOnNewDocument", hook)
+    assert state[:2] == ["preview", 4]
+    # The drawn array is the block mean of the finite values (NaN where a block has none),
+    # computed here block by block.
+    rows, cols = lmap.shape
+    expected = np.full((-(-rows // 4), -(-cols // 4)), np.nan)
+    for r in range(expected.shape[0]):
+        for c in range(expected.shape[1]):
+            block = lmap.luminance[4 * r:4 * r + 4, 4 * c:4 * c + 4].astype(np.float64)
+            if np.isfinite(block).any():
+                expected[r, c] = block[np.isfinite(block)].mean()
+    got = np.array([np.nan if v is None else v for v in state[2]])
+    # float32 of a float64 mean: within half a float32 ulp (6e-8 relative).
+    np.testing.assert_allclose(got, expected.reshape(-1), rtol=1.2e-7)
+    # It is on the canvas (the map's colours, not the empty panel's) and it zooms.
+    pixel = browser.execute_script(
+        "const c = document.querySelector('.lv-base');"
+        "return Array.from(c.getContext('2d').getImageData(c.width / 2, c.height / 2, 1, 1).data);")
+    assert pixel[3] == 255 and pixel[:3] != [250, 250, 250]
+    scale = browser.execute_script("const v = window.lsadViewer; const s = v.scale;"
+                                   "v.zoom(2, 100, 100); return v.scale / s;")
+    assert scale == pytest.approx(2.0)
+    # No value is read from the preview: the readers refuse, the probe says it waits.
+    refusals = browser.execute_script(
+        "const v = window.lsadViewer, out = [];"
+        "for (const f of [() => v.valueAt(500, 500), () => v.regionMean(500, 500, 20),"
+        "                 () => v.geometryAt(500, 500), () => v.csv()]) {"
+        "  try { f(); out.push('answered'); } catch (e) { out.push(e.message); } }"
+        "return out;")
+    assert all("still loading" in message for message in refusals), refusals
+    from selenium.webdriver.common.action_chains import ActionChains
+
+    canvas = browser.find_element("css selector", ".lv-panel .lv-over")
+    ActionChains(browser).move_to_element_with_offset(canvas, 5, 5).perform()
+    assert "loading the full-resolution data" in browser.find_element(
+        "css selector", ".lv-probe").text
+    # Released: the full data, bit for bit, drawn after the preview.
+    assert browser.execute_async_script(
+        "const done = arguments[0]; window.lsadViewerRelease();"
+        "window.lsadViewer.ready.then((v) => done(v.state), (e) => done('failed: ' + e));") == "full"
+    rng = np.random.default_rng(5)
+    pick_rows, pick_cols = rng.integers(0, rows, 300), rng.integers(0, cols, 300)
+    values = browser.execute_script(
+        "return arguments[0].map((r, k) => window.lsadViewer.valueAt(r, arguments[1][k]));",
+        pick_rows.tolist(), pick_cols.tolist())
+    values = np.array([np.nan if v is None else v for v in values], dtype=np.float64)
+    np.testing.assert_array_equal(values, lmap.luminance[pick_rows, pick_cols].astype(np.float64))
+    assert "L [cd/m²]" in browser.find_element("css selector", ".lv-probe").text
+    timings = browser.execute_async_script(
+        "const done = arguments[0]; requestAnimationFrame(() => requestAnimationFrame(() =>"
+        " done(window.lsadViewer.timings)));")
+    assert timings["preview"] < timings["full"]
+    assert _severe(browser) == []
+
+
+def test_maps_up_to_the_preview_size_embed_no_preview(pages):
+    # The 1001 × 941 map (under 1 Mi px) is drawn from its full data: no preview array.
+    assert 'data-array="map0.preview"' not in pages["view"].read_text(encoding="utf-8")
+
 def _reference_mean(lmap, row, col, radius):
     """ω-weighted mean of the pixels with centres within ``radius`` px, from the exact
     per-pixel solid angles of the geometry (not the page's interpolated ones)."""

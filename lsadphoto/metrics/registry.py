@@ -39,8 +39,8 @@ from .statistics import luminance_statistics
 from .ugr import ugr_CIE117, ugr_from_sum
 from .veiling import veiling_luminance_CIE146, veiling_luminance_Poynter
 
-__all__ = ["Metric", "QUANTITIES", "FIELD", "INDICES", "OTHER", "ANALYSES", "METRICS", "metric",
-           "evaluate_indices"]
+__all__ = ["Metric", "QUANTITIES", "FIELD", "INDICES", "OTHER", "ANALYSES", "METRICS", "HEADLINE",
+           "metric", "evaluate_indices"]
 
 #: Quantities an index may take as ``inputs``: ``sources`` expands to the per-source arrays
 #: (L_s [cd·m⁻²], ω_s [sr], P_s [–]); ``pixel_ugr_sum`` is ΣL²ω/P² over the source pixels
@@ -172,6 +172,11 @@ ANALYSES = (
 
 #: Every metric by name, in the order of the score record.
 METRICS = {m.name: m for m in FIELD + INDICES + OTHER + ANALYSES}
+
+#: The headline metrics, in the order summaries show them: the survey's model-against-photo
+#: columns (``model_<name>``) and the reports' summary tables.
+HEADLINE = ("ugr_pixel", "ugr_grouped", "q", "dgp", "vertical_illuminance",
+            "background_luminance", "mean_luminance")
 
 
 def metric(name):

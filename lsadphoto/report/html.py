@@ -39,12 +39,8 @@ import numpy as np
 from .._version import __version__
 from .._atomic import atomic_text
 
-__all__ = ["write_survey_report", "write_comparison_report", "check_survey_folder", "KEY_METRICS"]
+__all__ = ["write_survey_report", "write_comparison_report", "check_survey_folder"]
 
-#: Scalar metrics shown in the summary tables (columns of metrics.csv); their labels and
-#: units come from :data:`lsadphoto.metrics.registry.METRICS`.
-KEY_METRICS = ("ugr_pixel", "ugr_grouped", "q", "dgp", "vertical_illuminance",
-               "background_luminance")
 
 #: Columns naming the view in metrics.csv, in order of preference.
 _ID_COLUMNS = ("view", "scene")
@@ -432,10 +428,10 @@ def _summary_section(survey, study):
                                   "no view finished" + (" — every view failed (see Failures)"
                                                         if survey.failures else "")))
         return _section("summary", "Summary", *parts)
-    metrics = [(c, *_label_unit(c)) for c in KEY_METRICS if c in survey.columns]
+    metrics = [(c, *_label_unit(c)) for c in _headline() if c in survey.columns]
     if not metrics:
         parts.append(_note("metrics.csv has none of the key metric columns ("
-                           + ", ".join(KEY_METRICS) + ")"))
+                           + ", ".join(_headline()) + ")"))
     headers = ["view"] + [f"{label} [{unit}]" for _, label, unit in metrics]
     numeric = set(range(1, len(headers) + 1))
     if rating_column:
@@ -590,7 +586,7 @@ def _gallery_section(survey, max_views, viewers=True):
                            f"(max_gallery_views={max_views})"))
     for view, row in zip(shown, survey.rows):
         facts = [f"{label} {_fmt_pm(row.get(c), row.get(f'{c}_u'))}"
-                 for c, (label, _) in ((c, _label_unit(c)) for c in KEY_METRICS[:4])
+                 for c, (label, _) in ((c, _label_unit(c)) for c in _headline()[:4])
                  if _number(row.get(c)) is not None]
         cells = []
         viewer, why = _view_viewer(survey, view) if viewers else (None, None)
@@ -872,6 +868,13 @@ def write_survey_report(survey_dir, path=None, *, study=None, title=None,
                 f"generated {generated} by lsadphoto {__version__}")
     atomic_text(path, _document(title, subtitle, sections, nav))
     return path
+
+
+def _headline():
+    """The headline metrics of the summary tables (the registry's, imported on first use)."""
+    from ..metrics.registry import HEADLINE
+
+    return HEADLINE
 
 
 def _label_unit(key):

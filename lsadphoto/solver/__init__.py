@@ -1,11 +1,11 @@
 """Reference Monte Carlo lighting solver: double local estimate, view-independent LSAD store.
 
-Lambertian scenes (TOML, :func:`load_scene`) are simulated once by light chains from the
+Lambertian scenes (TOML or Radiance files, :func:`read_scene`) are simulated once by light chains from the
 luminaires (:func:`simulate` → :class:`LsadStore`, saved with :meth:`LsadStore.save`);
 any view is then rendered from the store by the double local estimate (:func:`render`)
 through the same :mod:`lsadphoto.geometry` projections that photographs use. A
 conventional path tracer (:func:`render_path_traced`) is included for cross-checks, and
-:func:`read_radiance_scene` reads the Lambertian subset of Radiance scene files.
+:func:`read_radiance_scene` reads Radiance scene files (with ies2rad luminaires).
 
 References
 ----------
@@ -21,10 +21,11 @@ from .._lazy import lazy_exports
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
     ".intensity": ["IntensityTable"],
-    ".radiance": ["read_radiance_scene"],
-    ".rendering": ["SolverWarning", "render", "render_path_traced"],
+    ".formats": ["load_scene", "read_radiance_scene", "read_rif_scene", "read_scene", "read_view"],
+    ".integrators.path_tracer": ["render_path_traced"],
+    ".rendering": ["SolverWarning", "render"],
     ".scene": ["AreaLuminaire", "PointLuminaire", "Scene", "View", "camera_to_world",
-               "load_scene", "scene_from_dict"],
+               "scene_from_dict"],
     ".simulation": ["simulate"],
     ".store": ["LsadStore", "load_store"],
 })

@@ -45,10 +45,16 @@ from numba import njit
 from .._validation import check_positive_int
 from ._sampling import stream
 
-__all__ = ["DIRECT_SAMPLES", "direct_illuminance", "projected_solid_angle"]
+__all__ = ["ALL_LUMINAIRES_UP_TO", "DIRECT_SAMPLES", "LUMINAIRE_DRAWS", "direct_illuminance",
+           "projected_solid_angle", "unoccluded_illuminance"]
 
 #: Default shadow-ray samples per luminaire and point.
 DIRECT_SAMPLES = 4
+#: ``luminaires="auto"`` of :func:`direct_illuminance` evaluates every luminaire up to this
+#: many, and samples them above it …
+ALL_LUMINAIRES_UP_TO = 8
+#: … with this many draws per point (besides the luminaires taken whole).
+LUMINAIRE_DRAWS = 8
 
 _NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
 
@@ -214,8 +220,156 @@ class _LuminaireSampler:
         return targets, g
 
 
+def _area_estimate(sampler, x, n, origins, u, engine, unoccluded=None):
+    """Ratio estimate of one area luminaire's direct illuminance [lx] at points x (normals
+    n, ray origins ``origins``) from uniforms u (P, s, 3), and its delta-method variance;
+    ``unoccluded`` = L·Π at x where already known."""
+    P, s, _ = u.shape
+    E = np.zeros(P)
+    var = np.zeros(P)
+    L = sampler.luminance
+    if unoccluded is not None and L > 0:
+        pi_l = unoccluded / L
+    else:
+        pi_l = _projected_solid_angle(x, n, sampler.triangles, sampler.front).sum(axis=1)
+    lit = np.flatnonzero(pi_l > 0)
+    if lit.size == 0:
+        return E, var
+    targets, g = sampler.sample(x[lit], n[lit], u[lit], engine.epsilon)
+    seen = np.zeros_like(g)
+    cand = np.flatnonzero(g.ravel() > 0)
+    if cand.size:
+        p_of = lit[cand // s]
+        vis = engine.visible(origins[p_of], targets.reshape(-1, 3)[cand])
+        seen.ravel()[cand] = np.where(vis, g.ravel()[cand], 0.0)
+    total = g.sum(axis=1)
+    sampled = total > 0  # else no sample fell where g > 0: taken as visible
+    ratio = np.ones(lit.size)
+    ratio[sampled] = seen[sampled].sum(axis=1) / total[sampled]
+    E[lit] = L * pi_l[lit] * ratio
+    if s > 1:
+        # Delta method: Var(R) ≈ var_j(g_j·(V_j − R))/(s·ḡ²).
+        resid = np.where(g > 0, seen - g * ratio[:, None], 0.0)
+        mean_g = total / s
+        var_r = np.zeros(lit.size)
+        var_r[sampled] = resid[sampled].var(axis=1, ddof=1) / (s * mean_g[sampled] ** 2)
+        var[lit] = (L * pi_l[lit]) ** 2 * var_r
+    return E, var
+
+
+def _point_estimate(lum, x, n, origins, u, engine, unoccluded=None):
+    """Direct illuminance [lx] of one point luminaire at points x from uniforms u (P, s, 3)
+    (the first two place emission points on its luminous rectangle; one ray without one),
+    and the sample variance of the mean. ``unoccluded``: its exact unoccluded illuminance at
+    x where already known (a luminaire without a rectangle), which then needs only the
+    shadow rays."""
+    length, width = lum.extent
+    ns = u.shape[1] if (length > 0 and width > 0) else 1
+    P = len(x)
+    if unoccluded is not None and ns == 1:
+        e = np.zeros(P)
+        lit = np.flatnonzero(unoccluded > 0)
+        if lit.size:
+            vis = engine.visible(origins[lit], np.broadcast_to(lum.position, (lit.size, 3)))
+            e[lit] = np.where(vis, unoccluded[lit], 0.0)
+        return e, np.zeros(P)
+    offs = (u[:, :ns, :2] - 0.5) * np.asarray([length, width])
+    y = (lum.position + offs[..., :1] * lum.frame[0] + offs[..., 1:] * lum.frame[1])
+    r = y - x[:, None, :]
+    r2 = np.einsum("psk,psk->ps", r, r)
+    cos_x = np.einsum("psk,pk->ps", r, n) / np.sqrt(r2)
+    terms = np.zeros((P, ns))
+    cand = np.flatnonzero((cos_x.ravel() > 0) & (r2.ravel() > 0))
+    if cand.size:
+        p_of = cand // ns
+        rr = r.reshape(-1, 3)[cand]
+        dist = np.sqrt(r2.ravel()[cand])
+        value = lum.intensity(-rr / dist[:, None]) * cos_x.ravel()[cand] / r2.ravel()[cand]
+        vis = engine.visible(origins[p_of], y.reshape(-1, 3)[cand])
+        terms.ravel()[cand] = np.where(vis, value, 0.0)
+    var = terms.var(axis=1, ddof=1) / ns if ns > 1 else np.zeros(P)
+    return terms.mean(axis=1), var
+
+
+def unoccluded_illuminance(scene, points, normals):
+    """Illuminance [lx] each luminaire would give at each point with nothing in the way.
+
+    Area luminaires: L·Π_l, Lambert's closed form; point luminaires: I(ω)·cos⁺θ/r² from the
+    luminaire's centre, which for a luminous rectangle is a guide, not the exact value.
+    Returns ``(u, exact)``: ``u`` of
+    shape (P, luminaires) in the scene's order (area luminaires first), and a boolean per
+    luminaire, true where ``u`` is exact. The weights by which :func:`direct_illuminance`
+    samples luminaires.
+    """
+    x = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
+    n = np.ascontiguousarray(normals, dtype=np.float64).reshape(-1, 3)
+    samplers = _samplers(scene)
+    u = np.zeros((len(x), len(samplers) + len(scene.point_luminaires)))
+    exact = np.ones(u.shape[1], dtype=bool)
+    for li, sampler in enumerate(samplers):
+        u[:, li] = sampler.luminance * _projected_solid_angle(x, n, sampler.triangles,
+                                                              sampler.front).sum(axis=1)
+    for k, lum in enumerate(scene.point_luminaires):
+        li = len(samplers) + k
+        length, width = lum.extent
+        exact[li] = not (length > 0 and width > 0)
+        r = lum.position - x
+        r2 = np.einsum("pk,pk->p", r, r)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            d = r / np.sqrt(r2)[:, None]
+            cos_x = np.einsum("pk,pk->p", d, n)
+        ok = (r2 > 0) & (cos_x > 0)
+        if ok.any():
+            u[ok, li] = lum.intensity(-d[ok]) * cos_x[ok] / r2[ok]
+    return u, exact
+
+
+def _samplers(scene):
+    samplers = getattr(scene, "_luminaire_samplers", None)
+    if samplers is None:  # built once per scene (scenes are not modified after loading)
+        samplers = scene._luminaire_samplers = [_LuminaireSampler(scene, lum)
+                                                for lum in scene.area_luminaires]
+    return samplers
+
+
+def _luminaire_weights(u, exact, draws, picks):
+    """Per point and luminaire, the weight of its estimate in the sampled sum.
+
+    Luminaires giving at least 1/``draws`` of a point's unoccluded total are taken whole
+    (weight 1); ``draws`` luminaires are drawn from the rest with probability p ∝ u (with a
+    floor of 10⁻³ of the rest's mean for luminaires whose u is only a guide, so that p > 0
+    wherever light may arrive), each draw weighted 1/(draws·p). Returns the weights (P, N),
+    the draw counts (P, N) and the probabilities (P, N).
+    """
+    P, N = u.shape
+    total = u.sum(axis=1, keepdims=True)
+    whole = (u > 0) & (u >= total / draws)
+    rest = np.where(whole, 0.0, u)
+    guide = ~whole & ~exact[None, :]
+    floor = 1e-3 * rest.sum(axis=1, keepdims=True) / max(N, 1)
+    rest = np.where(guide, np.maximum(rest, np.maximum(floor, 1e-300)), rest)
+    mass = rest.sum(axis=1, keepdims=True)
+    prob = np.divide(rest, mass, out=np.zeros_like(rest), where=mass > 0)
+    counts = np.zeros((P, N), dtype=np.int64)
+    sampled = np.flatnonzero(mass[:, 0] > 0)
+    if sampled.size:
+        # Stratified draws, one in each 1/draws slice of a point's cumulative probability;
+        # all points' CDFs in one sorted array (row r shifted by r) for one binary search.
+        cdf = np.cumsum(prob[sampled], axis=1)
+        cdf[:, -1] = 1.0
+        row = np.arange(sampled.size)[:, None]
+        v = (np.arange(draws)[None, :] + picks[sampled]) / draws + row
+        flat = np.searchsorted((cdf + row).ravel(), v.ravel(), side="right")
+        pick = np.minimum(flat - np.repeat(row[:, 0], draws) * N, N - 1)
+        np.add.at(counts, (np.repeat(sampled, draws), pick), 1)
+    weight = whole.astype(float)
+    drawn = counts > 0
+    weight[drawn] += counts[drawn] / (draws * prob[drawn])
+    return weight, counts, prob
+
+
 def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES, seed=0,
-                       block_ids=None, purpose_key=0):
+                       block_ids=None, purpose_key=0, luminaires="auto"):
     """Direct illuminance [lx] at surface points, and its sampling variance [lx²].
 
     Parameters
@@ -236,12 +390,27 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         ``(seed, "direct", purpose_key, block)``, so results do not depend on chunking.
     purpose_key : int
         Distinguishes independent uses (e.g. pixels and cache points) within one seed.
+    luminaires : "all", int or "auto"
+        ``"all"``: every luminaire at every point. An integer K: at each point the
+        luminaires that give at least 1/K of its unoccluded illuminance
+        (:func:`unoccluded_illuminance`) are taken whole and K more are drawn from the rest
+        in proportion to their unoccluded illuminance, each weighted by 1/(K·p) — unbiased
+        importance sampling of luminaires (Shirley et al. 1996), exact where every
+        luminaire is fully visible and its unoccluded value exact, at the cost of ≤ 2K
+        luminaire estimates per point instead of all. ``"auto"`` (default): all up to
+        :data:`ALL_LUMINAIRES_UP_TO` luminaires, else K = :data:`LUMINAIRE_DRAWS`.
 
     Returns
     -------
     (E, variance) : tuple of ndarray, shape (P,)
         Exact where luminaires are fully visible or hidden, never negative; in a partial
         shadow of an area luminaire a ratio estimate (bias of order 1/s, module docstring).
+        With sampled luminaires the variance adds the draws' spread (their sample variance).
+
+    References
+    ----------
+    Shirley, P., Wang, C., Zimmerman, K. (1996). Monte Carlo techniques for direct lighting
+    calculations. *ACM Transactions on Graphics* 15(1), 1–36.
     """
     s = check_positive_int(samples, "direct samples")
     x = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
@@ -249,63 +418,68 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     P = len(x)
     E = np.zeros(P)
     var = np.zeros(P)
-    if P == 0:
+    samplers = _samplers(scene)
+    n_lum = len(samplers) + len(scene.point_luminaires)
+    draws = _luminaire_draws(luminaires, n_lum)
+    if P == 0 or n_lum == 0:
         return E, var
     blocks = np.zeros(P, dtype=np.int64) if block_ids is None else np.asarray(block_ids)
-    n_lum = len(scene.area_luminaires) + len(scene.point_luminaires)
-    u = np.empty((P, n_lum, s, 3))
-    for j in np.unique(blocks):
-        m = blocks == j
-        u[m] = stream(seed, "direct", purpose_key, j).random((int(m.sum()), n_lum, s, 3))
     origins = x + engine.epsilon * n
-    samplers = getattr(scene, "_luminaire_samplers", None)
-    if samplers is None:  # built once per scene (scenes are not modified after loading)
-        samplers = scene._luminaire_samplers = [_LuminaireSampler(scene, lum)
-                                                for lum in scene.area_luminaires]
-    for li, sampler in enumerate(samplers):
-        L = sampler.luminance
-        pi_l = _projected_solid_angle(x, n, sampler.triangles, sampler.front).sum(axis=1)
-        lit = np.flatnonzero(pi_l > 0)
-        if lit.size == 0:
+    lums = [(sampler, _area_estimate) for sampler in samplers] + [
+        (lum, _point_estimate) for lum in scene.point_luminaires]
+    if draws is None:
+        u = np.empty((P, n_lum, s, 3))
+        for j in np.unique(blocks):
+            m = blocks == j
+            u[m] = stream(seed, "direct", purpose_key, j).random((int(m.sum()), n_lum, s, 3))
+        for li, (lum, estimate) in enumerate(lums):
+            e, v = estimate(lum, x, n, origins, u[:, li], engine)
+            E += e
+            var += v
+        return E, var
+    # Importance sampling of luminaires: each point evaluates its whole and drawn ones; the
+    # uniforms of the m-th evaluated luminaire of a point (in luminaire order) are slot m.
+    guide, exact = unoccluded_illuminance(scene, x, n)
+    picks = np.empty((P, draws))
+    slots = []
+    for j in np.unique(blocks):
+        m = np.flatnonzero(blocks == j)
+        g = stream(seed, "direct", purpose_key, j)
+        picks[m] = g.random((m.size, draws))
+        slots.append((m, g))
+    weight, counts, prob = _luminaire_weights(guide, exact, draws, picks)
+    used = weight > 0
+    slot = np.cumsum(used, axis=1) - 1
+    u = np.empty((P, int(used.sum(axis=1).max(initial=0)), s, 3))
+    for m, g in slots:
+        u[m] = g.random((m.size, *u.shape[1:]))
+    sum_v = np.zeros(P)   # Σ over draws of Ê/p (for the draws' spread)
+    sum_v2 = np.zeros(P)
+    for li, (lum, estimate) in enumerate(lums):
+        pts = np.flatnonzero(used[:, li])
+        if pts.size == 0:
             continue
-        targets, g = sampler.sample(x[lit], n[lit], u[lit, li], engine.epsilon)
-        seen = np.zeros_like(g)
-        cand = np.flatnonzero(g.ravel() > 0)
-        if cand.size:
-            p_of = lit[cand // s]
-            vis = engine.visible(origins[p_of], targets.reshape(-1, 3)[cand])
-            seen.ravel()[cand] = np.where(vis, g.ravel()[cand], 0.0)
-        total = g.sum(axis=1)
-        sampled = total > 0  # else no sample fell where g > 0: taken as visible
-        ratio = np.ones(lit.size)
-        ratio[sampled] = seen[sampled].sum(axis=1) / total[sampled]
-        E[lit] += L * pi_l[lit] * ratio
-        if s > 1:
-            # Delta method: Var(R) ≈ var_j(g_j·(V_j − R))/(s·ḡ²).
-            resid = np.where(g > 0, seen - g * ratio[:, None], 0.0)
-            mean_g = total / s
-            var_r = np.zeros(lit.size)
-            var_r[sampled] = resid[sampled].var(axis=1, ddof=1) / (s * mean_g[sampled] ** 2)
-            var[lit] += (L * pi_l[lit]) ** 2 * var_r
-    for k, lum in enumerate(scene.point_luminaires):
-        li = len(scene.area_luminaires) + k
-        length, width = lum.extent
-        ns = s if (length > 0 and width > 0) else 1
-        offs = (u[:, li, :ns, :2] - 0.5) * np.asarray([length, width])
-        y = (lum.position + offs[..., :1] * lum.frame[0] + offs[..., 1:] * lum.frame[1])
-        r = y - x[:, None, :]
-        r2 = np.einsum("psk,psk->ps", r, r)
-        cos_x = np.einsum("psk,pk->ps", r, n) / np.sqrt(r2)
-        terms = np.zeros((P, ns))
-        cand = np.flatnonzero((cos_x.ravel() > 0) & (r2.ravel() > 0))
-        if cand.size:
-            p_of = cand // ns
-            rr = r.reshape(-1, 3)[cand]
-            dist = np.sqrt(r2.ravel()[cand])
-            value = lum.intensity(-rr / dist[:, None]) * cos_x.ravel()[cand] / r2.ravel()[cand]
-            vis = engine.visible(origins[p_of], y.reshape(-1, 3)[cand])
-            terms.ravel()[cand] = np.where(vis, value, 0.0)
-        E += terms.mean(axis=1)
-        if ns > 1:
-            var += terms.var(axis=1, ddof=1) / ns
+        known = {"unoccluded": guide[pts, li]} if exact[li] else {}
+        e, v = estimate(lum, x[pts], n[pts], origins[pts], u[pts, slot[pts, li]], engine, **known)
+        E[pts] += weight[pts, li] * e
+        var[pts] += weight[pts, li] ** 2 * v
+        c = counts[pts, li]
+        drawn = c > 0
+        if drawn.any():
+            ratio = e[drawn] / prob[pts[drawn], li]
+            sum_v[pts[drawn]] += c[drawn] * ratio
+            sum_v2[pts[drawn]] += c[drawn] * ratio ** 2
+    if draws > 1:
+        mean_v = sum_v / draws
+        var += np.maximum(sum_v2 / draws - mean_v ** 2, 0.0) / (draws - 1)
     return E, var
+
+
+def _luminaire_draws(luminaires, n_lum):
+    """Draws per point of :func:`direct_illuminance` (None: every luminaire)."""
+    if luminaires == "all" or (luminaires == "auto" and n_lum <= ALL_LUMINAIRES_UP_TO):
+        return None
+    if luminaires == "auto":
+        return LUMINAIRE_DRAWS
+    k = check_positive_int(luminaires, "luminaire draws")
+    return None if k >= n_lum else k

@@ -17,7 +17,7 @@ Trans. Graph.* 33(4), 143. PITFALLS.md (embreex 4.4 throughput).
 
 import numpy as np
 
-__all__ = ["RELATIVE_EPSILON", "RayEngine"]
+__all__ = ["RELATIVE_EPSILON", "RayEngine", "engine_for"]
 
 #: Self-intersection offset as a fraction of the scene's bounding-box diagonal.
 RELATIVE_EPSILON = 1e-5
@@ -98,3 +98,16 @@ class RayEngine:
                                   query="OCCLUDED")
             hit[s:s + _RAY_BATCH] = np.asarray(res) >= 0
         return hit
+
+
+def engine_for(scene):
+    """The scene's :class:`RayEngine`, built on first use and kept on the scene.
+
+    Every estimator of one scene shares it, so Embree builds its bounding-volume hierarchy
+    once per scene.
+    """
+    eng = getattr(scene, "_engine", None)
+    if eng is None:
+        eng = RayEngine(scene.triangles)
+        scene._engine = eng
+    return eng

@@ -11,7 +11,7 @@ consistent:
 E_dir by Lambert's closed form with sampled visibility
 (:func:`~lsadphoto.solver.direct.direct_illuminance`), E_ind by the double local estimate
 over the store's nodes of depth ≥ 1 with its unbiased near field
-(:func:`~lsadphoto.solver.surface_cache.indirect_illuminance`), both at the grid point with
+(:func:`~lsadphoto.solver.integrators.surface_cache.indirect_illuminance`), both at the grid point with
 the grid's normal. Each point's standard error combines the independent node-draw groups of
 E_ind with the sampling variance of E_dir.
 
@@ -39,9 +39,9 @@ import numpy as np
 from .._validation import check_choice, check_positive, check_positive_int
 from ..errors import BadInputError
 from .direct import DIRECT_SAMPLES, direct_illuminance
-from .rendering import _engine_for
+from .engine import engine_for
 from .store import LsadStore
-from .surface_cache import CACHE_NODES, indirect_illuminance
+from .integrators.surface_cache import CACHE_NODES, indirect_illuminance
 
 __all__ = ["GRID_KINDS", "CalculationGrid", "GridIlluminance", "cylindrical_discretisation_bound",
            "grid_illuminance", "grid_spacing_EN12464", "work_plane_grid"]
@@ -237,7 +237,7 @@ def grid_illuminance(store, grid, *, nodes=CACHE_NODES, direct_samples=DIRECT_SA
     xs = np.repeat(x, normals.shape[1], axis=0)
     ns = np.ascontiguousarray(normals.reshape(-1, 3))
     blocks = np.arange(len(xs)) // 256
-    e_dir, v_dir = direct_illuminance(scene, _engine_for(scene), xs, ns, samples=direct_samples,
+    e_dir, v_dir = direct_illuminance(scene, engine_for(scene), xs, ns, samples=direct_samples,
                                       seed=seed, block_ids=blocks, purpose_key=7)
     groups = indirect_illuminance(store, xs, ns, nodes=nodes, direct_samples=direct_samples,
                                   seed=seed, key=7, block_ids=blocks)

@@ -1,11 +1,12 @@
-"""Scene model of the solver: Lambertian surfaces, luminaires and views, from TOML.
+"""Scene model of the solver: Lambertian surfaces, luminaires and views, and its TOML structure.
 
 A scene is a set of triangles (every shape is triangulated when it is read), each with a
 Lambertian reflectance and possibly a Lambertian emission, plus point-like luminaires with
 a luminous intensity distribution, plus named views. Lengths are in metres, flux in lumens,
 intensity in candelas, luminance in cd·m⁻². The TOML schema is declared in
 :data:`SCENE_SCHEMA` and documented in ``docs/user-guide-solver.md``;
-:func:`scene_from_dict` accepts the same structure as a Python ``dict``.
+:func:`scene_from_dict` accepts the same structure as a Python ``dict``. Files (TOML,
+Radiance) are read by :func:`lsadphoto.solver.formats.read_scene`.
 
 Surfaces reflect on both sides (the shading normal is turned towards the side a ray comes
 from); Lambertian luminaires emit from their front side only, the side towards which the
@@ -25,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._schema import ArrayOf, Key, MapOf, Table, Variants, read_toml, validate
+from .._schema import ArrayOf, Key, MapOf, Table, Variants, validate
 from ..errors import BadInputError, SolverWarning
 from ..geometry.base import Projection, projection_from_dict
 from ..geometry.observer import orthonormal_pair
@@ -37,8 +38,9 @@ __all__ = [
     "SCENE_SCHEMA",
     "Scene",
     "View",
+    "as_views",
+    "build_scene",
     "camera_to_world",
-    "load_scene",
     "polygon_triangles",
     "scene_from_dict",
 ]
@@ -83,12 +85,16 @@ def _vector(value, name, size=3):
 
 def _newell_normal(points):
     p = points
-    q = np.roll(points, -1, axis=0)
+    q = np.concatenate([points[1:], points[:1]])  # the next vertex (np.roll, without its overhead)
     return np.array([
         np.sum((p[:, 1] - q[:, 1]) * (p[:, 2] + q[:, 2])),
         np.sum((p[:, 2] - q[:, 2]) * (p[:, 0] + q[:, 0])),
         np.sum((p[:, 0] - q[:, 0]) * (p[:, 1] + q[:, 1])),
     ])
+
+
+def _cross3(a, b):
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 def polygon_triangles(vertices, name="polygon"):
@@ -111,7 +117,7 @@ def polygon_triangles(vertices, name="polygon"):
     if pts.ndim != 2 or pts.shape[1] != 3 or not np.all(np.isfinite(pts)):
         raise BadInputError(f"{name}: vertices must be a list of [x, y, z] points")
     # drop repeated consecutive vertices (and a closing copy of the first)
-    keep = np.linalg.norm(pts - np.roll(pts, 1, axis=0), axis=1) > 0
+    keep = np.any(pts != np.concatenate([pts[-1:], pts[:-1]]), axis=1)
     pts = pts[keep] if keep.any() else pts[:1]
     if len(pts) < 3:
         raise BadInputError(f"{name}: needs at least 3 distinct vertices, got {len(pts)}")
@@ -127,10 +133,20 @@ def polygon_triangles(vertices, name="polygon"):
             f"{name}: vertices are not coplanar (off the plane by {np.abs(offset).max():.3g} m)")
     # 2-D coordinates in the plane, counter-clockwise seen from the front
     a = np.eye(3)[np.argmin(np.abs(normal))]
-    e1 = np.cross(normal, a)
+    e1 = _cross3(normal, a)
     e1 /= np.linalg.norm(e1)
-    e2 = np.cross(normal, e1)
-    xy = np.stack([pts @ e1, pts @ e2], axis=1)
+    e2 = _cross3(normal, e1)
+    xy = pts @ np.stack([e1, e2], axis=1)
+    edges = np.concatenate([xy[1:], xy[:1]]) - xy
+    after = np.concatenate([edges[1:], edges[:1]])
+    turns = edges[:, 0] * after[:, 1] - edges[:, 1] * after[:, 0]
+    if np.all(turns > 1e-14 * size * size):
+        # strictly convex: the triangles ear clipping below makes, (n−1, j, j+1) and last
+        # (n−3, n−2, n−1), without its search (same order, so the same random streams)
+        n = len(pts)
+        j = np.arange(n - 3)
+        fan = np.stack([np.full_like(j, n - 1), j, j + 1], axis=1)
+        return pts[np.concatenate([fan, [[n - 3, n - 2, n - 1]]])]
     idx = list(range(len(pts)))
     tris = []
     guard = 0
@@ -146,7 +162,11 @@ def polygon_triangles(vertices, name="polygon"):
             cross = (a1[0] - a0[0]) * (a2[1] - a0[1]) - (a1[1] - a0[1]) * (a2[0] - a0[0])
             if cross <= 1e-14 * size * size:
                 continue  # reflex or collinear corner
-            others = [j for j in idx if j not in (i0, i1, i2)]
+            # other vertices inside the ear forbid it, except copies of its own corners (the
+            # two sides of a seam that joins a hole to the outline, as genprism and genbox -i write)
+            others = [j for j in idx if j not in (i0, i1, i2)
+                      and min(np.abs(xy[j] - a0).max(), np.abs(xy[j] - a1).max(),
+                              np.abs(xy[j] - a2).max()) > 1e-12 * size]
             if others and _points_in_triangle(xy[others], a0, a1, a2).any():
                 continue
             tris.append((i0, i1, i2))
@@ -475,30 +495,6 @@ SCENE_SCHEMA = Table({
 })
 
 
-def load_scene(path, *, photometry_reader=None):
-    """Read a scene from a TOML file checked against :data:`SCENE_SCHEMA` (documented in
-    ``docs/user-guide-solver.md``).
-
-    Relative file names inside (meshes, photometric files) are taken relative to the
-    TOML file's folder. Every problem with the file is reported as one
-    :class:`~lsadphoto.errors.BadInputError` naming the offending entry.
-
-    Parameters
-    ----------
-    path : str or Path
-        The TOML scene file.
-    photometry_reader : callable, optional
-        ``reader(path) -> Photometry`` for ``photometry = "file"`` luminaires; default
-        :func:`lsadphoto.solver.photometry.read_photometry`.
-
-    References
-    ----------
-    TOML v1.0.0, https://toml.io/en/v1.0.0.
-    """
-    data = read_toml(path, SCENE_SCHEMA, what="scene")
-    return _build_scene(data, base=Path(path).parent, photometry_reader=photometry_reader, source=str(path))
-
-
 def _shape_triangles(spec, ctx, base, material_of):
     """List of (triangles, material name) of one checked shape table."""
     kind = spec["type"]
@@ -587,13 +583,14 @@ def _projection(spec, ctx):
 
 def scene_from_dict(data, *, base=None, photometry_reader=None):
     """Build a :class:`Scene` from the TOML structure (a ``dict``), checked against
-    :data:`SCENE_SCHEMA`; see :func:`load_scene`."""
+    :data:`SCENE_SCHEMA`; see :func:`lsadphoto.solver.formats.load_scene`."""
     data = validate(data, SCENE_SCHEMA, source="scene")
-    return _build_scene(data, base=base, photometry_reader=photometry_reader, source="scene")
+    return build_scene(data, base=base, photometry_reader=photometry_reader, source="scene")
 
 
-def _build_scene(data, *, base, photometry_reader, source):
-    """The :class:`Scene` of a document that passed :data:`SCENE_SCHEMA`."""
+def build_scene(data, *, base, photometry_reader, source):
+    """The :class:`Scene` of a document that passed :data:`SCENE_SCHEMA` (relative file names
+    in it are taken relative to ``base``; ``source`` names the document in errors)."""
     try:
         return _build_checked(data, base, photometry_reader)
     except BadInputError as exc:
@@ -669,15 +666,7 @@ def _build_checked(data, base, photometry_reader):
             if "extent" in spec:
                 extent = tuple(spec["extent"])
             point_lums.append(PointLuminaire(lname, position, table, frame, extent, spec["multiplier"]))
-    views = []
-    for k, spec in enumerate(data.get("views", [])):
-        ctx = f"views[{k}]"
-        try:
-            rotation = camera_to_world(spec["line_of_sight"], spec["up"])
-        except BadInputError as exc:
-            raise BadInputError(f"{ctx}: {exc}") from None
-        views.append(View(spec.get("name", f"view{k}"), np.asarray(spec["position"], float), rotation,
-                          _projection(spec.get("projection", {}), ctx)))
+    views = _views(data.get("views", []))
     if not tri_list:
         raise BadInputError("scene has no surfaces")
     if not area_lums and not point_lums:
@@ -685,6 +674,29 @@ def _build_checked(data, base, photometry_reader):
     return Scene(np.concatenate(tri_list), np.concatenate(mat_list), names, np.asarray(rho),
                  np.concatenate(emit_list), area_lums, point_lums, views, name=name,
                  source=data)
+
+
+def _views(specs):
+    views = []
+    for k, spec in enumerate(specs):
+        ctx = f"views[{k}]"
+        try:
+            rotation = camera_to_world(spec["line_of_sight"], spec["up"])
+        except BadInputError as exc:
+            raise BadInputError(f"{ctx}: {exc}") from None
+        views.append(View(spec.get("name", f"view{k}"), np.asarray(spec["position"], float), rotation,
+                          _projection(spec.get("projection", {}), ctx)))
+    return views
+
+
+def as_views(items):
+    """:class:`View`\\ s of a list of views and ``[[views]]`` tables (the TOML structure,
+    checked against :data:`SCENE_SCHEMA`), e.g. to add views to a scene read from another
+    format; views are kept, tables built, in that order."""
+    items = list(items or [])
+    tables = [v for v in items if not isinstance(v, View)]
+    built = _views(validate({"views": tables}, SCENE_SCHEMA, source="views")["views"]) if tables else []
+    return [v for v in items if isinstance(v, View)] + built
 
 
 def _photometry_table(file, ctx, base, reader):

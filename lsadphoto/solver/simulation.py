@@ -3,7 +3,7 @@
 References
 ----------
 Budak, Zheltov & Kalakutsky (2012); Marchuk et al. (1980). See
-:mod:`lsadphoto.solver.chains` and :mod:`lsadphoto.solver.rendering`.
+:mod:`lsadphoto.solver.chains` and :mod:`lsadphoto.solver.integrators.local_estimate`.
 """
 
 import math
@@ -15,9 +15,10 @@ import numpy as np
 from .._provenance import build_provenance
 from .._validation import check_choice
 from .._version import __version__
-from ..errors import BadInputError
+from ..errors import BadInputError, SolverWarning
 from .chains import ABSORPTION_MODES, CHAIN_BLOCK, EmissionSampler, trace_chains
-from .rendering import NEAR_FIELD_TREATMENTS, SolverWarning, _engine_for, render
+from .engine import engine_for
+from .integrators.local_estimate import NEAR_FIELD_TREATMENTS, render_local_estimate
 from .scene import Scene
 
 __all__ = ["DEFAULT_BATCHES", "DEFAULT_CHAINS", "MAX_CHAINS", "simulate"]
@@ -52,8 +53,8 @@ def _error_estimate(store):
         view = scene.views[0]
         factor = max(1, math.ceil(max(view.projection.shape) / _ERROR_VIEW_SIDE))
         proj = view.projection.binned(factor) if factor > 1 else view.projection
-        lmap = render(store, proj, position=view.position, rotation=view.rotation,
-                      seed=store.seed, nodes_per_pixel=_ERROR_VIEW_NODES)
+        lmap = render_local_estimate(store, proj, position=view.position, rotation=view.rotation,
+                                     seed=store.seed, nodes_per_pixel=_ERROR_VIEW_NODES)
         return lmap.provenance["achieved_relative_error"], "field-mean luminance of view " + repr(view.name)
     total = np.zeros(store.batches)
     surf = store.depth > 0
@@ -123,7 +124,7 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
     first = samples if samples is not None else (16_384 if target_error is not None else DEFAULT_CHAINS)
     blocks = max(1, math.ceil(first / CHAIN_BLOCK))
     max_blocks = max(blocks, int(max_samples) // CHAIN_BLOCK)
-    engine = _engine_for(scene)
+    engine = engine_for(scene)
     sampler = EmissionSampler(scene)
     t0 = time.perf_counter()
     store = None

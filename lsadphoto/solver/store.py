@@ -28,6 +28,7 @@ from .._version import __version__
 from ..errors import BadInputError, UnsupportedFileError
 from ..geometry.base import projection_from_dict
 from .._atomic import atomic_path
+from .cache_grid import SurfaceCache
 from .intensity import IntensityTable
 from .scene import AreaLuminaire, PointLuminaire, Scene, View
 
@@ -62,7 +63,7 @@ class LsadStore:
         Number of light chains; each of the ``batches`` batches holds ``chains/batches``.
     surface_cache : SurfaceCache or None
         Indirect illuminance on the scene's surfaces
-        (:func:`~lsadphoto.solver.surface_cache.build_surface_cache`), saved with the store.
+        (:func:`~lsadphoto.solver.integrators.surface_cache.build_surface_cache`), saved with the store.
     """
 
     scene: Scene
@@ -183,8 +184,6 @@ def load_store(path):
         nodes = {name: arrays[name] for name in _NODE_FIELDS}
         cache = None
         if "surface_cache" in meta:
-            from .surface_cache import SurfaceCache
-
             c = meta["surface_cache"]
             cache = SurfaceCache(c["spacing"], arrays["cache_level"], arrays["cache_offset"],
                                  arrays["cache_values"], arrays["cache_positions"],

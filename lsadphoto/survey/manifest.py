@@ -374,12 +374,12 @@ def _ratings(value, base, where, view_id):
 
 
 def _model(value, base, where):
-    from ..solver import load_scene
+    from ..solver import read_scene
 
     model = dict(value)
     scene = _file(base, value["scene"], where, "model.scene", "scene model")
     try:
-        load_scene(scene)  # read and checked now, not after the view's map was computed
+        read_scene(scene)  # read and checked now, not after the view's map was computed
     except BadInputError as exc:
         raise where.error("model.scene", str(exc)) from None
     model["scene"] = str(scene)

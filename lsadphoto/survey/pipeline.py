@@ -44,9 +44,6 @@ SWEEP = tuple(range(1, 101))
 #: Metrics of a Score without an uncertainty (counts and geometry, not luminance scale).
 _NO_UNCERTAINTY = ("n_sources", "source_solid_angle")
 
-#: Metrics of the model map copied into the table (``model_<name>``).
-_MODEL_METRICS = ("ugr_pixel", "ugr_grouped", "q", "dgp", "vertical_illuminance",
-                  "background_luminance", "mean_luminance")
 
 
 @dataclass(frozen=True)
@@ -207,10 +204,12 @@ def _row(task, summary, scalars, record, warning_lines):
     row["rating_n"] = len(ratings) if ratings else None
     comparison = record.get("model_comparison")
     if comparison is not None:
+        from ..metrics.registry import HEADLINE
+
         row["model_ratio_median"] = _clean(comparison["field"]["median_ratio"])
         row["model_rms_relative_error"] = _clean(comparison["field"]["rms_relative_error"])
         row["model_mc_uncertainty"] = _clean(comparison["uncertainty"]["model_monte_carlo_relative"])
-        for key in _MODEL_METRICS:
+        for key in HEADLINE:  # the model map's headline metrics (model_<name>)
             row[f"model_{key}"] = _clean(comparison["metrics"].get(key, {}).get("model"))
     los = record["settings"]["line_of_sight"]
     row.update({
@@ -308,10 +307,10 @@ def _compare_with_model(task, photo, options):
     Returns the model map, the :class:`~lsadphoto.compare.Comparison` and its JSON record.
     """
     from ..compare import compare_maps
-    from ..solver import camera_to_world, load_scene, render, simulate
+    from ..solver import camera_to_world, read_scene, render, simulate
 
     spec = task["model"]
-    scene = load_scene(spec["scene"])
+    scene = read_scene(spec["scene"])
     store = simulate(scene, samples=spec["samples"], seed=spec["seed"])
     rotation = camera_to_world(spec["direction"], spec.get("up", [0.0, 0.0, 1.0]))
     model = render(store, photo.projection, position=spec["position"], rotation=rotation,

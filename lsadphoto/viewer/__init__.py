@@ -10,6 +10,7 @@ The user guide is ``docs/user-guide-viewer.md``.
 
 from .page import (
     GEOMETRY_STRIDE,
+    PREVIEW_PIXELS,
     check_same_geometry,
     read_source_labels,
     report_viewer,
@@ -19,5 +20,5 @@ from .page import (
     write_viewer,
 )
 
-__all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "read_source_labels", "report_viewer",
-           "viewer_assets", "viewer_fragment", "write_source_labels", "write_viewer"]
+__all__ = ["GEOMETRY_STRIDE", "PREVIEW_PIXELS", "check_same_geometry", "read_source_labels",
+           "report_viewer", "viewer_assets", "viewer_fragment", "write_source_labels", "write_viewer"]

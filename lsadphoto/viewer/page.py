@@ -21,6 +21,13 @@ file's size on the real maps of ``docs/performance.md``.
   0 = no source) of :func:`~lsadphoto.metrics.score.score_map`, and its evalglare band and
   zones where it was asked for them (uint8);
 * the Q criterion's contrast map K [rad⁻¹]: float16 (3 significant digits), an overlay;
+* for a map of more than :data:`PREVIEW_PIXELS` pixels, a display preview: the mean of the
+  finite values of every f × f block (f the smallest integer that brings it to at most
+  :data:`PREVIEW_PIXELS`), float32. It is placed before every other array in the document,
+  with the call that starts the viewer right after it, so that the page draws the map and
+  answers zoom, pan and the legend while the browser still parses the full-resolution data;
+  the probe, the points and the regions wait for those (``lsadViewer.ready``) and never read
+  the preview;
 * the pixel geometry — direction, solid angle ω [sr] and position index — from
   :func:`~lsadphoto.geometry.pixel_geometry` and :func:`~lsadphoto.geometry.visual_field`
   on a grid of every :data:`GEOMETRY_STRIDE`-th row and column (plus the last; a finer grid
@@ -31,6 +38,10 @@ file's size on the real maps of ``docs/performance.md``.
   error against the package's full-resolution maps, over all valid pixels, is stated on
   the page. Embedding the maps at every pixel would make the page 5–6× larger than the
   map.
+
+Containers measured for the parts (``docs/performance.md``): the browser parses the base64 in
+``<script type="application/octet-stream">`` elements no slower than in one trailing HTML
+comment, and faster than in JavaScript string literals.
 
 References
 ----------
@@ -58,8 +69,8 @@ from .._atomic import atomic_text
 from ..io.falsecolour import false_colour_range
 from ..luminance_map import LuminanceMap
 
-__all__ = ["GEOMETRY_STRIDE", "check_same_geometry", "read_source_labels", "report_viewer",
-           "viewer_assets", "viewer_fragment", "write_source_labels", "write_viewer"]
+__all__ = ["GEOMETRY_STRIDE", "PREVIEW_PIXELS", "check_same_geometry", "read_source_labels",
+           "report_viewer", "viewer_assets", "viewer_fragment", "write_source_labels", "write_viewer"]
 
 #: Rows and columns between the embedded geometry samples [px] (at most; see _geometry).
 GEOMETRY_STRIDE = 8
@@ -74,6 +85,10 @@ GEOMETRY_TOLERANCE = {"solid_angle_relative": 1e-4, "direction_deg": 0.01,
 #: Elements per embedded part [items]: the page decodes the parts of its arrays in parallel
 #: (Web Workers), so a 24 MP map's luminance is six parts of 4 Mi floats (16 MiB).
 PART_ITEMS = 1 << 22
+#: Largest display preview [px]: maps with more pixels embed one (block means), drawn first;
+#: 1 Mi px is about the canvas of a 1280 px wide window, where a fitted 24 MP map shows one
+#: screen pixel per 5 × 5 map pixels anyway.
+PREVIEW_PIXELS = 1 << 20
 #: zlib level: 6 is zlib's default (level 9 gains < 1 % here at twice the time).
 _ZLIB_LEVEL = 6
 #: Colour maps offered for the false-colour view (matplotlib names), then the fixed ones of
@@ -99,16 +114,38 @@ def _encode(array, dtype):
 
 
 class _Arrays:
-    """Collects the encoded arrays of one viewer; each part becomes a ``<script>`` element."""
+    """Collects the encoded arrays of one viewer; each part becomes a ``<script>`` element,
+    those added ``early`` (the previews) before all others."""
 
     def __init__(self):
-        self.scripts = []
+        self.early, self.scripts = [], []
 
-    def add(self, name, array, dtype):
+    def add(self, name, array, dtype, *, early=False):
         description, texts = _encode(array, dtype)
-        self.scripts.extend(f'<script type="application/octet-stream" data-array="{name}">'
-                            f"{text}</script>" for text in texts)
+        (self.early if early else self.scripts).extend(
+            f'<script type="application/octet-stream" data-array="{name}">{text}</script>'
+            for text in texts)
         return dict(description, name=name)
+
+
+def _preview(luminance, arrays, prefix):
+    """The display preview of a map of more than :data:`PREVIEW_PIXELS` pixels (see the
+    module notes), or None: its array description and block size f [px]."""
+    rows, cols = luminance.shape
+    if rows * cols <= PREVIEW_PIXELS:
+        return None
+    f = math.ceil(math.sqrt(rows * cols / PREVIEW_PIXELS))
+    while math.ceil(rows / f) * math.ceil(cols / f) > PREVIEW_PIXELS:
+        f += 1
+    padded = np.full((math.ceil(rows / f) * f, math.ceil(cols / f) * f), np.nan, np.float32)
+    padded[:rows, :cols] = luminance
+    blocks = padded.reshape(padded.shape[0] // f, f, padded.shape[1] // f, f)
+    finite = np.isfinite(blocks)
+    count = finite.sum(axis=(1, 3))
+    total = np.where(finite, blocks, 0.0).sum(axis=(1, 3), dtype=np.float64)
+    mean = np.full(count.shape, np.nan)
+    np.divide(total, count, out=mean, where=count > 0)
+    return dict(arrays.add(f"{prefix}.preview", mean, np.float32, early=True), block=f)
 
 
 def _colour_tables():
@@ -369,6 +406,7 @@ def _map_record(lmap, name, score, arrays, prefix, source_labels=None):
         "calibrated": lmap.calibrated, "calibration_factor": lmap.calibration_factor,
         "calibration_uncertainty": lmap.calibration_uncertainty,
         "luminance": arrays.add(f"{prefix}.luminance", luminance, np.float32),
+        "preview": _preview(luminance, arrays, prefix),
         "uncertainty": (arrays.add(f"{prefix}.uncertainty", lmap.uncertainty, np.float32)
                         if lmap.uncertainty is not None else None),
         "range": list(false_colour_range(luminance)),
@@ -453,8 +491,13 @@ def viewer_fragment(lmap, *, second=None, score=None, second_score=None,
             "geometry": _geometry(lmap, base_score, arrays),
             "colour_tables": _colour_tables(), "colour_maps": list(FALSE_COLOUR_MAPS)}
     meta = json.dumps(data, allow_nan=False, separators=(",", ":")).replace("</", "<\\/")
+    # The previews, then the call that starts this viewer while the rest is still parsed
+    # (where viewer_assets came first; else the viewer starts when the page is parsed).
     return (f'<div class="lsad-viewer" data-lazy="{"yes" if lazy else "no"}">'
             f'<script type="application/json" data-meta="1">{meta}</script>'
+            + "".join(arrays.early)
+            + "<script>if (window.lsadViewerStart) lsadViewerStart(document.currentScript"
+              ".parentNode);</script>"
             + "".join(arrays.scripts) + "</div>")
 
 

@@ -8,6 +8,12 @@
  * covers ±½ px around it (lsadphoto.geometry.base). Luminance in cd/m², angles in degrees
  * on the page, solid angles in sr. Every value shown comes from the embedded float32
  * arrays at full resolution; the display alone samples them at the screen's resolution.
+ *
+ * Loading: a large map's page holds a display preview (block means) before its other arrays
+ * and calls lsadViewerStart right after it, so the preview is drawn, zoomed and panned while
+ * the browser still parses the rest; the full-resolution arrays are decoded once the page is
+ * parsed (promise `ready`). Until then the probe, the points, the regions and the CSV wait:
+ * valueAt and the other readers throw rather than answer from the preview.
  */
 (function () {
   "use strict";
@@ -168,7 +174,10 @@
     constructor(container) {
       this.container = container;
       this.meta = JSON.parse(container.querySelector("script[data-meta]").textContent);
-      this.isReady = false;
+      this.isReady = false; // the full-resolution data are decoded
+      this.state = "loading"; // then "preview" (where the page has one), "full" or "failed"
+      this.display = null; // what the panels draw: per map { L, block [px], cols }
+      this.timings = {}; // performance.now() [ms] of the frames: preview, full
       this.regions = [];
       this.points = [];
       this.probe = null;
@@ -188,14 +197,29 @@
       this.cols = first.cols;
       this.range = first.range.slice();
       this.ready = new Promise((resolve, reject) => { this._resolve = resolve; this._reject = reject; });
+      this.previewReady = new Promise((resolve, reject) => { this._shown = resolve; this._notShown = reject; });
       this.buildDom();
     }
 
     // --- data ---
 
     async load() {
-      const t0 = performance.now();
       try {
+        const previews = this.meta.maps.map((m) => m.preview);
+        if (previews.every(Boolean)) {
+          const arrays = await Promise.all(previews.map((p) => decodeArray(this.container, p)));
+          this.display = arrays.map((L, k) => ({ L: L, block: previews[k].block,
+            cols: Math.ceil(this.cols / previews[k].block) }));
+          this.state = "preview";
+          this.status.textContent = "preview (blocks of " + previews[0].block + " × " + previews[0].block +
+            " px): loading the full-resolution data…";
+          this.fit();
+          this.shown("preview");
+        }
+        await documentParsed();
+        // A test hook: a promise set before the page loads holds the full-resolution decoding.
+        if (window.lsadViewerHoldFullResolution) await window.lsadViewerHoldFullResolution;
+        const t0 = performance.now();
         // Every array's parts are asked for at once (luminance first): the Workers decode
         // them in parallel while this thread waits.
         const decode = (desc) => (desc ? decodeArray(this.container, desc) : Promise.resolve(null));
@@ -221,19 +245,42 @@
         // Workers that decoded the data (0: decoded on the page's own thread).
         this.decodeWorkers = pool.workers.length;
         this.isReady = true;
+        this.state = "full";
         this.status.textContent = "";
-        this.fit();
+        const first = !this.display;
+        this.display = this.maps.map((m) => ({ L: m.L, block: 1, cols: this.cols }));
+        // Over a preview the user's zoom and pan stay.
+        if (first) this.fit(); else this.render();
         this.updateTables();
+        if (this.probe) this.setProbe(this.probe.row, this.probe.col);
+        this.shown("full");
         this._resolve(this);
       } catch (error) {
+        this.state = "failed";
         this.status.textContent = "the viewer could not decode its data: " + error.message;
         console.error(error);
+        this._notShown(error);
         this._reject(error);
       }
     }
 
+    /** Note a first frame of `kind` ("preview", "full"): `previewReady` resolves at the
+     * first; `timings[kind]` is the time [ms, performance.now()] of the animation frame. */
+    shown(kind) {
+      this._shown(this);
+      requestAnimationFrame(() => { this.timings[kind] = performance.now(); });
+    }
+
+    /** The decoded full-resolution maps; an Error until `ready` has resolved, so that no
+     * value is ever read from the preview. */
+    full() {
+      if (!this.isReady) throw new Error("lsadViewer: the full-resolution data are still loading (await lsadViewer.ready)");
+      return this.maps;
+    }
+
     /** Decode the Q contrast maps (an overlay: left out of the first load). */
     async loadContrast() {
+      await this.ready;
       for (const m of this.maps) {
         const score = m.meta.score;
         if (score && score.contrast && !m.contrast) m.contrast = await decodeArray(this.container, score.contrast);
@@ -247,13 +294,13 @@
 
     /** Luminance [cd/m²] of pixel (row, col) of map `which` (0 or 1); NaN where unknown. */
     valueAt(row, col, which) {
-      const i = this.index(row, col);
-      return i < 0 ? NaN : this.maps[which || 0].L[i];
+      const m = this.full()[which || 0], i = this.index(row, col);
+      return i < 0 ? NaN : m.L[i];
     }
 
     /** Standard uncertainty [cd/m²] of that value: the map's own, else its calibration's. */
     uncertaintyAt(row, col, which) {
-      const m = this.maps[which || 0], i = this.index(row, col);
+      const m = this.full()[which || 0], i = this.index(row, col);
       if (i < 0) return NaN;
       if (m.U) return m.U[i];
       const u = m.meta.calibration_uncertainty;
@@ -265,6 +312,7 @@
      * image circle); σ, τ [rad] and cos σ of that direction in the observer frame (as
      * lsadphoto.geometry.ObserverFrame.angles). null where the pixel has no geometry. */
     geometryAt(row, col) {
+      this.full();
       const g = this.geometry, i = this.index(row, col);
       if (!g || i < 0 || !g.valid[i]) return null;
       const F = g.fields;
@@ -314,24 +362,24 @@
     }
 
     sourceLabelAt(row, col, which) {
-      const m = this.maps[which || 0], i = this.index(row, col);
+      const m = this.full()[which || 0], i = this.index(row, col);
       return i < 0 || !m.labels ? 0 : m.labels[i];
     }
 
     /** 1 where pixel (row, col) is in evalglare's band of the score (-B), else 0. */
     bandAt(row, col, which) {
-      const m = this.maps[which || 0], i = this.index(row, col);
+      const m = this.full()[which || 0], i = this.index(row, col);
       return i < 0 || !m.band ? 0 : m.band[i];
     }
 
     /** Zone (1, 2; 0 outside) of pixel (row, col) in the score's evalglare zones (-l/-L). */
     zoneAt(row, col, which) {
-      const m = this.maps[which || 0], i = this.index(row, col);
+      const m = this.full()[which || 0], i = this.index(row, col);
       return i < 0 || !m.zones ? 0 : m.zones[i];
     }
 
     contrastAt(row, col, which) {
-      const m = this.maps[which || 0], i = this.index(row, col);
+      const m = this.full()[which || 0], i = this.index(row, col);
       return i < 0 || !m.contrast ? NaN : halfToFloat()[m.contrast[i]];
     }
 
@@ -342,7 +390,7 @@
 
     /** Statistics of the pixels whose centres `inside(row, col)` within the bounding box. */
     regionStatsBox(box, inside, which) {
-      const m = this.maps[which || 0];
+      const m = this.full()[which || 0];
       const r0 = Math.max(0, Math.ceil(box[0])), r1 = Math.min(this.rows - 1, Math.floor(box[1]));
       const c0 = Math.max(0, Math.ceil(box[2])), c1 = Math.min(this.cols - 1, Math.floor(box[3]));
       const values = [], weights = [];
@@ -435,7 +483,7 @@
         "median_cd_m2", "max_cd_m2", "illuminance_lx", "sigma_deg", "tau_deg", "position_index",
         "pixel_solid_angle_sr"];
       const lines = [header.join(",")];
-      this.maps.forEach((m, k) => {
+      this.full().forEach((m, k) => {
         for (const p of this.points) {
           const q = this.pointRecord(p, k);
           lines.push([ "point", p.id, m.meta.name, "", p.row, p.col, "", "", 1, "", q.L, q.U, "", "", "", "",
@@ -545,14 +593,16 @@
       c.appendChild(this.tableBox);
       c.appendChild(this.precisionNote());
       this.layoutPanels();
-      window.addEventListener("resize", () => { if (this.isReady) this.fit(); });
+      window.addEventListener("resize", () => { if (this.display) this.fit(); });
     }
 
     precisionNote() {
       const meta = this.meta, parts = [];
       parts.push("Luminance embedded losslessly as float32 at every pixel" +
         (meta.maps.some((m) => m.uncertainty) ? ", with its per-pixel standard uncertainty" : "") +
-        "; the display samples it at screen resolution, the probe and the regions read every pixel.");
+        "; the display samples it at screen resolution, the probe and the regions read every pixel." +
+        (meta.maps[0].preview ? " While the page loads, a preview (means of " + meta.maps[0].preview.block + " × " +
+          meta.maps[0].preview.block + " px blocks) is drawn; the probe and the regions wait for the full data." : ""));
       meta.maps.forEach((m) => {
         if (!m.calibrated) parts.push(m.name + " is uncalibrated (relative scale).");
         else if (!m.uncertainty) parts.push(m.name + ": ± is the calibration's relative standard uncertainty (" +
@@ -658,7 +708,7 @@
     // --- drawing ---
 
     render() {
-      if (!this.isReady) return;
+      if (!this.display) return;
       const t0 = performance.now();
       for (const p of this.panels) this.renderPanel(p);
       this.renderLegend();
@@ -672,20 +722,22 @@
       const image = ctx.createImageData(w, h);
       const out = new Uint32Array(image.data.buffer);
       const rowIndex = new Int32Array(h), colIndex = new Int32Array(w);
-      for (let y = 0; y < h; y++) { const r = Math.round(this.originRow + (y + 0.5) / this.scale); rowIndex[y] = r >= 0 && r < this.rows ? r : -1; }
-      for (let x = 0; x < w; x++) { const c = Math.round(this.originCol + (x + 0.5) / this.scale); colIndex[x] = c >= 0 && c < this.cols ? c : -1; }
+      // Map pixels under the screen's, then the drawn array's (the preview's block of them).
+      const which = panel.which, shown = this.display, d = shown[which], block = d.block;
+      for (let y = 0; y < h; y++) { const r = Math.round(this.originRow + (y + 0.5) / this.scale); rowIndex[y] = r >= 0 && r < this.rows ? Math.floor(r / block) : -1; }
+      for (let x = 0; x < w; x++) { const c = Math.round(this.originCol + (x + 0.5) / this.scale); colIndex[x] = c >= 0 && c < this.cols ? Math.floor(c / block) : -1; }
       const pack = (r, g, b) => (255 << 24) | (b << 16) | (g << 8) | r; // little-endian RGBA
       const background = pack(250, 250, 250), unknown = pack(128, 128, 128);
       const lut = new Uint32Array(256);
       let table, lo, hi, values, transform;
-      const which = panel.which;
-      const m = this.maps[which];
+      // The overlays of the full-resolution data (none over a preview).
+      const m = this.isReady ? this.maps[which] : null;
       if (panel.kind === "ratio") {
         table = this.tables.ratio; lo = -1; hi = 1;
-        const A = this.maps[0].L, B = this.maps[1].L;
+        const A = shown[0].L, B = shown[1].L;
         values = null;
         transform = (i) => { const v = B[i] / A[i]; return v > 0 && Number.isFinite(v) ? Math.log2(v) : NaN; };
-      } else if (this.mode === "contrast" && m.contrast) {
+      } else if (this.mode === "contrast" && m && m.contrast) {
         table = this.tables.contrast;
         const range = m.meta.score.contrast_range || [1, 10];
         lo = Math.log10(range[0]); hi = Math.log10(range[1]);
@@ -693,19 +745,19 @@
         transform = (i) => { const v = half[K[i]]; return v > 0 ? Math.log10(v) : NaN; };
       } else if (this.mode === "tone") {
         table = null;
-        values = m.L;
+        values = d.L;
       } else {
         table = this.tables[this.colourMap];
         lo = Math.log10(this.range[0]); hi = Math.log10(this.range[1]);
-        const L = m.L;
+        const L = d.L;
         transform = (i) => { const v = L[i]; return v > 0 ? Math.log10(v) : (v === 0 ? -Infinity : NaN); };
       }
       if (table) for (let k = 0; k < 256; k++) lut[k] = pack(table[3 * k], table[3 * k + 1], table[3 * k + 2]);
       const span = hi - lo;
-      const key = 0.18 * Math.pow(2, this.exposure) / m.meta.log_average;
-      const labels = this.showSources && panel.kind === "map" ? m.labels : null;
-      const band = this.showBand && panel.kind === "map" ? m.band : null;
-      const zones = this.showZones && panel.kind === "map" ? m.zones : null;
+      const key = 0.18 * Math.pow(2, this.exposure) / this.meta.maps[which].log_average;
+      const labels = m && this.showSources && panel.kind === "map" ? m.labels : null;
+      const band = m && this.showBand && panel.kind === "map" ? m.band : null;
+      const zones = m && this.showZones && panel.kind === "map" ? m.zones : null;
       const palette = this.tables.sources;
       // Band: a magenta veil; zone 1 a white, zone 2 a yellow one (a quarter each).
       const veil = (colour, r, g, b) => pack(((colour & 255) * 3 + r) >> 2,
@@ -713,7 +765,7 @@
       for (let y = 0; y < h; y++) {
         const r = rowIndex[y], line = y * w;
         if (r < 0) { out.fill(background, line, line + w); continue; }
-        const rowStart = r * this.cols;
+        const rowStart = r * d.cols;
         for (let x = 0; x < w; x++) {
           const c = colIndex[x];
           if (c < 0) { out[line + x] = background; continue; }
@@ -792,7 +844,7 @@
     }
 
     drawOverlay() {
-      if (!this.isReady) return;
+      if (!this.display) return;
       for (const p of this.panels) {
         const ctx = p.over.getContext("2d");
         ctx.clearRect(0, 0, p.over.width, p.over.height);
@@ -911,6 +963,10 @@
       this.probe = { row: row, col: col };
       this.drawOverlay();
       this.probeBox.textContent = "";
+      if (!this.isReady) {
+        this.probeBox.textContent = "row, col " + row + ", " + col + ": loading the full-resolution data… (the probe reads them, never the preview)";
+        return;
+      }
       this.probeBox.appendChild(this.probeTable(row, col));
     }
 
@@ -996,6 +1052,7 @@
     }
 
     download() {
+      if (!this.isReady) { this.status.textContent = "the CSV waits for the full-resolution data, still loading…"; return; }
       const blob = new Blob([this.csv()], { type: "text/csv" });
       const link = el("a", { href: URL.createObjectURL(blob), download: "lsadphoto-view.csv" });
       document.body.appendChild(link);
@@ -1004,8 +1061,18 @@
     }
   }
 
+  /** Resolves when the document is parsed (every embedded array is in it). */
+  function documentParsed() {
+    return new Promise((resolve) => {
+      if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", () => resolve(), { once: true });
+      else resolve();
+    });
+  }
+
   function start(container) {
+    if (container.lsadViewer) return;
     const viewer = new Viewer(container);
+    container.lsadViewer = viewer;
     viewers.push(viewer);
     if (!window.lsadViewer) window.lsadViewer = viewer;
     if (container.dataset.lazy === "yes" && "IntersectionObserver" in window) {
@@ -1018,6 +1085,8 @@
     }
   }
 
+  // A viewer's fragment calls this right after its preview, while the page is still parsed.
+  window.lsadViewerStart = start;
   function startAll() { document.querySelectorAll(".lsad-viewer").forEach(start); }
   if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", startAll);
   else startAll();

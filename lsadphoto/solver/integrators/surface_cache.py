@@ -21,7 +21,7 @@ shadows and the near-luminaire gradients. This module splits the two:
   estimates the part within ε without
   bias by cosine-sampled rays (at a near hit y it adds ρ_y·(E_dir(y) + E_ind(y)), E_ind(y)
   again by far nodes and a further near ray, continued by Russian roulette with
-  probability ρ_y) — the near-field split of :mod:`~lsadphoto.solver.rendering`, with
+  probability ρ_y) — the near-field split of :mod:`~lsadphoto.solver.integrators.local_estimate`, with
   emission left out because the direct part is counted separately.
 * The cache points are the vertices of a regular subdivision of every reflecting triangle
   (level m ≈ √(2·area)/spacing; one point at the centroid for triangles smaller than the
@@ -49,30 +49,21 @@ interpolated; direct light is computed per pixel). Chen & Asau (1974), AIIE Tran
 
 import math
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
 
-from .._validation import check_positive_int
-from ..errors import BadInputError
-from ._sampling import stream
-from .direct import DIRECT_SAMPLES, direct_illuminance
-from .rendering import (
-    PIXEL_BLOCK,
-    _check_pose,
-    _check_view,
-    _emitted,
-    _engine_for,
-    _finish,
-    _luminous_openings,
-    _near_step,
-    _primary,
-    _run_chunks,
-)
-from .store import LsadStore
+from ..._validation import check_positive_int
+from ...errors import BadInputError
+from .._sampling import stream
+from ..cache_grid import SurfaceCache, grid_index
+from ..direct import DIRECT_SAMPLES, direct_illuminance
+from ..engine import engine_for
+from ..store import LsadStore
+from .eye import (check_pose, chunk_hits, chunk_size, luminance_map_from_batches,
+                  luminous_openings, near_step, primary_rays, run_chunks, warn_odd_view)
 
-__all__ = ["CACHE_NODES", "RELATIVE_CACHE_SPACING", "SurfaceCache", "build_surface_cache",
+__all__ = ["CACHE_NODES", "RELATIVE_CACHE_SPACING", "build_surface_cache",
            "indirect_illuminance", "render_cached"]
 
 #: Default cache spacing as a fraction of the scene's bounding-box diagonal.
@@ -280,7 +271,7 @@ class _IndirectEstimator:
                 m = key == k
                 g, j = group[active[m][0]], blocks[active[m][0]]
                 u[m] = stream(self.seed, "near", self.key, g, level, j).random((int(m.sum()), 3))
-            near, y, ny, _, prim = _near_step(scene, engine, x, nx, u, self.near_distance,
+            near, y, ny, _, prim = near_step(scene, engine, x, nx, u, self.near_distance,
                                               rho_prev)
             active = active[near]
             if not active.size:
@@ -343,128 +334,9 @@ def indirect_illuminance(store, points, normals, *, nodes=CACHE_NODES, near_dist
     x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     blocks = np.arange(len(x)) // POINT_BLOCK if block_ids is None else np.asarray(block_ids)
-    est = _IndirectEstimator(store, _engine_for(scene), nodes=nodes, near_distance=eps,
+    est = _IndirectEstimator(store, engine_for(scene), nodes=nodes, near_distance=eps,
                              direct_samples=direct_samples, seed=seed, key=key)
     return est.estimate(x, n, blocks)
-
-
-# --- the cache --------------------------------------------------------------------------------
-
-def _grid_index(m, i, j):
-    """Index of vertex (i, j) of a level-m triangle grid (rows i = 0…m of m + 1 − i vertices)."""
-    return i * (m + 1) - i * (i - 1) // 2 + j
-
-
-def _cell(m, b1, b2):
-    """Cell of barycentric point (b1, b2) in a level-m grid (m ≥ 1, arrays).
-
-    Returns the grid indices of its corners P0, P1, P2, the interpolation weights of P1 and
-    P2 (the point is P0 + w1·(P1 − P0) + w2·(P2 − P0)) and the cell's key 2·index(i, j) +
-    upper. Lower cells are (i, j), (i + 1, j), (i, j + 1); upper cells (i + 1, j + 1),
-    (i + 1, j), (i, j + 1).
-    """
-    s, t = b1 * m, b2 * m
-    i = np.clip(np.floor(s), 0, m - 1).astype(np.int64)
-    j = np.clip(np.floor(t), 0, m - 1 - i).astype(np.int64)
-    fs, ft = s - i, t - j
-    upper = fs + ft > 1.0
-    k0 = np.where(upper, _grid_index(m, i + 1, j + 1), _grid_index(m, i, j))
-    k1 = _grid_index(m, i + 1, j)
-    k2 = _grid_index(m, i, j + 1)
-    w1 = np.where(upper, 1.0 - ft, fs)
-    w2 = np.where(upper, 1.0 - fs, ft)
-    return k0, k1, k2, w1, w2, 2 * _grid_index(m, i, j) + upper
-
-
-def _barycentric(tri, x):
-    """Barycentric coordinates (b1, b2) of points x in triangles tri (n, 3, 3), clipped in."""
-    e1 = tri[:, 1] - tri[:, 0]
-    e2 = tri[:, 2] - tri[:, 0]
-    w = x - tri[:, 0]
-    d11 = np.einsum("ij,ij->i", e1, e1)
-    d12 = np.einsum("ij,ij->i", e1, e2)
-    d22 = np.einsum("ij,ij->i", e2, e2)
-    w1 = np.einsum("ij,ij->i", w, e1)
-    w2 = np.einsum("ij,ij->i", w, e2)
-    det = d11 * d22 - d12 * d12
-    b1 = np.clip((d22 * w1 - d12 * w2) / det, 0.0, 1.0)
-    b2 = np.clip((d11 * w2 - d12 * w1) / det, 0.0, 1.0)
-    total = np.maximum(b1 + b2, 1.0)
-    return b1 / total, b2 / total
-
-
-@dataclass
-class SurfaceCache:
-    """Indirect illuminance at the vertices of a subdivision of every reflecting triangle.
-
-    Attributes
-    ----------
-    spacing : float
-        Target spacing of the cache points [m].
-    level : ndarray of int, shape (T,)
-        Subdivision level m of each triangle (0: one point at the centroid; −1: not cached).
-    offset : ndarray of int, shape (T, 2)
-        Index of each triangle's first vertex for its front (0) and back (1) side.
-    values : ndarray, shape (V, groups)
-        E_ind [lx] at each vertex, per group of node draws.
-    positions : ndarray, shape (V, 3)
-        Where each value was estimated [m] (grid vertices, moved a few ray offsets inside
-        their triangle).
-    refined_key, refined_offset : ndarray of int, shape (C,)
-        Refined cells (sorted keys 2·(global index of the cell's (i, j) vertex) + upper) and
-        the index of the first vertex of each one's level-``refine`` grid in ``values``.
-    refine : int
-        Subdivision level of refined cells.
-    provenance : dict
-        Nodes per point, ε, seed, build time.
-    """
-
-    spacing: float
-    level: np.ndarray
-    offset: np.ndarray
-    values: np.ndarray
-    positions: np.ndarray
-    refined_key: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    refined_offset: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
-    refine: int = 4
-    provenance: dict = field(default_factory=dict)
-
-    @property
-    def size(self):
-        """Number of cache points."""
-        return len(self.values)
-
-    def corners(self, scene, prim, x, side):
-        """Indices of the three cache points around points ``x`` on triangles ``prim``
-        (side 0 front, 1 back) and their linear-interpolation weights, each (n, 3)."""
-        b1, b2 = _barycentric(scene.triangles[prim], x)
-        m = self.level[prim]
-        base = self.offset[prim, side]
-        if np.any(m < 0) or np.any(base < 0):
-            raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
-        mi = np.maximum(m, 1)
-        k0, k1, k2, w1, w2, key = _cell(mi, b1, b2)
-        index = np.stack([base + k0, base + k1, base + k2], axis=1)
-        weight = np.stack([1.0 - w1 - w2, w1, w2], axis=1)
-        single = m == 0
-        index[single] = base[single, None]
-        weight[single] = (1.0, 0.0, 0.0)
-        if self.refined_key.size:
-            global_key = 2 * base + key  # base + index(i, j) doubled, plus upper
-            pos = np.minimum(np.searchsorted(self.refined_key, global_key), self.refined_key.size - 1)
-            fine = (self.refined_key[pos] == global_key) & ~single
-            if fine.any():
-                r = self.refine
-                f0, f1, f2, v1, v2, _ = _cell(r, w1[fine], w2[fine])
-                start = self.refined_offset[pos[fine]]
-                index[fine] = np.stack([start + f0, start + f1, start + f2], axis=1)
-                weight[fine] = np.stack([1.0 - v1 - v2, v1, v2], axis=1)
-        return index, weight
-
-    def interpolate(self, scene, prim, x, side):
-        """E_ind per group [lx] at points ``x`` on triangles ``prim``, side 0 (front) or 1."""
-        index, weight = self.corners(scene, prim, x, side)
-        return np.einsum("nk,nkg->ng", weight, self.values[index])
 
 
 def _cache_points(scene, spacing, inset):
@@ -519,11 +391,11 @@ def _cells_to_refine(level, offset, values, contrast):
         ij = np.array([(i, j) for i in range(m) for j in range(m - i)], dtype=np.int64)
         i, j = ij[:, 0], ij[:, 1]
         up = i + j <= m - 2
-        cells = [(np.zeros(i.size, bool), _grid_index(m, i, j), _grid_index(m, i + 1, j),
-                  _grid_index(m, i, j + 1), _grid_index(m, i, j)),
-                 (np.ones(up.sum(), bool), _grid_index(m, i[up] + 1, j[up] + 1),
-                  _grid_index(m, i[up] + 1, j[up]), _grid_index(m, i[up], j[up] + 1),
-                  _grid_index(m, i[up], j[up]))]
+        cells = [(np.zeros(i.size, bool), grid_index(m, i, j), grid_index(m, i + 1, j),
+                  grid_index(m, i, j + 1), grid_index(m, i, j)),
+                 (np.ones(up.sum(), bool), grid_index(m, i[up] + 1, j[up] + 1),
+                  grid_index(m, i[up] + 1, j[up]), grid_index(m, i[up], j[up] + 1),
+                  grid_index(m, i[up], j[up]))]
         for side in (0, 1):
             base = offset[t, side]
             for upper, c0, c1, c2, corner_ij in cells:
@@ -594,7 +466,7 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     check_positive_int(nodes, "nodes")
     eps = RELATIVE_CACHE_NEAR_DISTANCE * scene.size if near_distance is None else float(near_distance)
     t0 = time.perf_counter()
-    engine = _engine_for(scene)
+    engine = engine_for(scene)
     inset = 10 * engine.epsilon
     level, offset, points, normals = _cache_points(scene, spacing, inset)
     est = _IndirectEstimator(store, engine, nodes=nodes, near_distance=eps,
@@ -609,7 +481,7 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
             idx = np.arange(start, min(start + POINT_BLOCK, len(pts)))
             return idx, est.estimate(pts[sl], nrm[sl], blocks[sl])
 
-        _run_chunks(work, range(0, len(pts), POINT_BLOCK), values, int(workers), progress,
+        run_chunks(work, range(0, len(pts), POINT_BLOCK), values, int(workers), progress,
                     time.perf_counter(), len(pts))
         return values
 
@@ -627,7 +499,7 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         fine_values = np.empty((*fine_points.shape[:2], est.groups))
         # The cell's corners are grid points already estimated: (0, 0) → P0, (r, 0) → P1,
         # (0, r) → P2 in the local grid; only the other points are new.
-        corner_slots = [0, _grid_index(r, r, 0), _grid_index(r, 0, r)]
+        corner_slots = [0, grid_index(r, r, 0), grid_index(r, 0, r)]
         for slot, k in zip(corner_slots, range(3)):
             fine_values[:, slot] = values[corners[:, k]]
         new = np.setdiff1d(np.arange(len(ab)), corner_slots)
@@ -680,47 +552,45 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     scene = store.scene
     if cache is None:
         cache = store.surface_cache or build_surface_cache(store, workers=workers)
-    position, rotation = _check_pose(position, rotation)
+    position, rotation = check_pose(position, rotation)
     check_positive_int(workers, "workers")
-    engine = _engine_for(scene)
+    engine = engine_for(scene)
     t0 = time.perf_counter()
-    valid, prim, dist, d = _primary(scene, engine, projection, position, rotation)
+    valid, prim, dist, d = primary_rays(scene, engine, projection, position, rotation)
     hit = np.flatnonzero(prim >= 0)
     G = cache.values.shape[1]
     lum_b = np.zeros((valid.size, G))
     direct_var = np.zeros(valid.size)
-    chunk = max(PIXEL_BLOCK, math.ceil(chunk_pixels / PIXEL_BLOCK) * PIXEL_BLOCK)
+    chunk = chunk_size(chunk_pixels)
 
     def work(start):
-        h = hit[start:start + chunk]
-        t = prim[h]
-        x = position + dist[h, None] * d[h]
-        nrm, facing = scene.facing_normals(t, d[h])
-        rho = scene.triangle_reflectance[t]
-        out = np.repeat(_emitted(scene, t, -d[h])[:, None], G, axis=1)
-        refl = np.flatnonzero(rho > 0)
+        c = chunk_hits(scene, position, hit, prim, dist, d, start, chunk)
+        out = np.repeat(c.emitted[:, None], G, axis=1)
+        refl = np.flatnonzero(c.reflectance > 0)
         if refl.size:
-            blocks = (start + refl) // PIXEL_BLOCK
-            e_dir, var = direct_illuminance(scene, engine, x[refl], nrm[refl],
-                                            samples=direct_samples, seed=seed, block_ids=blocks)
-            e_ind = cache.interpolate(scene, t[refl], x[refl], np.where(facing[refl], 0, 1))
-            k = (rho[refl] / math.pi)[:, None]
+            x = c.point[refl]
+            e_dir, var = direct_illuminance(scene, engine, x, c.normal[refl],
+                                            samples=direct_samples, seed=seed,
+                                            block_ids=c.block[refl])
+            e_ind = cache.interpolate(scene, c.triangle[refl], x, np.where(c.front[refl], 0, 1))
+            k = (c.reflectance[refl] / math.pi)[:, None]
             out[refl] += k * (e_dir[:, None] + e_ind)
-            direct_var[h[refl]] = (rho[refl] / math.pi) ** 2 * var
-        return h, out
+            direct_var[c.index[refl]] = k[:, 0] ** 2 * var
+        return c.index, out
 
-    _run_chunks(work, range(0, hit.size, chunk), lum_b, int(workers), progress, t0, hit.size)
-    openings = _luminous_openings(scene, position, d, dist)
-    _check_view(scene, engine, prim, dist, np.where(np.isfinite(openings)[:, None], 1.0, lum_b),
-                position)
-    return _finish(projection, valid, lum_b, store_or_scene=store,
-                   estimator="surface cache (direct per pixel, indirect interpolated)",
-                   openings=openings, shared_variance=direct_var,
-                   extra={"chains": int(store.chains), "nodes": int(store.nodes),
-                          "direct_samples": int(direct_samples), "seed": int(seed),
-                          "simulation_seed": int(store.seed),
-                          "cache_spacing_m": float(cache.spacing),
-                          "cache_points": int(cache.size),
-                          "cache_nodes_per_point": cache.provenance.get("nodes_per_point"),
-                          "interpolation_bias": "not included in the uncertainty"},
-                   elapsed=time.perf_counter() - t0, pose=(position, rotation))
+    run_chunks(work, range(0, hit.size, chunk), lum_b, int(workers), progress, t0, hit.size)
+    openings = luminous_openings(scene, position, d, dist)
+    warn_odd_view(scene, engine, prim, dist, np.where(np.isfinite(openings)[:, None], 1.0, lum_b),
+                  position)
+    return luminance_map_from_batches(
+        projection, valid, lum_b, model=store,
+        estimator="surface cache (direct per pixel, indirect interpolated)",
+        openings=openings, shared_variance=direct_var,
+        extra={"chains": int(store.chains), "nodes": int(store.nodes),
+               "direct_samples": int(direct_samples), "seed": int(seed),
+               "simulation_seed": int(store.seed),
+               "cache_spacing_m": float(cache.spacing),
+               "cache_points": int(cache.size),
+               "cache_nodes_per_point": cache.provenance.get("nodes_per_point"),
+               "interpolation_bias": "not included in the uncertainty"},
+        elapsed=time.perf_counter() - t0, pose=(position, rotation))

@@ -1,0 +1,73 @@
+"""The solver at station scale: `simulate` + `render` of the generated hall, as a user runs them.
+
+The hall of :func:`lsadphoto.datasets.hall.make_station_hall` (60 × 20 m, barrel vault,
+40 columns, 20 benches, 120 IES luminaires, ≈ 64 000 triangles at ``--detail 1``) is
+simulated and one fisheye view rendered by fresh ``lsadphoto`` processes; each step's wall
+time, CPU time and peak memory (``resource.getrusage`` of the child) and the rendered map's
+per-pixel relative errors (median, 95th percentile) are printed as a table row. Variants:
+``--detail 2`` (4× triangles), ``--luminaires 480`` (4× luminaires).
+
+    PYTHONPATH=. .venv/bin/python benchmarks/bench_station_hall.py [--detail 1] [--luminaires 120]
+        [--size 1024] [--samples 262144] [--estimator cache|local] [--nodes-per-pixel auto]
+"""
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from lsadphoto.datasets.hall import make_station_hall
+from lsadphoto.solver import load_scene
+
+
+def run(args):
+    """Run ``lsadphoto ARGS``; wall [s], CPU [s] and peak RSS [GB] of the child, stdout."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t0 = time.perf_counter()
+    proc = subprocess.run([sys.executable, "-m", "lsadphoto.cli", *map(str, args)],
+                          capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode:
+        raise SystemExit(f"lsadphoto {' '.join(map(str, args))} failed: {proc.stderr.strip()}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, after.ru_maxrss / 1e6, proc.stdout
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--detail", type=float, default=1.0)
+    ap.add_argument("--luminaires", type=int, default=120)
+    ap.add_argument("--size", type=int, default=1024)
+    ap.add_argument("--samples", type=int, default=262144)
+    ap.add_argument("--estimator", default="cache", choices=("cache", "local"))
+    ap.add_argument("--nodes-per-pixel", default="auto")
+    a = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        scene = make_station_hall(Path(tmp) / "hall", luminaires=a.luminaires, detail=a.detail,
+                                  view_size=a.size)
+        triangles = len(load_scene(scene).triangles)
+        store = Path(tmp) / "hall.npz"
+        sim = ["simulate", scene, "-o", store, "--samples", a.samples, "--quiet", "--json"]
+        if a.estimator == "cache":
+            sim.append("--surface-cache")
+        s_wall, s_cpu, s_mem, _ = run(sim)
+        out = Path(tmp) / "view.exr"
+        r_wall, r_cpu, r_mem, r_out = run(["render", store, "--view-name", "along", "--estimator",
+                                           a.estimator, "--nodes-per-pixel", a.nodes_per_pixel,
+                                           "--quiet", "--json", "-o", out])
+        p = json.loads(r_out)["provenance"]
+    print("| triangles | luminaires | chains | view | estimator | simulate: wall / CPU [s] | "
+          "render: wall / CPU [s] | peak memory [GB] | per-pixel error median / p95 |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    print(f"| {triangles} | {a.luminaires} | {a.samples} | {a.size}² | {a.estimator} | "
+          f"{s_wall:.0f} / {s_cpu:.0f} | {r_wall:.0f} / {r_cpu:.0f} | {max(s_mem, r_mem):.1f} | "
+          f"{100 * p['pixel_relative_error_median']:.2g} % / {100 * p['pixel_relative_error_p95']:.2g} % |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,971 @@
+"""Radiance scene descriptions (``.rad``) read into a solver :class:`~lsadphoto.solver.Scene`.
+
+What is read, as Radiance reads it:
+
+- **Surfaces** ``polygon``, ``sphere``, ``bubble``, ``cone``, ``cup``, ``cylinder``, ``tube``,
+  ``ring``, tessellated into triangles (:mod:`lsadphoto.solver.formats.shapes`, accuracy knob
+  ``tessellation_error``; areas exact). Polygons must be planar.
+- **Modifiers** resolved as Radiance resolves them: ``void`` is none, a name means its most
+  recent definition *before* the line that uses it, ``alias`` copies a definition (with a new
+  modifier unless that is ``void``), ``xform -m`` replaces the surfaces' modifiers.
+- **Materials** are read into :class:`RadianceMaterial` records (``plastic``, ``metal``,
+  ``trans``, ``glass``, ``dielectric``, ``mirror``, ``light``, ``glow``, ``illum``,
+  ``spotlight`` and the rest by name). The solver's estimators are Lambertian, so a surface
+  may use only what is exactly Lambertian: ``plastic`` or ``metal`` of specularity 0
+  (reflectance ρ = 0.265074 R + 0.670115 G + 0.064811 B, :func:`radiance_luminance`), ``trans``
+  of specularity 0 and transmissivity 0, ``light`` (a Lambertian emitter of luminance
+  179 lm/W × the same weights, front side only, not reflecting), ``glow`` whose radius of
+  influence is 0 (it then lights everything, like a ``light``). Anything else is refused
+  when a surface uses it, in one line naming file, line, modifier and parameter.
+- **Luminaires from ies2rad**: a ``light`` modified by a ``brightdata`` of Radiance's
+  ``source.cal`` (``flatcorr``, ``corr``, ``boxcorr``, ``cylcorr`` over ``src_theta``,
+  ``src_phi``, ``src_phi2``, ``src_phi4``) becomes one luminaire with a luminous intensity
+  distribution (:class:`~lsadphoto.solver.PointLuminaire` with an
+  :class:`~lsadphoto.solver.IntensityTable`): its intensity is Radiance's emitted radiance
+  times the emitting surfaces' projected area, I(ω) = 179·Y(rgb)·b(ω)·A⊥(ω), where b is the
+  ``.dat`` table interpolated as Radiance's ``datavalue`` does (linear, one division of linear
+  extrapolation, then a harmonic taper to zero), so for ies2rad's geometry I(ω) is the IES
+  file's candela table times ies2rad's multiplier. It emits from a rectangle of the
+  luminaire's projected area toward its nadir (``extent``) and, like every solver luminaire
+  with a distribution, is not geometry (it casts no shadow).
+- **Commands**: a ``!`` line is split with :mod:`shlex` into argument lists and run without
+  a shell, in the top scene file's folder, with a time limit (``command_timeout``); stages
+  joined by ``|`` are piped. Programs are Radiance's as the ``pyradiance`` package ships them
+  (``genbox``, ``genrev``, ``genworm``, ``gensurf``, ``genprism``, ``ies2rad``, ``obj2rad``, …);
+  ``xform`` is applied here (its files are read by this reader, so their lines are named in
+  errors; transforms ``-t -rx -ry -rz -s -mx -my -mz -a -i``, ``-n``, ``-m``).
+
+A ``mesh`` is read from the OBJ it was compiled from (``name.obj`` beside ``name.rtm``,
+through trimesh; one modifier for all faces). Everything else is refused with one line
+(:class:`~lsadphoto.errors.BadInputError`) naming the file, the line, the primitive or
+modifier: distant ``source``\\ s, ``instance`` (octrees are binary), compiled meshes
+without their OBJ (or with per-face ``usemtl``: use ``!obj2rad``), patterns and textures on materials, other functions or ``.cal``
+files. Colour is reduced to luminance with Radiance's own RGB weights (those of its
+primaries, ``color.h``), the weights the photo pipeline uses for Radiance pictures
+(:mod:`lsadphoto.io.hdr`), so a model's luminance is what Radiance's ``pvalue`` would give
+for the same scene; for coloured interreflections this grey reduction is exact at the first
+reflection and an approximation after that.
+
+References
+----------
+Ward Larson, G., Shakespeare, R. (1998). *Rendering with Radiance*, Morgan Kaufmann, ch. 1
+(scene description syntax, materials, patterns). Radiance reference manual (``ray.html``);
+``src/common/color.h`` (``WHTEFFICACY`` = 179 lm/W, CIE luminance weights of Radiance RGB);
+``src/rt/data.c`` (``datavalue``: interpolation and extrapolation of ``.dat`` tables);
+``lib/source.cal`` (``flatcorr``, ``boxcorr``, ``cylcorr``, ``src_theta``, ``src_phi``);
+``src/cv/ies2rad.c`` (how IES files become ``brightdata`` luminaires).
+"""
+
+import importlib.util
+import math
+import os
+import shlex
+import subprocess
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ...constants import RADIANCE_RGB_LUMINANCE_WEIGHTS, RADIANCE_WHITE_EFFICACY
+from ...errors import BadInputError
+from ...io.hdr import parse_view
+from ..intensity import IntensityTable, luminaire_frame
+from ..scene import AreaLuminaire, PointLuminaire, Scene, as_views, polygon_triangles
+from .shapes import DEFAULT_TESSELLATION_ERROR, annulus_triangles, cone_triangles, sphere_triangles
+from .xform import TRANSFORM_WORDS, Transform, parse_transform
+
+__all__ = ["DEFAULT_COMMAND_TIMEOUT", "RadianceMaterial", "radiance_luminance", "radiance_programs",
+           "read_radiance_scene", "read_rif_scene"]
+
+#: Default time limit of one ``!`` command line (all its piped stages together) [s].
+DEFAULT_COMMAND_TIMEOUT = 60.0
+
+_SURFACES = {"polygon", "sphere", "bubble", "cone", "cup", "cylinder", "tube", "ring"}
+_REFUSED_SURFACES = {
+    "source": "a distant source (sun or sky) is not supported",
+    "instance": "octree instances are binary files; give the geometry as Radiance text",
+}
+_MATERIALS = {"plastic", "metal", "trans", "plastic2", "metal2", "trans2", "glass", "dielectric",
+              "interface", "mirror", "light", "glow", "illum", "spotlight", "mist", "prism1", "prism2",
+              "antimatter", "plasfunc", "metfunc", "transfunc", "plasdata", "metdata", "transdata",
+              "BRTDfunc", "BSDF", "aBSDF", "ashik2", "WGMDfunc", "mixfunc", "mixdata", "mixpict",
+              "mixtext", "clip"}
+_PATTERNS = {"brightfunc", "brightdata", "brighttext", "colorfunc", "colordata", "colorpict",
+             "colortext", "texfunc", "texdata", "specfunc", "specdata", "specpict", "spectrum"}
+#: Number of real arguments of the materials read here.
+_REALS = {"plastic": 5, "metal": 5, "trans": 7, "light": 3, "glow": 4, "spotlight": 7, "mirror": 3,
+          "glass": (3, 4), "illum": 3}
+_SOURCE_COORDINATES = ("src_theta", "src_phi", "src_phi2", "src_phi4")
+_SOURCE_CORRECTIONS = {"flatcorr": (0, 1), "corr": (0, 1), "boxcorr": (4, 4), "cylcorr": (3, 3)}
+_MAX_DEPTH = 16
+
+
+def radiance_luminance(r, g, b):
+    """Luminance [cd·m⁻²] (or reflectance [–] without the efficacy) of Radiance RGB.
+
+    Examples
+    --------
+    >>> round(radiance_luminance(1, 1, 1), 6)
+    1.0
+    """
+    wr, wg, wb = RADIANCE_RGB_LUMINANCE_WEIGHTS
+    return wr * r + wg * g + wb * b
+
+
+def radiance_programs():
+    """Folder of the Radiance programs that the ``pyradiance`` package ships, or ``None``."""
+    spec = importlib.util.find_spec("pyradiance")
+    if spec is None or spec.origin is None:
+        return None
+    folder = Path(spec.origin).parent / "bin"
+    return folder if folder.is_dir() else None
+
+
+@dataclass(eq=False)  # identity: two definitions with equal words are still two modifiers
+class RadianceMaterial:
+    """A Radiance modifier (material or pattern) as read from a scene file.
+
+    Attributes
+    ----------
+    kind : str
+        Radiance type (``plastic``, ``light``, ``brightdata``, …).
+    name : str
+        Its identifier.
+    modifier : RadianceMaterial or None
+        The modifier it is modified by (``None`` for ``void``).
+    strings, reals : tuple
+        Its string and real arguments as written.
+    where : str
+        ``file:line`` of its definition.
+    transform : Transform
+        Transform in force where it was defined (for patterns: with the transform words of
+        its string arguments), mapping its own coordinates to the world.
+    """
+
+    kind: str
+    name: str
+    modifier: "RadianceMaterial | None"
+    strings: tuple
+    reals: tuple
+    where: str
+    transform: Transform = field(default_factory=Transform)
+
+    def describe(self):
+        """``kind 'name' (file:line)`` for messages."""
+        return f"{self.kind} {self.name!r} ({self.where})"
+
+    def lambertian_reflectance(self):
+        """Lambertian reflectance ρ [–] of a ``plastic``/``metal``/``trans`` that is exactly
+        Lambertian; otherwise :class:`BadInputError` naming the parameter that is not."""
+        where = f"{self.where}: {self.kind} {self.name!r}"
+        if self.kind not in ("plastic", "metal", "trans"):
+            raise BadInputError(f"{where} is not a Lambertian material; the solver's estimators model "
+                                "only plastic/metal of specularity 0, trans of specularity and "
+                                "transmissivity 0, light and glow")
+        self._check_reals()
+        r, g, b, spec, rough = self.reals[:5]
+        if spec != 0:
+            raise BadInputError(f"{where}: specularity {spec:g} (roughness {rough:g}) is not Lambertian; "
+                                "the solver's estimators model only specularity 0")
+        if self.kind == "trans" and self.reals[5] != 0:
+            raise BadInputError(f"{where}: transmissivity {self.reals[5]:g} is not supported "
+                                "(only opaque Lambertian surfaces, transmissivity 0)")
+        if min(r, g, b) < 0:
+            raise BadInputError(f"{where}: negative colour ({r:g} {g:g} {b:g})")
+        rho = radiance_luminance(r, g, b)
+        if not rho < 1:
+            raise BadInputError(f"{where}: reflectance {rho:g} (of {r:g} {g:g} {b:g}) not in [0, 1)")
+        return rho
+
+    def _check_reals(self):
+        want = _REALS.get(self.kind)
+        if want is not None and len(self.reals) not in (want if isinstance(want, tuple) else (want,)):
+            raise BadInputError(f"{self.where}: {self.kind} {self.name!r} needs {want} real arguments, "
+                                f"got {len(self.reals)}")
+
+    def emitted_luminance(self):
+        """Luminance [cd·m⁻²] a ``light``/``glow`` emits (179 lm/W × Y of its RGB radiance)."""
+        self._check_reals()
+        r, g, b = self.reals[:3]
+        if min(r, g, b) < 0:
+            raise BadInputError(f"{self.where}: {self.kind} {self.name!r}: negative radiance")
+        return RADIANCE_WHITE_EFFICACY * radiance_luminance(r, g, b)
+
+
+# --- words and lines -------------------------------------------------------------------------
+
+def _strip_comment(line):
+    """The line without a ``#`` comment (a ``#`` that starts a word, outside quotes)."""
+    quote = None
+    for k, ch in enumerate(line):
+        if quote:
+            if ch == quote:
+                quote = None
+        elif ch in "'\"":
+            quote = ch
+        elif ch == "#" and (k == 0 or line[k - 1].isspace()):
+            return line[:k]
+    return line
+
+
+def _tokens(text, source):
+    """``[(kind, value, line)]``: ``("word", w, n)`` or ``("command", text, n)``."""
+    out = []
+    lines = text.splitlines()
+    k = 0
+    while k < len(lines):
+        number, line = k + 1, lines[k]
+        k += 1
+        if line.lstrip().startswith("!"):
+            command = line.lstrip()[1:]
+            while command.endswith("\\") and k < len(lines):
+                command = command[:-1] + " " + lines[k]
+                k += 1
+            out.append(("command", command.strip(), number))
+            continue
+        line = _strip_comment(line)
+        if not line.strip():
+            continue
+        try:  # quotes (ies2rad writes 'names') need shlex; plain lines split faster
+            words = shlex.split(line, posix=True) if "'" in line or '"' in line else line.split()
+        except ValueError as exc:
+            raise BadInputError(f"{source}:{number}: cannot read this line ({exc})") from None
+        out.extend(("word", w, number) for w in words)
+    return out
+
+
+# --- .dat tables of brightdata ------------------------------------------------------------------
+
+class _DataTable:
+    """A Radiance data file (``N``; ``begin end n`` or ``0 0 n p…`` per dimension; values)."""
+
+    def __init__(self, path, where):
+        try:
+            text = path.read_text(encoding="utf-8", errors="replace")
+            words = " ".join(line.split("#", 1)[0] for line in text.splitlines()).split()
+            values = [float(w) for w in words]
+        except (OSError, ValueError) as exc:
+            raise BadInputError(f"{where}: cannot read data file {path} ({exc})") from None
+        try:
+            pos, ndim = 1, int(values[0])
+            if ndim < 1 or ndim != values[0]:
+                raise ValueError("bad number of dimensions")
+            self.axes = []
+            for _ in range(ndim):
+                begin, end, n = values[pos:pos + 3]
+                pos += 3
+                if n != int(n) or n < 2:
+                    raise ValueError("a dimension needs at least 2 points")
+                n = int(n)
+                if begin == end:
+                    grid = np.asarray(values[pos:pos + n])
+                    pos += n
+                    if len(grid) != n or np.any(np.diff(grid) <= 0):
+                        raise ValueError("irregular points must increase")
+                else:
+                    grid = np.linspace(begin, end, n)
+                self.axes.append(grid)
+            count = int(np.prod([len(a) for a in self.axes]))
+            data = np.asarray(values[pos:])
+            if len(data) != count:
+                raise ValueError(f"{len(data)} values for {count} grid points")
+        except (ValueError, IndexError) as exc:
+            raise BadInputError(f"{where}: bad data file {path} ({exc})") from None
+        self.values = data.reshape([len(a) for a in self.axes])
+
+    def __call__(self, *coords):
+        """Radiance's ``datavalue``: multilinear, extrapolated one division, then tapered."""
+        return self._value(self.values, self.axes, [np.asarray(c, float) for c in coords])
+
+    def _value(self, values, axes, coords):
+        grid, x_coord = axes[0], coords[0]
+        n = len(grid)
+        i = np.clip(np.searchsorted(grid, x_coord, side="right") - 1, 0, n - 2)
+        x = i + (x_coord - grid[i]) / (grid[i + 1] - grid[i])
+        if len(axes) > 1:
+            sub = [values[k] for k in range(n)]
+            rest = [self._value(s, axes[1:], coords[1:]) for s in sub]
+            stack = np.stack(np.broadcast_arrays(*rest))
+            y0 = np.take_along_axis(stack, i[None], 0)[0]
+            y1 = np.take_along_axis(stack, (i + 1)[None], 0)[0]
+        else:
+            y0, y1 = values[i], values[i + 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return np.where(x > i + 2, (2 * y1 - y0) / (x - (i - 1)),
+                            np.where(x < i - 1, (2 * y0 - y1) / (i - x),
+                                     y0 * ((i + 1) - x) + y1 * (x - i)))
+
+
+def _source_coordinate(name, d):
+    """A ``source.cal`` coordinate [deg] of ray directions ``d`` (towards the source)."""
+    theta = np.degrees(np.arccos(np.clip(d[..., 2], -1.0, 1.0)))
+    if name == "src_theta":
+        return theta
+    phi = np.mod(np.degrees(np.arctan2(-d[..., 1], -d[..., 0])), 360.0)
+    fold = {"src_phi": None, "src_phi2": 180.0, "src_phi4": 90.0}[name]
+    if fold is None:
+        return phi
+    return np.abs(fold - np.mod(phi - fold, 2 * fold))  # rayinit.cal tri(n, d)
+
+
+# --- the reader -------------------------------------------------------------------------------
+
+class _Reader:
+    def __init__(self, base, tessellation_error, command_timeout):
+        self.base = base
+        self.eps = tessellation_error
+        self.timeout = command_timeout
+        self.defs = {}
+        self.triangles, self.material, self.emitter = [], [], []
+        self.count = 0  # triangles so far
+        self.names, self.rho, self.index = [], [], {}
+        self.area_luminaires, self.luminaire_parts = [], {}
+        self.folder_of = {}  # definition -> folder of the file that defined it
+
+    # the scene's materials (reflectance) by record
+    def _material_index(self, record):
+        key = record if record is not None else "black"
+        if key not in self.index:
+            if record is None:
+                name, rho = "black", 0.0
+            else:
+                name, rho = record.name, record.lambertian_reflectance()
+                while name in self.names:
+                    name += "'"
+            self.index[key] = len(self.names)
+            self.names.append(name)
+            self.rho.append(rho)
+        return self.index[key]
+
+    def read(self, text, source, transform, *, folder, override=None, prefix="", depth=0):
+        if depth > _MAX_DEPTH:
+            raise BadInputError(f"{source}: files and commands nest deeper than {_MAX_DEPTH} levels")
+        tokens = _tokens(text, source)
+        pos = 0
+
+        def take(what, line):
+            nonlocal pos
+            if pos >= len(tokens) or tokens[pos][0] != "word":
+                raise BadInputError(f"{source}:{line}: {what} missing (truncated primitive)")
+            pos += 1
+            return tokens[pos - 1][1]
+
+        while pos < len(tokens):
+            kind, value, line = tokens[pos]
+            if kind == "command":
+                pos += 1
+                self.command(value, f"{source}:{line}", transform, override, prefix, depth)
+                continue
+            modifier = take("modifier", line)
+            ptype = take("primitive type", line)
+            ident = take("identifier", line)
+            where = f"{source}:{line}"
+            if ptype == "alias":
+                old = take("aliased identifier", line)
+                self.alias(modifier, ident, old, where)
+                continue
+            args = []
+            for what in ("string", "integer", "real"):
+                count = take(f"{what} argument count", line)
+                try:
+                    n = int(count)
+                except ValueError:
+                    n = -1
+                if n < 0:
+                    raise BadInputError(f"{where}: {ptype} {ident!r}: {what} argument count {count!r} "
+                                        "is not a whole number ≥ 0")
+                args.append([take(f"{what} argument", line) for _ in range(n)])
+            try:
+                reals = tuple(float(x) for x in args[2])
+            except ValueError:
+                word = next(x for x in args[2] if not _is_number(x))
+                raise BadInputError(f"{where}: {ptype} {ident!r}: real argument {word!r} is not a number "
+                                    "(too few arguments for the count given?)") from None
+            if not all(math.isfinite(r) for r in reals):
+                raise BadInputError(f"{where}: {ptype} {ident!r}: real arguments must be finite")
+            if ptype == "mesh":
+                self.mesh(override or modifier, prefix + ident, args[0], where, transform, folder)
+            elif ptype in _SURFACES or ptype in _REFUSED_SURFACES:
+                self.surface(override or modifier, ptype, prefix + ident, reals, where, transform)
+            elif ptype in _MATERIALS or ptype in _PATTERNS:
+                self.define(modifier, ptype, ident, tuple(args[0]), reals, where, transform)
+                self.folder_of[self.defs[ident]] = folder
+            else:
+                raise BadInputError(f"{where}: unknown primitive type {ptype!r} ({modifier} {ptype} {ident})")
+
+    def resolve(self, modifier, where, what):
+        if modifier == "void":
+            return None
+        record = self.defs.get(modifier)
+        if record is None:
+            raise BadInputError(f"{where}: {what}: modifier {modifier!r} is not defined before this line")
+        return record
+
+    def alias(self, modifier, ident, old, where):
+        record = self.resolve(old, where, f"alias {ident!r}")
+        if record is None:
+            raise BadInputError(f"{where}: alias {ident!r} of void")
+        new = RadianceMaterial(record.kind, ident, record.modifier, record.strings, record.reals, where,
+                               record.transform)
+        if modifier != "void":
+            new.modifier = self.resolve(modifier, where, f"alias {ident!r}")
+        self.defs[ident] = new
+        self.folder_of[new] = self.folder_of.get(record, self.base)
+
+    def define(self, modifier, ptype, ident, strings, reals, where, transform):
+        record = RadianceMaterial(ptype, ident, self.resolve(modifier, where, f"{ptype} {ident!r}"),
+                                  strings, reals, where, transform)
+        if ptype in _PATTERNS:
+            words = list(strings)
+            first = next((k for k, w in enumerate(words) if w in TRANSFORM_WORDS), len(words))
+            record.strings = tuple(words[:first])
+            if first < len(words):
+                record.transform = transform @ parse_transform(words[first:], f"{where}: {ptype} {ident!r}")[0][1]
+        self.defs[ident] = record
+
+    # surfaces
+    def surface(self, modifier, ptype, ident, reals, where, transform):
+        what = f"{ptype} {ident!r}"
+        if ptype in _REFUSED_SURFACES:
+            raise BadInputError(f"{where}: {what}: {_REFUSED_SURFACES[ptype]}")
+        tris = self.tessellate(ptype, what, reals, where, transform)
+        self.place(modifier, ident, ptype, reals, tris, where, transform)
+
+    def place(self, modifier, ident, ptype, reals, tris, where, transform):
+        """Add a surface's triangles with the material (or emission) its modifier gives."""
+        what = f"{ptype} {ident!r}"
+        material, patterns = self.material_of(self.resolve(modifier, where, what), where, what)
+        if material.kind in ("light", "glow"):
+            luminance = material.emitted_luminance()
+            if material.kind == "glow" and material.reals[3] != 0:
+                raise BadInputError(
+                    f"{where}: {what}: glow {material.name!r} ({material.where}) has radius of influence "
+                    f"{material.reals[3]:g}: Radiance then lights only nearby (or, if negative, no) surfaces, "
+                    "which no physical emitter does; use 0 (lights everything) or a light")
+            if patterns:
+                # a sphere's projected area is πr² in every direction: kept exact, not tessellated
+                disc = math.pi * (reals[3] * transform.scale) ** 2 if ptype == "sphere" else None
+                self.patterned_emitter(material, patterns, tris, disc, ident, where, what)
+                return
+            if luminance <= 0:
+                self.add(tris, None, -1)
+                return
+            area = float(_areas(tris).sum())
+            k = len(self.area_luminaires)
+            first = self.count
+            self.add(tris, None, k)
+            self.area_luminaires.append(AreaLuminaire(ident, math.pi * area * luminance,
+                                                      np.arange(first, first + len(tris))))
+            return
+        if material.kind not in ("plastic", "metal", "trans"):
+            raise BadInputError(f"{where}: {what}: {material.describe()} is not supported: "
+                                "the solver's estimators model only Lambertian plastic/metal/trans "
+                                "(specularity 0), light and glow")
+        if patterns:
+            raise BadInputError(f"{where}: {what}: {material.describe()} is modified by "
+                                f"{patterns[0].describe()}: patterns and textures are not supported")
+        try:
+            self.add(tris, material, -1)
+        except BadInputError as exc:
+            raise BadInputError(f"{where}: {what} uses {exc}") from None
+
+    def mesh(self, modifier, ident, strings, where, transform, folder):
+        """A ``mesh`` from the OBJ file it was compiled from (``name.obj`` beside ``name.rtm``),
+        with the mesh's transform words and its modifier on every face."""
+        what = f"mesh {ident!r}"
+        if not strings:
+            raise BadInputError(f"{where}: {what} names no mesh file")
+        compiled = Path(strings[0])
+        if len(strings) > 1:
+            transform = transform @ parse_transform(strings[1:], f"{where}: {what}")[0][1]
+        source = next((f / compiled.with_suffix(".obj") for f in (folder, self.base)
+                       if (f / compiled.with_suffix(".obj")).is_file()), None)
+        if source is None:
+            raise BadInputError(f"{where}: {what}: {compiled.name} is a compiled (binary) mesh and its source "
+                                f"{compiled.with_suffix('.obj').name} is not beside it; give the OBJ "
+                                "(read from its source) or '!obj2rad file.obj'")
+        text = source.read_text(encoding="utf-8", errors="replace")
+        if any(line.split()[:1] == ["usemtl"] for line in text.splitlines()):
+            raise BadInputError(f"{where}: {what}: {source.name} assigns materials per face (usemtl); "
+                                "read it with '!obj2rad' and define those modifiers")
+        import trimesh
+
+        try:
+            mesh = trimesh.load(source, force="mesh", process=False)
+        except Exception as exc:  # noqa: BLE001 - trimesh raises many kinds; report in one line
+            raise BadInputError(f"{where}: {what}: cannot read {source} ({exc})") from None
+        tris = np.asarray(mesh.triangles, float)
+        tris = tris[_areas(tris) > 0]  # meshes often carry slivers
+        if tris.size == 0:
+            raise BadInputError(f"{where}: {what}: {source} has no triangles")
+        tris = transform.point(tris)
+        if transform.mirrored:
+            tris = tris[:, ::-1]
+        self.place(modifier, ident, "mesh", None, tris, where, transform)
+
+    @staticmethod
+    def material_of(record, where, what):
+        """The material a surface uses and the patterns applied to it, as Radiance's shading
+        walks the modifier chain: patterns before the first material, then the material's own."""
+        patterns = []
+        while record is not None and record.kind in _PATTERNS:
+            patterns.append(record)
+            record = record.modifier
+        if record is None:
+            raise BadInputError(f"{where}: {what} has no material (its modifiers end in void)")
+        chain = record.modifier
+        while chain is not None:
+            patterns.append(chain)
+            chain = chain.modifier
+        return record, patterns
+
+    def add(self, tris, material, emitter):
+        self.triangles.append(tris)
+        self.count += len(tris)
+        self.material.append(np.full(len(tris), self._material_index(material)))
+        self.emitter.append(np.full(len(tris), emitter))
+
+    def tessellate(self, ptype, what, r, where, transform):
+        need = {"sphere": 4, "bubble": 4, "cone": 8, "cup": 8, "cylinder": 7, "tube": 7, "ring": 8}
+        name = f"{where}: {what}"
+        if ptype == "polygon":
+            if len(r) < 9 or len(r) % 3:
+                raise BadInputError(f"{name} needs 3·n ≥ 9 coordinates, got {len(r)}")
+            vertices = transform.point(np.reshape(r, (-1, 3)))
+            if transform.mirrored:
+                vertices = vertices[::-1]
+            if len(vertices) == 3:  # a triangle (most of obj2rad's output) needs no triangulation
+                v = vertices
+                size = float(np.ptp(v, axis=0).max())
+                if float(np.linalg.norm(np.cross(v[1] - v[0], v[2] - v[0]))) > 1e-12 * size * size:
+                    return v[None]
+            return polygon_triangles(vertices, name)
+        if len(r) != need[ptype]:
+            raise BadInputError(f"{name} needs {need[ptype]} real arguments, got {len(r)}")
+        s, eps = transform.scale, self.eps
+        try:
+            if ptype in ("sphere", "bubble"):
+                return sphere_triangles(transform.point(r[:3]), r[3] * s, inward=ptype == "bubble",
+                                        tessellation_error=eps)
+            if ptype == "ring":
+                return annulus_triangles(transform.point(r[:3]), transform.vector(r[3:6]), r[6] * s,
+                                         r[7] * s, tessellation_error=eps)
+            r0, r1 = (r[6], r[7]) if ptype in ("cone", "cup") else (r[6], r[6])
+            if ptype in ("cylinder", "tube") and not r0 > 0:
+                raise BadInputError(f"radius must be positive, got {r0:g}")
+            return cone_triangles(transform.point(r[:3]), transform.point(r[3:6]), r0 * s, r1 * s,
+                                  inward=ptype in ("cup", "tube"), tessellation_error=eps)
+        except BadInputError as exc:
+            raise BadInputError(f"{name}: {exc}") from None
+
+    def patterned_emitter(self, light, patterns, tris, disc, ident, where, what):
+        pattern = patterns[0]
+        if pattern.kind != "brightdata" or len(patterns) > 1:
+            raise BadInputError(
+                f"{where}: {what}: {light.describe()} is modified by {pattern.describe()}; only the "
+                "brightdata patterns of source.cal that ies2rad writes are supported")
+        self.luminaire_parts.setdefault(pattern, []).append((light, tris, disc, ident))
+
+    # commands
+    def command(self, text, where, transform, override, prefix, depth):
+        lexer = shlex.shlex(text, posix=True, punctuation_chars="|;&<>()")
+        lexer.whitespace_split = True
+        try:
+            words = list(lexer)
+        except ValueError as exc:
+            raise BadInputError(f"{where}: cannot read command !{text} ({exc})") from None
+        stages, current = [], []
+        for w in words:
+            if w == "|":
+                stages.append(current)
+                current = []
+            elif set(w) <= set("|;&<>()"):
+                raise BadInputError(f"{where}: !{text}: shell syntax {w!r} is not supported (commands "
+                                    "run without a shell; pipes '|' of Radiance programs only)")
+            else:
+                current.append(w)
+        stages.append(current)
+        if any(not s for s in stages):
+            raise BadInputError(f"{where}: !{text}: empty command in the pipeline")
+        last = stages[-1]
+        internal = last[0] == "xform"
+        external = stages[:-1] if internal else stages
+        output = self.run_external(external, text, where) if external else None
+        if not internal:
+            self.read(output, f"{where} (!{external[-1][0]} output)", transform, folder=self.base,
+                      override=override, prefix=prefix, depth=depth + 1)
+            return
+        self.xform(last[1:], output, text, where, transform, override, prefix, depth)
+
+    def run_external(self, stages, text, where):
+        folder = radiance_programs()
+        if folder is None:
+            raise BadInputError(f"{where}: !{text}: running Radiance programs needs the pyradiance "
+                                "package (pip install pyradiance), which ships them")
+        env = dict(os.environ, RAYPATH=os.pathsep.join([".", str(folder.parent / "lib")]),
+                   PATH=os.pathsep.join([str(folder), os.environ.get("PATH", "")]))
+        data = None
+        deadline = time.monotonic() + self.timeout
+        for stage in stages:
+            program = folder / stage[0]
+            if "/" in stage[0] or not program.is_file():
+                raise BadInputError(f"{where}: !{text}: {stage[0]!r} is not one of the Radiance programs "
+                                    f"that pyradiance ships ({folder})")
+            try:
+                done = subprocess.run([str(program), *stage[1:]], input=data if data is not None else b"",
+                                      capture_output=True,
+                                      cwd=self.base, env=env, timeout=max(0.001, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                raise BadInputError(f"{where}: !{text}: did not finish within {self.timeout:g} s "
+                                    "(command_timeout)") from None
+            if done.returncode != 0:
+                message = done.stderr.decode("utf-8", "replace").strip().splitlines()
+                raise BadInputError(f"{where}: !{text}: {stage[0]} failed (exit {done.returncode})"
+                                    + (f": {message[0]}" if message else ""))
+            data = done.stdout
+        return data.decode("utf-8", "replace")
+
+    def xform(self, args, stdin, text, where, transform, override, prefix, depth):
+        name, modifier, k = None, override, 0
+        words = []
+        while k < len(args):
+            w = args[k]
+            if w in ("-n", "-m"):
+                if k + 1 >= len(args):
+                    raise BadInputError(f"{where}: !{text}: {w} needs a value")
+                if w == "-n":
+                    name = args[k + 1]
+                else:
+                    modifier = args[k + 1]
+                k += 2
+            elif w in ("-c", "-e"):
+                k += 1
+            elif w in TRANSFORM_WORDS:
+                n = TRANSFORM_WORDS[w]
+                if len(args) < k + 1 + n or not all(_is_number(v) for v in args[k + 1:k + 1 + n]):
+                    raise BadInputError(f"{where}: !{text}: {w} needs {n} number(s)")
+                words.extend(args[k:k + 1 + n])
+                k += 1 + n
+            elif w.startswith("-") and len(w) > 1:
+                raise BadInputError(f"{where}: !{text}: xform option {w!r} is not supported (only "
+                                    f"{', '.join(TRANSFORM_WORDS)}, -n, -m, -c, -e)")
+            else:
+                break
+        files = args[k:]
+        if stdin is not None and files:
+            raise BadInputError(f"{where}: !{text}: xform reads either piped input or files, not both")
+        if stdin is None and not files:
+            raise BadInputError(f"{where}: !{text}: xform has no input files")
+        copies = parse_transform(words, f"{where}: !{text}")
+        for index, copy in copies:
+            inner = transform @ copy
+            tag = prefix + (f"{name}." if name else "") + "".join(f"a{i}." for i in index)
+            if stdin is not None:
+                self.read(stdin, f"{where} (piped input)", inner, folder=self.base, override=modifier,
+                          prefix=tag, depth=depth + 1)
+                continue
+            for file in files:
+                path = Path(file) if Path(file).is_absolute() else self.base / file
+                if not path.is_file():
+                    raise BadInputError(f"{where}: !{text}: file {file} does not exist")
+                self.read(path.read_text(encoding="utf-8", errors="replace"), str(path), inner,
+                          folder=path.parent, override=modifier, prefix=tag, depth=depth + 1)
+
+    def scene(self, name, views):
+        """The :class:`Scene` of everything read."""
+        points = self.luminaires()
+        if not self.triangles:
+            raise BadInputError(f"{name}: the scene has no surfaces")
+        if not self.area_luminaires and not points:
+            raise BadInputError(f"{name}: the scene has no light sources (light, glow or ies2rad luminaires)")
+        return Scene(np.concatenate(self.triangles), np.concatenate(self.material), self.names,
+                     np.asarray(self.rho), np.concatenate(self.emitter), self.area_luminaires, points,
+                     views, name=Path(name).stem, source={"radiance": name})
+
+    # brightdata luminaires
+    def luminaires(self):
+        out = []
+        for pattern, parts in self.luminaire_parts.items():
+            out.append(self.luminaire(pattern, parts))
+        return out
+
+    def luminaire(self, pattern, parts):
+        where = f"{pattern.where}: brightdata {pattern.name!r}"
+        words = list(pattern.strings)
+        if len(words) < 4:
+            raise BadInputError(f"{where} needs a function, a data file, a function file and coordinates")
+        function, datafile, calfile, coords = words[0], words[1], words[2], words[3:]
+        if Path(calfile).name != "source.cal" or function not in _SOURCE_CORRECTIONS:
+            raise BadInputError(f"{where}: {function} of {calfile} is not supported; only the source.cal "
+                                f"patterns ies2rad writes ({', '.join(_SOURCE_CORRECTIONS)})")
+        bad = [c for c in coords if c not in _SOURCE_COORDINATES]
+        if bad:
+            raise BadInputError(f"{where}: coordinate {bad[0]!r} is not supported "
+                                f"(valid: {', '.join(_SOURCE_COORDINATES)})")
+        low, high = _SOURCE_CORRECTIONS[function]
+        a = pattern.reals
+        if not low <= len(a) <= high:
+            raise BadInputError(f"{where}: {function} takes {low}–{high} real arguments, got {len(a)}")
+        folders = [self.folder_of.get(pattern, self.base), self.base]
+        path = next((f / datafile for f in folders if (f / datafile).is_file()), None)
+        if path is None:
+            raise BadInputError(f"{where}: data file {datafile} not found "
+                                f"(looked in {', '.join(str(f) for f in dict.fromkeys(folders))})")
+        table = _DataTable(path, where)
+        if len(table.axes) != len(coords):
+            raise BadInputError(f"{where}: data file {datafile} has {len(table.axes)} dimensions for "
+                                f"{len(coords)} coordinates")
+        xf = pattern.transform
+        tris = np.concatenate([t for _, t, _, _ in parts])
+        facets = [(lt, t) for lt, t, disc, _ in parts if disc is None]  # projected area from triangles
+        spheres = sum(lt.emitted_luminance() * disc for lt, _, disc, _ in parts if disc is not None)
+        if facets:
+            normals = np.concatenate([t for _, t in facets])
+            normals = np.cross(normals[:, 1] - normals[:, 0], normals[:, 2] - normals[:, 0])  # 2·area·n
+            luminance = np.concatenate([np.full(len(t), lt.emitted_luminance()) for lt, t in facets])
+        else:
+            normals, luminance = np.zeros((0, 3)), np.zeros(0)
+        flat = function == "flatcorr"
+        area = 0.5 * np.linalg.norm(normals, axis=1)
+        nadir = xf.vector([0.0, 0.0, -1.0])
+        frame = luminaire_frame(nadir, xf.vector([1.0, 0.0, 0.0]))
+
+        def intensity(c, gamma):
+            local = np.stack([np.sin(gamma) * np.cos(c), np.sin(gamma) * np.sin(c), np.cos(gamma)], axis=-1)
+            world = local @ frame
+            d = -xf.inverse_direction(world)  # Radiance's ray direction, in the pattern's frame
+            value = table(*(_source_coordinate(name, d) for name in coords))
+            if function == "boxcorr":
+                value = value / (np.abs(d[..., 0]) * a[2] * a[3] + np.abs(d[..., 1]) * a[1] * a[3]
+                                 + np.abs(d[..., 2]) * a[1] * a[2])
+            elif function == "cylcorr":
+                value = value / (a[1] * a[2] * np.sqrt(np.maximum(0.0, 1 - d[..., 2] ** 2))
+                                 + math.pi / 4 * a[1] ** 2 * np.abs(d[..., 2]))
+            if a:
+                value = a[0] * value
+            return np.maximum(value, 0.0) * projected(world)
+
+        def projected(world):
+            # Σ over the triangles facing ω of L_t·A_t·cos (flatcorr: L_t·A_t, its 1/Rdot cancels)
+            flat_world = world.reshape(-1, 3)
+            out = np.empty(len(flat_world))
+            for k in range(0, len(flat_world), 2048):
+                cosines = flat_world[k:k + 2048] @ normals.T * 0.5  # area · cos per triangle
+                weights = np.where(cosines > 0, area if flat else cosines, 0.0)
+                out[k:k + 2048] = weights @ luminance + spheres
+            return out.reshape(world.shape[:-1])
+
+        gamma = np.radians(_angle_grid(180.0, 1.0, [table.axes[k] for k, n in enumerate(coords)
+                                                    if n == "src_theta"], (90.0,)))
+        phi_axes = [_phi_nodes(table.axes[k], n) for k, n in enumerate(coords) if n != "src_theta"]
+        if xf.mirrored:
+            phi_axes = [np.mod(360.0 - p, 360.0) for p in phi_axes]
+        c = np.radians(_angle_grid(360.0, 5.0, phi_axes, ()))
+        cc, gg = np.meshgrid(c, gamma, indexing="ij")
+        values = intensity(cc, gg)
+        values[-1] = values[0]
+        try:
+            itable = IntensityTable(c, gamma, values)
+        except BadInputError as exc:
+            raise BadInputError(f"{where}: {exc}") from None
+        centroid = (tris.mean(axis=1) * _areas(tris)[:, None]).sum(axis=0) / _areas(tris).sum()
+        pts = tris.reshape(-1, 3) - centroid
+        u, v = pts @ frame[0], pts @ frame[1]
+        length, width = float(np.ptp(u)), float(np.ptp(v))
+        # projected area towards the nadir
+        down = float(np.maximum(0.0, normals @ frame[2]).sum() * 0.5) + sum(
+            disc for _, _, disc, _ in parts if disc is not None)
+        if down > 0 and length * width > 0:  # a rectangle of the projected area towards the nadir
+            scale = math.sqrt(down / (length * width))
+            length, width = length * scale, width * scale
+        name = parts[0][3].rsplit(".", 1)[0] if len(parts) > 1 else parts[0][3]
+        return PointLuminaire(name, centroid, itable, frame, (length, width), 1.0)
+
+
+def _is_number(word):
+    try:
+        float(word)
+    except ValueError:
+        return False
+    return True
+
+
+def _phi_nodes(axis, name):
+    """C angles [deg] in 0…360 where a folded ``src_phi*`` axis has its nodes."""
+    fold = {"src_phi": 360.0, "src_phi2": 180.0, "src_phi4": 90.0}[name]
+    nodes = [np.asarray(axis, float)]
+    if fold < 360:
+        for start in np.arange(0.0, 360.0, fold):
+            nodes += [start + axis, start + fold - axis]
+    return np.concatenate(nodes)
+
+
+def _angle_grid(top, step, node_sets, cuts):
+    """Sorted grid 0…top [deg]: a regular ``step`` plus every node and both sides of each cut."""
+    tiny = 1e-6
+    parts = [np.linspace(0.0, top, round(top / step) + 1)]
+    parts += [np.asarray(n, float) for n in node_sets]
+    parts += [np.array([c - tiny, c + tiny]) for c in cuts]
+    grid = np.unique(np.clip(np.concatenate(parts), 0.0, top).round(9))
+    return grid
+
+
+def _areas(tris):
+    return 0.5 * np.linalg.norm(np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0]), axis=1)
+
+
+def read_radiance_scene(path_or_text, *, views=None, tessellation_error=DEFAULT_TESSELLATION_ERROR,
+                        command_timeout=DEFAULT_COMMAND_TIMEOUT):
+    """A :class:`~lsadphoto.solver.Scene` from a Radiance scene file (or its text).
+
+    Parameters
+    ----------
+    path_or_text : str or Path
+        A ``.rad`` file, or scene text containing a newline (commands then run in the
+        current folder).
+    views : list of View or dict, optional
+        Views to attach: :class:`~lsadphoto.solver.View`\\ s (e.g. from
+        :func:`lsadphoto.solver.formats.read_view`) or ``[[views]]`` tables as in the TOML
+        structure.
+    tessellation_error : float
+        Largest sagitta of tessellated curves relative to their radius [–]
+        (:mod:`~lsadphoto.solver.formats.shapes`; areas are exact whatever the value).
+    command_timeout : float
+        Time limit of each ``!`` command line [s].
+
+    Examples
+    --------
+    >>> scene = read_radiance_scene('''
+    ... void plastic grey 0 0 5 .5 .5 .5 0 0
+    ... void light lamp 0 0 3 10 10 10
+    ... grey polygon floor 0 0 12 0 0 0  1 0 0  1 1 0  0 1 0
+    ... lamp polygon panel 0 0 12 0 0 1  0 1 1  1 1 1  1 0 1
+    ... ''')
+    >>> round(float(scene.reflectance[scene.material[0]]), 6), round(scene.area_luminaires[0].flux, 3)
+    (0.5, 5623.451)
+    """
+    if isinstance(path_or_text, str) and "\n" in path_or_text:
+        text, name, base = path_or_text, "Radiance scene", Path.cwd()
+    else:
+        path = Path(path_or_text)
+        if not path.is_file():
+            raise BadInputError(f"Radiance scene {path} does not exist")
+        text, name, base = path.read_text(encoding="utf-8", errors="replace"), str(path), path.resolve().parent
+    reader = _reader(base, tessellation_error, command_timeout)
+    reader.read(text, name, Transform(), folder=base)
+    return reader.scene(name, as_views(views))
+
+
+def _reader(base, tessellation_error, command_timeout):
+    if not command_timeout > 0:
+        raise BadInputError(f"command_timeout must be positive, got {command_timeout!r}")
+    return _Reader(base, tessellation_error, float(command_timeout))
+
+
+#: Variables of rad's input files (``.rif``) and the shortest abbreviation rad accepts.
+_RIF_VARIABLES = {"OCTREE": 3, "ZONE": 2, "EXPOSURE": 3, "RESOLUTION": 3, "QUALITY": 3,
+                  "VARIABILITY": 3, "DETAIL": 3, "INDIRECT": 3, "PENUMBRAS": 3, "AMBFILE": 3,
+                  "OPTFILE": 3, "PICTURE": 3, "RAWFILE": 3, "ZFILE": 2, "REPORT": 3, "UP": 2,
+                  "materials": 3, "scene": 3, "objects": 3, "view": 2, "illum": 3, "mkillum": 3,
+                  "mkpmap": 3, "oconv": 3, "render": 3, "rvu": 3, "rpict": 3, "pfilt": 2}
+
+
+def _rif_variable(word, where):
+    for name, shortest in _RIF_VARIABLES.items():
+        if len(word) >= shortest and name.startswith(word):
+            return name
+    raise BadInputError(f"{where}: unknown rad variable {word!r}")
+
+
+def read_rif_scene(path, *, tessellation_error=DEFAULT_TESSELLATION_ERROR,
+                   command_timeout=DEFAULT_COMMAND_TIMEOUT):
+    """A :class:`~lsadphoto.solver.Scene` from a rad input file (``.rif``), with its views.
+
+    The ``materials`` files are read first, then the ``scene`` files and commands (as
+    ``oconv`` gets them from ``rad``), each as :func:`read_radiance_scene` reads a file; every
+    ``view`` (``[name] options``, ``-vf`` allowed, ``UP`` giving the default up axis) becomes
+    a view of ``RESOLUTION`` (default 512) reduced to square pixels as ``rpict -pa 1`` does
+    (the vertical angle then rounded to whole pixels). Rendering options (``QUALITY``,
+    ``render``, …) do not change the model and are not used; ``illum`` (mkillum's secondary
+    sources) is refused.
+
+    References
+    ----------
+    Radiance manual page ``rad(1)`` (variables, abbreviations, order of files).
+    """
+    from .views import view_from_options, view_options
+
+    path = Path(path)
+    if not path.is_file():
+        raise BadInputError(f"rad file {path} does not exist")
+    base = path.resolve().parent
+    values = {}
+    lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+    k = 0
+    while k < len(lines):
+        number, line = k + 1, _strip_comment(lines[k])
+        k += 1
+        while line.rstrip().endswith("\\") and k < len(lines):
+            line = line.rstrip()[:-1] + " " + _strip_comment(lines[k])
+            k += 1
+        if not line.strip():
+            continue
+        where = f"{path}:{number}"
+        if "=" not in line:
+            raise BadInputError(f"{where}: expected 'variable = value'")
+        name, value = (part.strip() for part in line.split("=", 1))
+        values.setdefault(_rif_variable(name, where), []).append((value, where))
+    if "illum" in values:
+        raise BadInputError(f"{values['illum'][0][1]}: illum (mkillum secondary sources) is not supported")
+    reader = _reader(base, tessellation_error, command_timeout)
+    for variable in ("materials", "scene"):
+        for value, where in values.get(variable, []):
+            try:
+                items = shlex.split(value)
+            except ValueError as exc:
+                raise BadInputError(f"{where}: cannot read {variable} ({exc})") from None
+            for item in items:
+                command = item[1:] if item.startswith("!") else f"xform {shlex.quote(item)}"
+                reader.command(command, where, Transform(), None, "", 0)
+    size = [int(v) for v in (values.get("RESOLUTION", [("512", "")])[-1][0].split() + ["0"])[:2]]
+    xres, yres = size[0], size[1] or size[0]
+    up = {"X": "1 0 0", "-X": "-1 0 0", "Y": "0 1 0", "-Y": "0 -1 0", "Z": "0 0 1", "-Z": "0 0 -1"}
+    axis = values.get("UP", [("Z", "")])[-1][0].upper()
+    if axis not in up:
+        raise BadInputError(f"{values['UP'][-1][1]}: UP must be one of {', '.join(up)}, got {axis!r}")
+    views = []
+    for n, (value, where) in enumerate(values.get("view", []), 1):
+        words = value.split(None, 1)
+        name, options = (words[0], words[1] if len(words) > 1 else "") if words and not words[0].startswith("-") \
+            else (str(n), value)
+        try:
+            view = parse_view(f"-vu {up[axis]} " + view_options(options, base=base), strict=True)
+            if "vp" not in view:
+                raise BadInputError(f"view {name!r} gives no eye position -vp (rad's standard views from "
+                                    "ZONE are not supported)")
+            width, height, view = _square_pixels(view, xres, yres)
+            views.append(view_from_options(view, width, height, name=name))
+        except BadInputError as exc:
+            raise BadInputError(f"{where}: {exc}") from None
+    return reader.scene(str(path), views)
+
+
+def _square_pixels(view, xres, yres):
+    """Picture size within ``xres`` × ``yres`` with square pixels (``rpict -pa 1``), and the
+    view with its vertical angle made a whole number of pixels."""
+    kind = view.get("type", "v")
+    vh, vv = math.radians(view.get("vh", 45.0)), math.radians(view.get("vv", 45.0))
+    forward = {"v": (lambda a: math.tan(a / 2), lambda t: 2 * math.atan(t)),
+               "a": (lambda a: a, lambda t: t), "h": (lambda a: math.sin(a / 2), lambda t: 2 * math.asin(t)),
+               "s": (lambda a: math.tan(a / 4), lambda t: 4 * math.atan(t))}
+    if kind not in forward:
+        return xres, yres, view  # refused with its reason by the projection
+    f, inverse = forward[kind]
+    aspect = f(vv) / f(vh)
+    if aspect * xres <= yres:
+        width, height = xres, max(1, round(xres * aspect))
+    else:
+        width, height = max(1, round(yres / aspect)), yres
+    view = dict(view, vv=math.degrees(inverse(f(vh) * height / width)))
+    return width, height, view

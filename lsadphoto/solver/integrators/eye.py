@@ -1,0 +1,285 @@
+"""What every view estimator shares: eye rays and the map they make.
+
+A view is a camera pose (position, camera-to-world rotation) and a
+:class:`~lsadphoto.geometry.base.Projection`. Every estimator — the double local estimate
+(:mod:`.local_estimate`), the surface cache (:mod:`.surface_cache`) and the path tracer
+(:mod:`.path_tracer`) — traces the same primary rays through the pixel centres, adds what
+the eye sees directly (luminous surfaces, the luminous openings of point luminaires), runs
+its per-pixel work in chunks of whole random-stream blocks, and turns per-batch pixel values
+into a :class:`~lsadphoto.luminance_map.LuminanceMap` with per-pixel standard errors and the
+view's pose in its provenance.
+"""
+
+import math
+import time
+import warnings
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..._provenance import build_provenance
+from ...errors import BadInputError, SolverWarning
+from ...geometry.base import Projection
+from ...luminance_map import LuminanceMap
+from .._sampling import cosine_directions
+
+__all__ = ["PIXEL_BLOCK", "ChunkHits", "check_pose", "chunk_hits", "chunk_size", "emitted_luminance", "luminance_map_from_batches",
+           "luminous_openings", "near_step", "primary_rays", "run_chunks", "view_pose",
+           "warn_odd_view"]
+
+#: Pixels per random-stream block of a render; pixel chunks are whole blocks.
+PIXEL_BLOCK = 256
+
+
+def check_pose(position, rotation):
+    try:
+        pos = np.asarray(position, dtype=float)
+        rot = np.asarray(rotation, dtype=float)
+    except (TypeError, ValueError):
+        raise BadInputError("position must be 3 numbers and rotation a 3×3 matrix") from None
+    if pos.shape != (3,) or not np.all(np.isfinite(pos)):
+        raise BadInputError(f"position must be 3 finite numbers, got {position!r}")
+    if rot.shape != (3, 3) or not np.allclose(rot.T @ rot, np.eye(3), atol=1e-6):
+        raise BadInputError("rotation must be a 3×3 orthonormal camera-to-world matrix "
+                            "(see camera_to_world)")
+    return pos, rot
+
+
+def primary_rays(scene, engine, projection, position, rotation):
+    """Valid pixel indices, their hit triangle (−1: miss), distance [m] and world direction."""
+    if not isinstance(projection, Projection):
+        raise BadInputError("projection must be a lsadphoto.geometry Projection")
+    rows, cols = projection.pixel_grid()
+    d_cam = projection.directions(rows, cols).reshape(-1, 3)
+    valid = np.flatnonzero(np.all(np.isfinite(d_cam), axis=1))
+    d = d_cam[valid] @ rotation.T
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    prim, dist = engine.closest_hit(np.broadcast_to(position, d.shape), d)
+    return valid, prim, dist, d
+
+
+@dataclass(frozen=True)
+class ChunkHits:
+    """The primary hits of one chunk of pixels: what every estimator starts from.
+
+    ``index``: positions in the view's hit list (pixels along the valid-pixel order);
+    ``triangle``, ``point`` [m], ``normal`` (the side facing the eye), ``front`` (whether that
+    is the triangle's front side), ``reflectance`` and ``emitted`` (luminance towards the eye
+    [cd·m⁻²]) per hit; ``block`` the random-stream block of each hit.
+    """
+
+    index: np.ndarray
+    triangle: np.ndarray
+    point: np.ndarray
+    normal: np.ndarray
+    front: np.ndarray
+    reflectance: np.ndarray
+    emitted: np.ndarray
+    block: np.ndarray
+
+
+def chunk_size(chunk_pixels):
+    """Pixels per processing chunk: ``chunk_pixels`` rounded up to whole stream blocks."""
+    return max(PIXEL_BLOCK, math.ceil(chunk_pixels / PIXEL_BLOCK) * PIXEL_BLOCK)
+
+
+def chunk_hits(scene, position, hit, prim, dist, d, start, chunk):
+    """:class:`ChunkHits` of the hits ``hit[start:start + chunk]`` of rays from ``position``
+    along ``d`` that hit triangles ``prim`` at distances ``dist`` (:func:`primary_rays`)."""
+    h = hit[start:start + chunk]
+    t = prim[h]
+    normal, front = scene.facing_normals(t, d[h])
+    return ChunkHits(h, t, position + dist[h, None] * d[h], normal, front,
+                     scene.triangle_reflectance[t], emitted_luminance(scene, t, -d[h]),
+                     (start + np.arange(h.size)) // PIXEL_BLOCK)
+
+
+#: Primary hits closer than this many ray offsets count as "the eye lies on a surface".
+_ON_SURFACE_OFFSETS = 10
+#: … and the view is flagged when more than this fraction of its hits are that close.
+_ON_SURFACE_FRACTION = 0.01
+
+
+def warn_odd_view(scene, engine, prim, dist, lum_b, position, *, stacklevel=3):
+    """Warn about views that are legal but probably wrong (an eye on or in a wall).
+
+    An eye within a few ray offsets of a surface (in the plane of a wall) makes the rays
+    that start there ambiguous in float32; an eye outside a closed room or inside a solid
+    sees only surfaces that no light reaches, so the whole view is black.
+    """
+    hit = prim >= 0
+    close = hit & (dist < _ON_SURFACE_OFFSETS * engine.epsilon)
+    where = f"eye at ({', '.join(f'{v:g}' for v in position)}) m"
+    if hit.any() and close.sum() > _ON_SURFACE_FRACTION * hit.sum():
+        warnings.warn(f"{where} lies on a surface ({close.sum()} of {hit.sum()} primary rays "
+                      f"hit within {_ON_SURFACE_OFFSETS * engine.epsilon:.2g} m): move it into "
+                      "the room", SolverWarning, stacklevel=stacklevel)
+    elif (scene.total_flux > 0 and np.any(scene.triangle_reflectance[prim[hit]] > 0)
+          and not np.any(lum_b > 0)):
+        # (a view that hits nothing, e.g. out of an open model into the sky, or only black
+        # surfaces, is legal and black)
+        warnings.warn(f"{where} sees surfaces but no light at all: is it outside the room "
+                      "or inside a solid?", SolverWarning, stacklevel=stacklevel)
+
+
+def emitted_luminance(scene, prim, towards):
+    """Luminance [cd·m⁻²] that triangles ``prim`` emit towards unit directions ``towards``."""
+    out = np.zeros(len(prim))
+    em = scene.emitter[prim]
+    for k, lum in enumerate(scene.area_luminaires):
+        m = em == k
+        if m.any():
+            front = np.einsum("ij,ij->i", scene.normals[prim[m]], towards[m]) > 0
+            out[m] = np.where(front, lum.luminance(scene), 0.0)
+    return out
+
+
+def luminous_openings(scene, position, d, dist):
+    """Luminance [cd·m⁻²] of point luminaires' luminous rectangles seen along rays.
+
+    For a luminaire with a rectangle of area A (extent > 0) whose plane (normal = nadir
+    axis) the ray crosses inside the rectangle and before its surface hit, the opening's
+    luminance towards the eye is L = I(−d̂)/(A·|cos γ|), the radiance of emission points
+    uniform on the rectangle that each emit I/A (the chains' emission model). NaN where
+    no opening is seen (or it emits nothing towards the eye); the nearest opening wins.
+    """
+    out = np.full(len(d), np.nan)
+    best = np.asarray(dist, float).copy()
+    for lum in scene.point_luminaires:
+        length, width = lum.extent
+        if not (length > 0 and width > 0):
+            continue
+        nadir = lum.frame[2]
+        denom = d @ nadir
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = ((lum.position - position) @ nadir) / denom
+        ok = np.isfinite(t) & (t > 0) & (t < best) & (np.abs(denom) > 1e-6)
+        if not ok.any():
+            continue
+        hit = position + t[ok, None] * d[ok] - lum.position
+        inside = (np.abs(hit @ lum.frame[0]) <= length / 2) & (np.abs(hit @ lum.frame[1]) <= width / 2)
+        idx = np.flatnonzero(ok)[inside]
+        if idx.size == 0:
+            continue
+        lum_value = lum.intensity(-d[idx]) / (length * width * np.abs(denom[idx]))
+        seen = lum_value > 0
+        idx = idx[seen]
+        out[idx] = lum_value[seen]
+        best[idx] = t[idx]
+    return out
+
+
+def near_step(scene, engine, x, nx, u, near_distance, rho_prev):
+    """One bounce of near-field paths from points ``x`` (normals ``nx``), uniforms ``u`` (k, 3).
+
+    A cosine-distributed ray from each point; a path goes on where its first hit lies closer
+    than ``near_distance`` and, after the first bounce (``rho_prev`` given), it survives
+    Russian roulette with q = ρ of the vertex it leaves (weight ρ/q = 1). Returns the mask
+    of the paths that go on and, for those, the hit point, its facing normal, the ray
+    direction and the triangle.
+    """
+    d = cosine_directions(nx, u[:, :2])
+    prim, dist = engine.closest_hit(x + engine.epsilon * nx, d)
+    near = (prim >= 0) & (dist < near_distance)
+    if rho_prev is not None:
+        near &= u[:, 2] < rho_prev
+    x, nx, d, prim, dist = x[near], nx[near], d[near], prim[near], dist[near]
+    y = x + engine.epsilon * nx + dist[:, None] * d
+    ny, _ = scene.facing_normals(prim, d)
+    return near, y, ny, d, prim
+
+
+
+def run_chunks(work, starts, lum_b, workers, progress, t0, total):
+    """Run ``work(start) -> (pixel indices, values)`` for every chunk, in threads if asked.
+
+    Each chunk draws only from its own pixel blocks' streams, so the result is the same
+    for any number of workers (and any completion order).
+    """
+    starts = list(starts)
+    done = 0
+
+    def report(n):
+        nonlocal done
+        done += n
+        if progress is not None:
+            frac = min(1.0, done / max(total, 1))
+            elapsed = time.perf_counter() - t0
+            progress(frac, elapsed * (1 - frac) / frac if frac > 0 else float("nan"))
+
+    if workers <= 1 or len(starts) <= 1:
+        for start in starts:
+            h, values = work(start)
+            lum_b[h] = values
+            report(h.size)
+        return
+    with ThreadPoolExecutor(max_workers=workers) as pool:
+        for h, values in pool.map(work, starts):
+            lum_b[h] = values
+            report(h.size)
+
+
+def view_pose(position, rotation):
+    """The world pose of a camera as Radiance view vectors: ``{"vp", "vd", "vu"}``.
+
+    ``vd`` is the optical axis (camera +z) and ``vu`` the image's up (camera −y, rows run
+    down), both in world coordinates; Radiance's ``-vp``/``-vd``/``-vu``.
+    """
+    r = np.asarray(rotation, dtype=float)
+    return {"vp": [float(v) for v in position], "vd": [float(v) for v in r[:, 2]],
+            "vu": [float(v) for v in -r[:, 1]]}
+
+
+def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, extra, elapsed,
+                               pose, openings=None, shared_variance=None):
+    """The LuminanceMap of per-batch pixel values ``lum_b`` (valid pixels × batches).
+
+    ``model`` is the store or scene rendered (its scene's name is recorded); ``pose`` =
+    (position, rotation) of the camera: recorded as ``provenance["view_pose"]``
+    (:func:`view_pose`), so the Radiance HDR writer gives the rendered view's ``VIEW=`` line.
+
+    ``shared_variance`` (per valid pixel) is the variance of a component that all batches
+    share (added to the batches' squared standard error; independent between pixels).
+    """
+    rows, cols = projection.shape
+    shared = np.zeros(len(valid)) if shared_variance is None else shared_variance
+    if openings is not None:
+        seen = np.isfinite(openings)
+        lum_b[seen] = openings[seen, None]  # luminous openings in front of the surfaces
+        shared[seen] = 0.0
+    B = lum_b.shape[1]
+    mean = lum_b.mean(axis=1)
+    se = np.sqrt(lum_b.var(axis=1, ddof=1) / B + shared)
+    lum = np.full(rows * cols, np.nan)
+    unc = np.full(rows * cols, np.nan)
+    lum[valid] = mean
+    unc[valid] = se
+    r, c = np.unravel_index(valid, (rows, cols))
+    omega = projection.solid_angles(r, c)
+    field_b = (omega[:, None] * lum_b).sum(axis=0) / omega.sum()
+    field_mean = float(field_b.mean())
+    field_se = float(math.sqrt(field_b.var(ddof=1) / B + (omega ** 2 * shared).sum() / omega.sum() ** 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rel = se / mean
+    rel = rel[np.isfinite(rel) & (mean > 0)]
+    provenance = {
+        **build_provenance(),
+        "solver": "lsadphoto.solver",
+        "estimator": estimator,
+        "batches": int(B),
+        "field_mean_luminance": field_mean,
+        "field_mean_standard_error": field_se,
+        "achieved_relative_error": field_se / field_mean if field_mean > 0 else float("nan"),
+        # the per-pixel relative standard errors (of pixels with light), which the field mean's
+        # error above understates by orders of magnitude
+        "pixel_relative_error_median": float(np.median(rel)) if rel.size else float("nan"),
+        "pixel_relative_error_p95": float(np.percentile(rel, 95)) if rel.size else float("nan"),
+        "render_time_s": float(elapsed),
+        "scene": model.scene.name if hasattr(model, "scene") else model.name,
+        "view_pose": view_pose(*pose),
+    }
+    provenance.update(extra)
+    return LuminanceMap(lum.reshape(rows, cols).astype(np.float32),
+                        uncertainty=unc.reshape(rows, cols).astype(np.float32),
+                        projection=projection, calibrated=True, provenance=provenance)
