@@ -68,7 +68,7 @@ _DGP = dgp_coefficients("evalglare")
 _TILE = 8
 _MARGIN = 1e-5
 #: Designs per block of the compiled passes.
-BLOCK = 512
+_BLOCK = 512
 
 
 def _sparse(weights):
@@ -468,8 +468,8 @@ class BatchEvaluator:
         if self.has_base:
             w = np.concatenate([np.ones((w.shape[0], 1)), w], axis=1)
         parts = {name: [] for name in self.views}
-        for start in range(0, w.shape[0], BLOCK):
-            cols, vals = _sparse(w[start:start + BLOCK])
+        for start in range(0, w.shape[0], _BLOCK):
+            cols, vals = _sparse(w[start:start + _BLOCK])
             for name, view in self.views.items():
                 parts[name].append(view.evaluate(cols, vals))
         out = {"views": {name: {k: np.concatenate([p[k] for p in blocks]) for k in blocks[0]}
