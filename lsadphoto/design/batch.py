@@ -233,7 +233,8 @@ class _View:
 
     def bound_sources(self, upper):
         """Fix the possible source pixels from the per-pixel upper bound [cd·m⁻²]."""
-        index = np.flatnonzero(self.valid.ravel() & (upper.ravel() > self.threshold))
+        # (a design's luminance is rounded to float32, up to 6e-8 relative above the bound)
+        index = np.flatnonzero(self.valid.ravel() & (upper.ravel() > self.threshold * (1.0 - 1e-6)))
         self.src = index
         self.src_lum = np.ascontiguousarray(self.lum.reshape(self.lum.shape[0], -1)[:, index])
         cos_omega = (self.cos_sigma * self.omega).ravel()[index]
