@@ -8,19 +8,26 @@ and to one side, a mullion), like the daylit office photograph of issue 11 — t
 ``--runs`` times (interleaved, so that both see the same machine load), each as a fresh
 process. Reported: median wall time, the spread (min–max), median process CPU time (all
 threads, from ``getrusage`` of the child), and the ratio of the medians. Before the timed
-runs each command runs once untimed, so that the numba cache and the page cache are warm
+runs each command runs once untimed, so that the kernel caches and the page cache are warm
 (a fresh installation compiles the kernels once, in its first run; that run is not what a
 user waits for afterwards).
 
 Per-stage timings inside our process come from ``--stages``: the same command run through
 ``lsadphoto.cli.main`` in a child that times the imports, reading the picture, scoring it,
-the time numba spends loading compiled kernels from its cache (inside those two) and the
-output; the interpreter's start-up is the process wall time minus the time inside.
+the time spent loading the kernels (inside those two: the ahead-of-time extension of
+``lsadphoto._compiled``, and numba's import and cache loads where a kernel runs just in time)
+and the output; the interpreter's start-up is the process wall time minus the time inside.
 
 Usage::
 
     python benchmarks/bench_score_process.py [--sizes 786,1572,4899] [--runs 5]
         [--evalglare-runs-large 1] [--large-mp 10] [--scene disks|window] [--stages 3]
+        [--kernels auto,jit]
+
+``--kernels`` compares the kernels' compilations (``LSADPHOTO_KERNELS``, see
+``lsadphoto._compiled``): ``auto`` (the default: ahead of time) and ``jit`` (numba only, its
+parallel code, as every process ran before the ahead-of-time build); their runs interleave
+with evalglare's.
 
 Sizes above ``--large-mp`` megapixels run evalglare ``--evalglare-runs-large`` times (at
 24 MP one evalglare run takes about five minutes). The machine may be shared: the load
@@ -83,11 +90,16 @@ def _evalglare_command(path):
     return [os.path.join(os.path.dirname(pyradiance.__file__), "bin", "evalglare"), "-d", str(path)]
 
 
-def timed(command):
-    """(wall [s], CPU of the child [s], stdout) of one fresh process."""
+def _env(kernels):
+    return None if kernels is None else {**os.environ, "LSADPHOTO_KERNELS": kernels}
+
+
+def timed(command, kernels=None):
+    """(wall [s], CPU of the child [s], stdout) of one fresh process (``LSADPHOTO_KERNELS``
+    set to ``kernels`` where given)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, check=True)
+    done = subprocess.run(command, capture_output=True, text=True, check=True, env=_env(kernels))
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -110,22 +122,36 @@ def _child_stages(path):
     t, c = lap("import cli", t, c)
     import lsadphoto.io
     import lsadphoto.metrics.score as score_module
-    t, c = lap("import score modules (numba, scipy, …)", t, c)
+    t, c = lap("import score modules", t, c)
 
-    from numba.core import dispatcher
+    from lsadphoto import _compiled
 
     loading = [0.0, 0.0]
-    compile_ = dispatcher.Dispatcher.compile
 
-    def counted_compile(self, sig):
-        t0, c0 = time.perf_counter(), time.process_time()
-        try:
-            return compile_(self, sig)
-        finally:
-            loading[0] += time.perf_counter() - t0
-            loading[1] += time.process_time() - c0
+    def counted(function):
+        def timed_call(*args, **kwargs):
+            t0, c0 = time.perf_counter(), time.process_time()
+            try:
+                return function(*args, **kwargs)
+            finally:
+                loading[0] += time.perf_counter() - t0
+                loading[1] += time.process_time() - c0
+        return timed_call
 
-    dispatcher.Dispatcher.compile = counted_compile
+    numba_ = _compiled._numba
+
+    def numba_with_compile_timer():
+        # Importing numba and, once imported, every load of a cached kernel count as loading.
+        first = _compiled._STATE["numba"] is None
+        numba = numba_()
+        if first:
+            from numba.core import dispatcher
+
+            dispatcher.Dispatcher.compile = counted(dispatcher.Dispatcher.compile)
+        return numba
+
+    _compiled._numba = counted(numba_with_compile_timer)
+    _compiled._library = counted(_compiled._library)
     inner = {}
 
     def wrap(module, name, label):
@@ -149,7 +175,7 @@ def _child_stages(path):
         code = cli.main()  # as the console script calls it: the process is the command
     t, c = lap("command", t, c)
     stages.update(inner)
-    stages["numba kernel loading"] = list(loading)
+    stages["kernel loading (extension; numba where used)"] = list(loading)
     command = stages.pop("command")
     rest = [command[i] - sum(v[i] for k, v in inner.items()) - loading[i] for i in range(2)]
     stages["rest of the command (options, JSON)"] = rest
@@ -158,13 +184,13 @@ def _child_stages(path):
     return code
 
 
-def stage_table(path, repeat):
+def stage_table(path, repeat, kernels=None):
     """Median per-stage [wall, cpu] over ``repeat`` fresh processes, and the process wall."""
     runs = []
     for _ in range(repeat):
         t0 = time.perf_counter()
         done = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--child", str(path)],
-                              capture_output=True, text=True, check=True)
+                              capture_output=True, text=True, check=True, env=_env(kernels))
         wall = time.perf_counter() - t0
         stages = json.loads(done.stderr.strip().splitlines()[-1])
         stages["interpreter start-up and exit"] = [wall - stages["total inside"][0], math.nan]
@@ -177,28 +203,37 @@ def _median_spread(values):
     return statistics.median(values), min(values), max(values)
 
 
-def bench(size, scene, folder, runs, evalglare_runs):
+def bench(size, scene, folder, runs, evalglare_runs, modes):
+    """One row per kernel mode of ``modes`` (``LSADPHOTO_KERNELS``), all interleaved with
+    evalglare's runs."""
     path = write_picture(size, scene, folder)
-    ours_cmd, peer_cmd = _lsadphoto_command(path), _evalglare_command(path)
-    timed(ours_cmd)  # warm-up: numba cache, page cache
-    ours, peer = [], []
+    peer_cmd = _evalglare_command(path)
+    ours_cmd = _lsadphoto_command(path)
+    ours = {mode: [] for mode in modes}
+    for mode in modes:
+        timed(ours_cmd, mode)  # warm-up: kernel caches, page cache
+    peer = []
     for k in range(runs):
-        ours.append(timed(ours_cmd))
+        for mode in modes:
+            ours[mode].append(timed(ours_cmd, mode))
         if k < evalglare_runs:
             peer.append(timed(peer_cmd))
-    record = json.loads(ours[-1][2])
     peer_ugr = math.nan
     if peer:
         summary = next(x for x in peer[-1][2].splitlines() if x.startswith("dgp,av_lum"))
         peer_ugr = float(summary.split(":", 1)[1].split()[6])
-    path_size = path.stat().st_size
-    return {"size": size, "mp": size * size / 1e6, "file_mb": path_size / 1e6,
-            "ours_wall": _median_spread([w for w, _, _ in ours]),
-            "ours_cpu": statistics.median(c for _, c, _ in ours),
-            "peer_wall": _median_spread([w for w, _, _ in peer] or [math.nan]),
-            "peer_cpu": statistics.median([c for _, c, _ in peer] or [math.nan]),
-            "runs": len(ours), "peer_runs": len(peer),
-            "ugr": record["ugr_grouped"], "peer_ugr": peer_ugr, "path": path}
+    rows = []
+    for mode in modes:
+        record = json.loads(ours[mode][-1][2])
+        rows.append({"size": size, "mp": size * size / 1e6, "file_mb": path.stat().st_size / 1e6,
+                     "kernels": mode,
+                     "ours_wall": _median_spread([w for w, _, _ in ours[mode]]),
+                     "ours_cpu": statistics.median(c for _, c, _ in ours[mode]),
+                     "peer_wall": _median_spread([w for w, _, _ in peer] or [math.nan]),
+                     "peer_cpu": statistics.median([c for _, c, _ in peer] or [math.nan]),
+                     "runs": len(ours[mode]), "peer_runs": len(peer),
+                     "ugr": record["ugr_grouped"], "peer_ugr": peer_ugr, "path": path})
+    return rows
 
 
 def main():
@@ -209,6 +244,8 @@ def main():
     parser.add_argument("--large-mp", type=float, default=10.0)
     parser.add_argument("--evalglare-runs-large", type=int, default=1)
     parser.add_argument("--stages", type=int, default=3, help="processes timed stage by stage")
+    parser.add_argument("--kernels", default="auto",
+                        help="LSADPHOTO_KERNELS values to compare, comma-separated (auto, jit)")
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
@@ -221,24 +258,28 @@ def main():
     with tempfile.TemporaryDirectory() as folder:
         for size in (int(s) for s in args.sizes.split(",")):
             peer_runs = args.runs if size * size / 1e6 <= args.large_mp else args.evalglare_runs_large
-            r = bench(size, args.scene, folder, args.runs, peer_runs)
-            r["stages"] = stage_table(r["path"], args.stages) if args.stages else None
+            for r in bench(size, args.scene, folder, args.runs, peer_runs,
+                           args.kernels.split(",")):
+                r["stages"] = stage_table(r["path"], args.stages, r["kernels"]) \
+                    if args.stages else None
+                rows.append(r)
             r["path"].unlink()
-            rows.append(r)
             print(f"# done {size}² (load {os.getloadavg()[0]:.2f})", file=sys.stderr, flush=True)
-    print("\n| picture | MP | HDR file [MB] | lsadphoto score: wall median (min–max) [s] | cpu [s] "
-          "| evalglare -d: wall median (min–max) [s] | cpu [s] | runs ours / evalglare "
-          "| wall ratio | UGR ours / evalglare |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("\n| picture | MP | HDR file [MB] | kernels | lsadphoto score: wall median (min–max) [s] "
+          "| cpu [s] | evalglare -d: wall median (min–max) [s] | cpu [s] | runs ours / evalglare "
+          "| wall ratio | cpu ratio | UGR ours / evalglare |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         (ow, olo, ohi), (pw, plo, phi) = r["ours_wall"], r["peer_wall"]
-        print(f"| {r['size']}² | {r['mp']:.1f} | {r['file_mb']:.1f} | {ow:.2f} ({olo:.2f}–{ohi:.2f}) "
+        print(f"| {r['size']}² | {r['mp']:.1f} | {r['file_mb']:.1f} | {r['kernels']} "
+              f"| {ow:.2f} ({olo:.2f}–{ohi:.2f}) "
               f"| {r['ours_cpu']:.2f} | {pw:.1f} ({plo:.1f}–{phi:.1f}) | {r['peer_cpu']:.1f} "
-              f"| {r['runs']} / {r['peer_runs']} | {pw / ow:.1f}× | {r['ugr']:.2f} / {r['peer_ugr']:.2f} |")
+              f"| {r['runs']} / {r['peer_runs']} | {pw / ow:.1f}× | {r['peer_cpu'] / r['ours_cpu']:.1f}× "
+              f"| {r['ugr']:.2f} / {r['peer_ugr']:.2f} |")
     if any(r["stages"] for r in rows):
         names = list(rows[0]["stages"])
         print("\nStages of our process (median of fresh processes; wall / cpu [s]):\n")
-        print("| stage | " + " | ".join(f"{r['size']}²" for r in rows) + " |")
+        print("| stage | " + " | ".join(f"{r['size']}² {r['kernels']}" for r in rows) + " |")
         print("|---|" + "---|" * len(rows))
         for name in names:
             cells = []

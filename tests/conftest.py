@@ -27,6 +27,17 @@ def realdata(relative):
     return path
 
 
+def skip_without_ahead_of_time_kernels():
+    """Skip the test, with the build's own message, where this machine could not build the
+    ahead-of-time kernels (no C compiler: lsadphoto._compiled then runs numba's JIT)."""
+    from lsadphoto._compiled import cache_folder
+
+    failed = cache_folder() / "build.failed"
+    if failed.exists():
+        lines = failed.read_text().strip().splitlines()
+        pytest.skip("no ahead-of-time kernels on this machine: " + (lines[-1] if lines else "?"))
+
+
 #: File name endings of camera RAW files looked for by :func:`raw_samples`.
 RAW_SUFFIXES = (".dng", ".arw", ".cr2", ".cr3", ".nef", ".raf", ".orf", ".rw2", ".pef", ".srw")
 

@@ -28,7 +28,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "lsadphoto"
 #: placed with the workflows that sit on the solver and the metrics, the second with the CLI.
 LAYERS = [
     {"errors", "constants", "_validation", "_schema", "_atomic", "_provenance", "_progress", "_version",
-     "_lazy", "_native"},
+     "_lazy", "_native", "_compiled"},
     {"geometry", "luminance_map", "io"},
     {"raw"},
     {"calibrate"},

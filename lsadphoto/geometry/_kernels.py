@@ -38,8 +38,7 @@ angle of a triangle). FORMULAS.md §2.1–2.4 (directions, position index, pixel
 import math
 
 import numpy as np
-from numba import njit, prange, types
-from numba.extending import intrinsic
+from .._compiled import intrinsic, njit, prange
 
 __all__ = [
     "FISHEYE_KINDS",
@@ -166,7 +165,8 @@ def atan2_nonnegative(y, x):
     return ((2.0 * _PIO2 - r) + 2.0 * _MOREBITS) if x < 0 else r
 
 
-@njit(**_OPTIONS)
+@njit(**_OPTIONS,
+      aot="void(float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, ::1])")
 def quad_solid_angle_grid(gx, gy, gz, out):
     """Solid angles ``out`` (n, m) of the pixels whose corner directions are the grid
     ``(gx, gy, gz)``, each (n + 1, m + 1); NaN corners give NaN. Serial, without the GIL
@@ -383,7 +383,9 @@ def _corner_row(model, p, table, row, j0, j1, corners):
         _ideal_row(p, row, j0 - 0.5, cx, cy, cz, True)
 
 
-@njit(parallel=True, **_OPTIONS)
+@njit(parallel=True, **_OPTIONS,
+      aot=("void(int64, float64[::1], float64[::1], int64, float64[:, :, ::1], "
+           "float64[:, ::1], boolean[:, ::1])"))
 def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid):
     """Fill ``directions`` (rows, cols, 3), ``solid_angle`` and ``valid`` (rows, cols).
 
@@ -470,6 +472,8 @@ def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
 def _float64_bits(typingctx, x):
     """The bits of a float64 as an int64 (a reinterpretation, which vectorises; no
     conversion)."""
+    from numba import types
+
     def codegen(context, builder, signature, args):
         return builder.bitcast(args[0], context.get_value_type(types.int64))
     return types.int64(types.float64), codegen
@@ -478,6 +482,8 @@ def _float64_bits(typingctx, x):
 @intrinsic
 def _bits_float64(typingctx, bits):
     """The float64 whose bits are the int64 ``bits`` (inverse of :func:`_float64_bits`)."""
+    from numba import types
+
     def codegen(context, builder, signature, args):
         return builder.bitcast(args[0], context.get_value_type(types.float64))
     return types.float64(types.int64), codegen
@@ -525,7 +531,10 @@ def _guth_exponent(s, t):
             + (21.0 + 0.26667 * t - 0.002963 * t * t) * 1e-5 * s * s)
 
 
-@njit(parallel=True, **_OPTIONS)
+@njit(parallel=True, **_OPTIONS,
+      aot=("void(float64[:, :, ::1], boolean[:, ::1], float64[::1], float64[::1], "
+           "float64[::1], int64, float64, float64[:, ::1], float64[:, ::1], float64[:, ::1], "
+           "float64[:, ::1])"))
 def visual_field_maps(directions, valid, v, u, h, method, cap, sigma, tau, position_index,
                       cos_sigma):
     """σ, τ [rad], position index and cos σ of every pixel (see field.visual_field).

@@ -22,7 +22,7 @@ G. Ward, "Real pixels", *Graphics Gems II* (1991) 80–83. Radiance ``src/common
 import math
 
 import numpy as np
-from numba import njit, prange
+from .._compiled import njit, prange
 
 __all__ = ["SCANLINE_ERRORS", "decode_scanlines", "rgbe_luminance"]
 
@@ -37,7 +37,8 @@ SCANLINE_ERRORS = {
 }
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True,
+      aot="UniTuple(int64, 3)(uint8[::1], int64, boolean, uint8[:, :, ::1])")
 def decode_scanlines(data, pos, rle, rgbe):
     """Decode ``rgbe.shape[0]`` scanlines from ``data[pos:]`` (uint8) into ``rgbe``
     ``(rows, cols, 4)`` uint8, taking new-style scanlines where ``rle`` (the width allows
@@ -99,7 +100,8 @@ def decode_scanlines(data, pos, rle, rgbe):
     return pos, 0, rows
 
 
-@njit(parallel=True, cache=True, nogil=True)
+@njit(parallel=True, cache=True, nogil=True,
+      aot="void(uint8[:, :, ::1], float64, float64[::1], float64[::1], float64, float32[:, ::1])")
 def rgbe_luminance(rgbe, exposure, colorcorr, weights, efficacy, out):
     """``out`` (rows, cols) float32 = efficacy · Σ_c weights[c] · rgb_c with
     rgb_c = (m_c + ½)·2^(e − 136) / exposure / colorcorr[c] (the float64 operations of

@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numba import njit, prange
+from .._compiled import njit, prange
 
 from .._validation import check_choice
 
@@ -37,7 +37,8 @@ __all__ = [
 BACKGROUND_METHODS = ("CIE", "mean", "Ev")
 
 
-@njit(parallel=True, cache=True, error_model="numpy", nogil=True)
+@njit(parallel=True, cache=True, error_model="numpy", nogil=True,
+      aot="void(float64[::1], float64[::1], float64[::1], boolean[::1])")
 def _evaluated_field_kernel(luminance, solid_angle, cos_sigma, out):
     n = out.size
     step = 1 << 16
@@ -208,7 +209,9 @@ class FieldSums:
                        ugr_sum=k * k * self.ugr_sum)
 
 
-@njit(parallel=True, cache=True, error_model="numpy", nogil=True)
+@njit(parallel=True, cache=True, error_model="numpy", nogil=True,
+      aot=("Tuple((float64[:, ::1], int64[:, ::1]))(float64[::1], float64[::1], float64[::1], "
+           "float64[::1], boolean[::1], int64)"))
 def _field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask, chunk):
     n = luminance.size
     n_chunks = (n + chunk - 1) // chunk
@@ -312,7 +315,9 @@ class NoiseMoments:
     quadratic_variance: float
 
 
-@njit(cache=True, error_model="numpy", nogil=True)
+@njit(cache=True, error_model="numpy", nogil=True,
+      aot=("Tuple((float64[::1], float64[:, ::1], float64[:, ::1], float64[::1]))(float64[::1], "
+           "float64[::1], float64[::1], float64[::1], int64[::1], float64[::1], int64)"))
 def _noise_moments(luminance, solid_angle, cos_sigma, position_index, labels, variance, n):
     background = np.zeros(3)
     means = np.zeros((n, 3))

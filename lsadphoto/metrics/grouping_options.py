@@ -35,7 +35,7 @@ layout of ``-z``, peak extraction with find_split).
 import math
 
 import numpy as np
-from numba import njit
+from .._compiled import njit
 
 from .._validation import check_positive
 from ..errors import BadInputError
@@ -81,7 +81,9 @@ def smoothing_radius_px(directions, search_angle):
     return check_positive(search_angle, "search_angle") / delta / 1.75
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True,
+      aot=("void(int64[:, ::1], boolean[:, ::1], float64[:, ::1], int64[:, :], float64, "
+           "int64, int64[:, ::1])"))
 def _smooth(labels, primary, solid_angle, candidates, radius, n_sources, out):
     """evalglare's add_secondary_gs for every candidate pixel; arrays in evalglare's (y, x)
     order, y from the bottom."""
@@ -142,8 +144,6 @@ def smoothing_labels(labels, source_mask, solid_angle, valid, *, radius):
         np.asarray(source_mask, dtype=bool)[flip])
     omega = np.ascontiguousarray(np.asarray(solid_angle, dtype=np.float64)[flip])
     cand = np.asarray(valid, dtype=bool)[flip] & (lab == 0)
-    from scipy.ndimage import distance_transform_edt
-
     # Only pixels within the radius of a source pixel can qualify.
     from scipy.ndimage import distance_transform_edt  # only where smoothing is asked for
 

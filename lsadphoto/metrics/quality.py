@@ -81,7 +81,7 @@ from dataclasses import dataclass
 from dataclasses import field as dataclass_field
 
 import numpy as np
-from numba import njit, prange
+from .._compiled import njit, prange
 
 from .._validation import check_choice, check_positive
 from ..errors import BadInputError
@@ -236,7 +236,10 @@ def _weight(P, m):
     return P ** np.float32(-m)
 
 
-@njit(parallel=True, **_KERNEL_OPTIONS)
+@njit(parallel=True, **_KERNEL_OPTIONS,
+      aot=("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], boolean[:, ::1], "
+           "float64[:, :, ::1], float64, boolean, boolean, boolean, boolean[:, ::1], "
+           "float32[:, ::1], int64[::1], float64[:, ::1], int64[:, ::1], boolean[:, ::1])"))
 def _field_kernel(L, omega, P, valid, d, m, use_p, use_valid, weighted, field, filled, counts,
                   sums, extent, flags):
     """The field, the filled map and the field sums, row by row, in float32 as the numpy
@@ -292,7 +295,9 @@ def _field_kernel(L, omega, P, valid, d, m, use_p, use_valid, weighted, field, f
         flags[i, 2] = bad_p
 
 
-@njit(parallel=True, **_KERNEL_OPTIONS)
+@njit(parallel=True, **_KERNEL_OPTIONS,
+      aot=("void(float32[:, ::1], float32[:, ::1], boolean[:, ::1], float64[:, ::1], int64, "
+           "int64, float64, boolean[:, ::1], int64[::1], float64[::1])"))
 def _candidate_counts(lu, lv, evaluated, omega, r0, c0, limit, candidate, counts, omega_sums):
     """Per row of the box: the evaluated pixels whose screen bound |(L_u, L_v)| reaches
     ``limit`` (marked in ``candidate``, counted in ``counts``), and Σω (float32 ω, float64
@@ -314,19 +319,24 @@ def _candidate_counts(lu, lv, evaluated, omega, r0, c0, limit, candidate, counts
         omega_sums[i] = s
 
 
-@njit(parallel=True, **_KERNEL_OPTIONS)
-def _candidate_fill(candidate, offsets, local):
-    """Flat box indices of the ``candidate`` pixels, in order (row ``i`` from ``offsets[i]``)."""
+@njit(parallel=True, **_KERNEL_OPTIONS,
+      aot="void(boolean[:, ::1], int64[::1], int64, int64, int64, int64[::1], int64[::1])")
+def _candidate_fill(candidate, offsets, r0, c0, image_cols, local, index):
+    """Flat box indices (``local``) and flat image indices (``index``; the box's corner at
+    (``r0``, ``c0``) of an image ``image_cols`` wide) of the ``candidate`` pixels, in order
+    (row ``i`` from ``offsets[i]``)."""
     rows, cols = candidate.shape
     for i in prange(rows):
         k = offsets[i]
         for j in range(cols):
             if candidate[i, j]:
                 local[k] = i * cols + j
+                index[k] = (i + r0) * image_cols + j + c0
                 k += 1
 
 
-@njit(parallel=True, **_KERNEL_OPTIONS)
+@njit(parallel=True, **_KERNEL_OPTIONS,
+      aot="void(boolean[:, ::1], int64, int64, float32[:, ::1])")
 def _contrast_background(evaluated, r0, c0, out):
     """0 on the evaluated pixels of the box at (r0, c0), NaN elsewhere (float32)."""
     rows, cols = out.shape
@@ -406,7 +416,9 @@ def _metric(directions, i, cols):
     return e * su * su, f * su * sv, g * sv * sv
 
 
-@njit(parallel=True, **_KERNEL_OPTIONS)
+@njit(parallel=True, **_KERNEL_OPTIONS,
+      aot=("void(int64[::1], int64[::1], float64[:, ::1], float32[::1], float32[::1], int64, "
+           "float64[::1])"))
 def _gradient_kernel(index, local, directions, lu, lv, cols, out):
     for k in prange(index.size):
         e, f, g = _metric(directions, index[k], cols)
@@ -417,7 +429,7 @@ def _gradient_kernel(index, local, directions, lu, lv, cols, out):
         out[k] = math.sqrt(0.0 if value < 0 else value) if det > 0 else np.nan
 
 
-@njit(**_KERNEL_OPTIONS)
+@njit(**_KERNEL_OPTIONS, aot="void(int64[::1], float64[:, ::1], int64, float64[:, ::1])")
 def _metric_kernel(index, directions, cols, out):
     for k in range(index.size):
         out[k, 0], out[k, 1], out[k, 2] = _metric(directions, index[k], cols)
@@ -590,8 +602,8 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
         offsets = np.zeros(box_rows, dtype=np.int64)
         np.cumsum(row_counts[:-1], out=offsets[1:])
         local = np.empty(int(row_counts.sum()), dtype=np.int64)
-        _candidate_fill(candidate, offsets, local)
-        index = to_image(local)
+        index = np.empty_like(local)
+        _candidate_fill(candidate, offsets, r0, c0, cols, local, index)
         grad = _angular_gradient(index, local, flat_directions, lu.ravel(), lv.ravel(), cols)
         key = grad * alpha
     if weighted:
@@ -608,7 +620,8 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
     return out
 
 
-@njit(**_KERNEL_OPTIONS)
+@njit(**_KERNEL_OPTIONS,
+      aot="float32[::1](float32[::1], float64)")
 def _weights(P, m):
     """:func:`_weight` of every element of a float32 array."""
     out = np.empty_like(P)

@@ -37,7 +37,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from numba import njit, prange
+from .._compiled import njit, prange
 
 from .._provenance import build_provenance
 from .._validation import check_choice, check_positive, check_positive_int
@@ -71,7 +71,11 @@ __all__ = ["Score", "score_map"]
 _CHUNK = 1 << 16
 
 
-@njit(parallel=True, cache=True, error_model="numpy", nogil=True)
+@njit(parallel=True, cache=True, error_model="numpy", nogil=True,
+      aot=("void(float32[::1], boolean[::1], float64[::1], float64[::1], boolean[::1], "
+           "float64[::1], float64[::1])",
+           "void(float64[::1], boolean[::1], float64[::1], float64[::1], boolean[::1], "
+           "float64[::1], float64[::1])"))
 def _field_inputs_kernel(image, evaluated, solid_angle, cos_sigma, valid, luminance, omega):
     n = image.size
     for k in prange((n + _CHUNK - 1) // _CHUNK):

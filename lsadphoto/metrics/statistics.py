@@ -16,7 +16,7 @@ Hyndman, R. J., Fan, Y. (1996), Sample quantiles in statistical packages, Am. St
 import math
 
 import numpy as np
-from numba import njit, prange
+from .._compiled import njit, prange
 
 __all__ = ["DEFAULT_RING_EDGES_DEG", "DEFAULT_PERCENTILES", "QUANTILE_BINS_PER_DECADE",
            "luminance_statistics"]
@@ -53,7 +53,8 @@ def _group(c, cos_edges, n_rings):
     return n_rings - below
 
 
-@njit(parallel=True, cache=True, error_model="numpy", nogil=True)
+@njit(parallel=True, cache=True, error_model="numpy", nogil=True,
+      aot="float64[:, ::1](float64[::1], float64[::1], float64[::1], int64)")
 def _positive_range(luminance, solid_angle, cos_sigma, n_stripes):
     """Per stripe: the smallest and largest positive L of the evaluated field (finite L,
     ω > 0, cos σ ≥ 0); +inf and −inf where there is none."""
@@ -72,7 +73,10 @@ def _positive_range(luminance, solid_angle, cos_sigma, n_stripes):
     return out
 
 
-@njit(parallel=True, cache=True, error_model="numpy", nogil=True)
+@njit(parallel=True, cache=True, error_model="numpy", nogil=True,
+      aot=("void(float64[::1], float64[::1], float64[::1], float64[::1], int64, float64, "
+           "int64, float64, int64[:, ::1], float64[:, :, ::1], float64[:, ::1], "
+           "float64[:, ::1], float64[:, :, ::1])"))
 def _accumulate(luminance, solid_angle, cos_sigma, cos_edges, n_stripes, origin, n_bins,
                 per_decade, count, sums, low, high, hist):
     """Per stripe k and group g (ring, or outside every ring): pixel count ``count[k, g]``,

@@ -1,0 +1,393 @@
+"""Compiled kernels: one numba source, compiled ahead of time once per machine, just in time
+where that code is missing.
+
+A ``lsadphoto score`` of a 786² picture computes for about 0.1 s; importing numba,
+initialising its compiler target and loading the kernels from its cache took 1.4 s of CPU
+(docs/performance.md, "Latency of a whole score process"). So the package's kernels are
+written once, as numba functions decorated with :func:`njit` from this module, and compiled
+twice:
+
+* **ahead of time** (``numba.pycc``), all kernels with an ``aot`` signature into one
+  extension module, built the first time a kernel is called on a machine (a child process,
+  a minute or two; later processes wait for it rather than build twice) into the user's cache
+  folder (``$LSADPHOTO_CACHE_DIR``, else ``$XDG_CACHE_HOME/lsadphoto``, else
+  ``~/.cache/lsadphoto``), under a key of the kernel sources, the numba, numpy and Python
+  versions and the CPU. Loading it takes a millisecond and does not import numba. It runs
+  on one thread (numba's ahead-of-time compiler has no ``parallel``: a ``prange`` is a
+  ``range``), with the host CPU's instruction set and each kernel's own error model;
+* **just in time** (``numba.njit`` with the same options, ``parallel`` included, cached by
+  numba) for a call whose arguments match none of the kernel's ``aot`` signatures, where the
+  ahead-of-time build failed (no C compiler: the reason is kept in ``build.failed`` in the
+  cache folder), and for every call with ``LSADPHOTO_KERNELS=jit``.
+
+The ahead-of-time code runs at every size by default: on the 2 cores measured, numba's
+threads did not pay for loading numba even at 24 MP (docs/performance.md); on a machine
+with many cores ``LSADPHOTO_KERNELS=jit`` runs the kernels on all of them.
+
+The ahead-of-time functions do not check their arguments (a float32 array where float64 is
+compiled would be read as garbage), so each call is matched here against the declared
+signatures (dtype, dimensions, C order, alignment, scalar kinds) before it is handed over.
+Read-only flags are not compared: the signatures are compiled for writable arrays, and a
+kernel writes only to the output arrays its callers allocate (numba's typing, which does
+see the flag, refuses a kernel that writes to a read-only input). A kernel's result does
+not depend on which compilation ran it: the kernels keep their parallel loops free of
+floating-point reductions across iterations, and neither compilation allows fast-math
+(tests/test_compiled.py compares the two).
+
+Old builds stay in the cache folder until deleted (about 1 MB each); a failed build is not
+retried for the same key until its folder is deleted (e.g. after installing a C compiler).
+
+Kernel modules import :func:`njit`, :data:`prange` and :func:`intrinsic` from here instead of
+numba; once numba is needed, :func:`_numba` puts numba's own ``prange`` and intrinsics into
+their namespaces, and a :class:`Kernel` presents itself to numba's compiler as its
+dispatcher (``_numba_type_``, ``py_func``, ``targetoptions``), so kernels call each other
+and inline helpers as plain numba functions do.
+
+References
+----------
+numba documentation, "Compiling code ahead of time" (``numba.pycc``, pending deprecation
+since numba 0.57 with no replacement yet); numba 0.68 sources: ``numba/core/typing/typeof.py``
+(an object with a ``_numba_type_`` is typed by it), ``numba/core/untyped_passes.py``
+(``InlineInlinables`` reads a callee's ``targetoptions`` and ``py_func``),
+``numba/pycc/compiler.py`` (one ``Flags`` for every export, error model "python").
+"""
+
+import hashlib
+import importlib
+import importlib.machinery
+import importlib.util
+import os
+import platform
+import sys
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["Kernel", "intrinsic", "njit", "prange"]
+
+#: Modules whose kernels go into the ahead-of-time extension (their sources key the cache).
+MODULES = (
+    "lsadphoto.io._rgbe",
+    "lsadphoto.geometry._kernels",
+    "lsadphoto.metrics.field",
+    "lsadphoto.metrics.score",
+    "lsadphoto.metrics.grouping",
+    "lsadphoto.metrics.statistics",
+    "lsadphoto.metrics.quality",
+    "lsadphoto.metrics.grouping_options",
+)
+#: Name of the extension module (its ``PyInit_`` symbol).
+EXTENSION = "_lsadphoto_kernels"
+
+_KERNELS = []
+_STATE = {"numba": None, "library": None, "mode": os.environ.get("LSADPHOTO_KERNELS", "auto")}
+
+
+def _prange(*args):
+    """``range`` until numba compiles the kernel (then numba's ``prange``)."""
+    return range(*args)
+
+
+prange = _prange
+
+
+class _Intrinsic:
+    """An intrinsic's definition, registered with numba when numba is loaded."""
+
+    def __init__(self, definition):
+        self.definition = definition
+
+
+def intrinsic(definition):
+    """numba's ``extending.intrinsic``, applied when numba is loaded."""
+    if _STATE["numba"] is not None:
+        from numba.extending import intrinsic as numba_intrinsic
+
+        return numba_intrinsic(definition)
+    return _Intrinsic(definition)
+
+
+# --- signatures: parsed without numba ---------------------------------------------------------
+
+_SCALARS = {"int64": "int", "float64": "float", "boolean": "bool", "intp": "int"}
+
+
+def _split_top(text):
+    """Split ``text`` at the commas outside brackets and parentheses."""
+    parts, depth, start = [], 0, 0
+    for i, ch in enumerate(text):
+        if ch in "([":
+            depth += 1
+        elif ch in ")]":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            parts.append(text[start:i].strip())
+            start = i + 1
+    if text[start:].strip():
+        parts.append(text[start:].strip())
+    return parts
+
+
+def _argument_specs(signature):
+    """Per argument of a numba signature string ``"ret(arg, ...)"``: ``(dtype, ndim,
+    c_order)`` for an array, the scalar kind for a scalar."""
+    text = signature.strip()
+    depth = 0
+    for i in range(len(text) - 1, -1, -1):
+        depth += {")": 1, "(": -1}.get(text[i], 0)
+        if depth == 0:
+            break
+    specs = []
+    for arg in _split_top(text[i + 1:-1]):
+        name, _, dims = arg.partition("[")
+        name = name.strip()
+        if dims:
+            axes = _split_top(dims.rstrip("]"))
+            dtype = np.dtype("bool" if name == "boolean" else name)
+            specs.append((dtype, len(axes), axes[-1].replace(" ", "") == "::1"))
+        else:
+            specs.append(_SCALARS[name])
+    return tuple(specs)
+
+
+def _matches(specs, args):
+    if len(specs) != len(args):
+        return False
+    for spec, a in zip(specs, args):
+        if isinstance(spec, str):
+            if isinstance(a, (bool, np.bool_)):
+                if spec != "bool":
+                    return False
+            elif spec == "int":
+                if not isinstance(a, (int, np.integer)):
+                    return False
+            elif spec == "float":
+                if not isinstance(a, (float, np.floating)):
+                    return False
+            else:
+                return False
+        else:
+            dtype, ndim, c_order = spec
+            if not (isinstance(a, np.ndarray) and a.dtype == dtype and a.ndim == ndim and
+                    a.flags.aligned and (not c_order or a.flags.c_contiguous)):
+                return False
+    return True
+
+
+class Kernel:
+    """A numba function compiled ahead of time (where an ``aot`` signature matches the
+    call) or just in time (numba's dispatcher, made on first need)."""
+
+    def __init__(self, py_func, options, signatures):
+        self.py_func = py_func
+        self.targetoptions = dict(options)  # read by numba's inliner (``inline``)
+        self.signatures = tuple(signatures)
+        self._specs = tuple(_argument_specs(s) for s in self.signatures)
+        self._compiled = None
+        self._dispatcher = None
+        self.__name__ = py_func.__name__
+        self.__qualname__ = py_func.__qualname__
+        self.__module__ = py_func.__module__
+        self.__doc__ = py_func.__doc__
+        self.__wrapped__ = py_func
+
+    @property
+    def export_names(self):
+        """Symbols of the ahead-of-time functions, one per signature."""
+        tag = self.__module__.removeprefix("lsadphoto.").replace(".", "_")
+        return [f"{tag}__{self.__name__}__{k}" for k in range(len(self.signatures))]
+
+    @property
+    def dispatcher(self):
+        """numba's dispatcher of this kernel (imports numba)."""
+        if self._dispatcher is None:
+            numba = _numba()
+            self._dispatcher = numba.njit(**self.targetoptions)(self.py_func)
+        return self._dispatcher
+
+    @property
+    def _numba_type_(self):  # numba types a Kernel found in a kernel's globals as its dispatcher
+        return self.dispatcher._numba_type_
+
+    def __call__(self, *args):
+        if self._compiled is None:
+            library = _library() if self._specs else {}
+            self._compiled = [(spec, library[name]) for spec, name in
+                              zip(self._specs, self.export_names, strict=True) if name in library]
+        for spec, function in self._compiled:
+            if _matches(spec, args):
+                return function(*args)
+        return self.dispatcher(*args)
+
+
+def njit(*, aot=(), **options):
+    """Decorator: a :class:`Kernel` with numba ``options`` (``parallel``, ``cache``,
+    ``error_model``, ``inline``, …) and ahead-of-time signatures ``aot`` (a numba signature
+    string or a tuple of them) for the calls the package makes from Python."""
+    signatures = (aot,) if isinstance(aot, str) else tuple(aot)
+
+    def decorate(py_func):
+        kernel = Kernel(py_func, options, signatures)
+        _KERNELS.append(kernel)
+        return kernel
+
+    return decorate
+
+
+def _numba():
+    """Import numba and hand its ``prange`` and intrinsics to the kernel modules."""
+    if _STATE["numba"] is None:
+        import numba
+        from numba.extending import intrinsic as numba_intrinsic
+
+        _STATE["numba"] = numba
+        globals()["prange"] = numba.prange
+        for name in MODULES:
+            module = sys.modules.get(name)
+            if module is None:
+                continue
+            space = vars(module)
+            for key, value in list(space.items()):
+                if value is _prange:
+                    space[key] = numba.prange
+                elif isinstance(value, _Intrinsic):
+                    space[key] = numba_intrinsic(value.definition)
+    return _STATE["numba"]
+
+
+
+# --- the ahead-of-time extension --------------------------------------------------------------
+
+def cache_folder():
+    """Folder of the ahead-of-time extension for these sources, versions and CPU."""
+    root = os.environ.get("LSADPHOTO_CACHE_DIR")
+    if not root:
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        root = os.path.join(base, "lsadphoto")
+    digest = hashlib.sha256()
+    for name in (*MODULES, __name__):
+        spec = importlib.util.find_spec(name)
+        digest.update(Path(spec.origin).read_bytes())
+    numba_spec = importlib.util.find_spec("numba")
+    if numba_spec is None:
+        return None
+    digest.update(Path(numba_spec.origin).with_name("_version.py").read_bytes())
+    digest.update(f"{np.__version__} {sys.version} {platform.machine()}".encode())
+    try:
+        with open("/proc/cpuinfo", "rb") as info:
+            digest.update(next((line for line in info if line.startswith(b"flags")), b""))
+    except OSError:
+        digest.update(platform.processor().encode())
+    return Path(root) / "kernels" / digest.hexdigest()[:24]
+
+
+def _extension_path(folder):
+    return folder / (EXTENSION + importlib.machinery.EXTENSION_SUFFIXES[0])
+
+
+def _library():
+    """name → ahead-of-time function, building the extension first where needed; empty
+    when ``LSADPHOTO_KERNELS=jit`` or when it cannot be built."""
+    if _STATE["library"] is not None:
+        return _STATE["library"]
+    _STATE["library"] = {}
+    if _STATE["mode"] == "jit":
+        return _STATE["library"]
+    try:
+        folder = cache_folder()
+    except OSError:
+        return _STATE["library"]
+    if folder is None:
+        return _STATE["library"]
+    path = _extension_path(folder)
+    if not path.exists() and not (folder / "build.failed").exists():
+        _build(folder)
+    if path.exists():
+        spec = importlib.util.spec_from_file_location(EXTENSION, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        _STATE["library"] = {k: v for k, v in vars(module).items() if "__" in k and callable(v)}
+    return _STATE["library"]
+
+
+def _build(folder):
+    """Build the extension into ``folder`` in a child process, one process at a time."""
+    try:
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        lock = open(folder.parent / (folder.name + ".lock"), "w")
+    except OSError:
+        return
+    with lock:
+        try:
+            import fcntl
+
+            fcntl.flock(lock, fcntl.LOCK_EX)  # another process may be building it
+        except ImportError:  # not POSIX: concurrent builds only cost time
+            pass
+        if _extension_path(folder).exists() or (folder / "build.failed").exists():
+            return
+        import subprocess
+
+        env = dict(os.environ, LSADPHOTO_KERNELS="jit")
+        done = subprocess.run([sys.executable, "-m", __name__, str(folder)], env=env,
+                              capture_output=True, text=True)
+        if done.returncode != 0 and not _extension_path(folder).exists():
+            folder.mkdir(parents=True, exist_ok=True)
+            (folder / "build.failed").write_text(done.stdout + done.stderr)
+
+
+def build_extension(folder):
+    """Compile every kernel's ``aot`` signatures into the extension in ``folder`` (run in a
+    child process with ``LSADPHOTO_KERNELS=jit``: it imports numba and its ``pycc``)."""
+    import json
+    import tempfile
+    import warnings
+
+    for name in MODULES:
+        importlib.import_module(name)
+    _numba()
+    import llvmlite.binding as llvm
+    from numba.core.codegen import AOTCPUCodegen
+    from numba.core.errors import NumbaPendingDeprecationWarning
+
+    with warnings.catch_warnings():  # numba.pycc is pending deprecation, with no successor yet
+        warnings.simplefilter("ignore", NumbaPendingDeprecationWarning)
+        from numba.pycc import CC
+        from numba.pycc import compiler as pycc_compiler
+
+    options = {k.py_func: k.targetoptions for k in _KERNELS}
+    compile_extra = pycc_compiler.compile_extra
+
+    def compile_with_options(typingctx, targetctx, func, args, return_type, flags, **kwargs):
+        # pycc compiles every export with one set of flags (error model "python"): give each
+        # kernel its own error model, as its just-in-time compilation has.
+        flags = flags.copy()
+        flags.error_model = options[func].get("error_model", "python")
+        return compile_extra(typingctx, targetctx, func, args, return_type, flags, **kwargs)
+
+    pycc_compiler.compile_extra = compile_with_options
+    # The host's instruction set, as numba's JIT uses (pycc's default is the generic CPU).
+    AOTCPUCodegen._customize_tm_features = lambda self: llvm.get_host_cpu_features().flatten()
+    folder = Path(folder)
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=folder.name + ".", dir=folder.parent))
+    cc = CC(EXTENSION)
+    cc.output_dir = str(staging)
+    cc.target_cpu = llvm.get_host_cpu_name()
+    manifest = {}
+    for kernel in _KERNELS:
+        for name, signature in zip(kernel.export_names, kernel.signatures, strict=True):
+            cc.export(name, signature)(kernel.py_func)
+            manifest[name] = signature
+    cc.compile()
+    (staging / "manifest.json").write_text(json.dumps(manifest, indent=1))
+    try:
+        staging.rename(folder)
+    except OSError:  # built meanwhile by another process
+        import shutil
+
+        shutil.rmtree(staging, ignore_errors=True)
+
+
+if __name__ == "__main__":  # the kernels register with the imported module, not with __main__
+    importlib.import_module("lsadphoto._compiled").build_extension(sys.argv[1])
