@@ -2,18 +2,21 @@
 
 A design chooses, at every candidate position, no luminaire or one catalogue type at one
 dimming level (a *genome*: one choice index per position). Its maps and grids are the
-superposition of the chosen candidates' solutions (:func:`~lsadphoto.design.superpose`),
-scored by the same :func:`~lsadphoto.metrics.score_map` as photographs — so a design's
-numbers are the numbers ``lsadphoto score`` gives for its render. Grid values (Ē, U₀),
-installed power and the number of luminaires complete the record.
+superposition of the chosen candidates' solutions (:func:`~lsadphoto.design.superpose`);
+its view metrics are those :func:`~lsadphoto.metrics.score_map` gives for them — so a
+design's numbers are the numbers ``lsadphoto score`` gives for its render — evaluated for
+many designs at once, without forming the maps, by
+:class:`~lsadphoto.design.batch.BatchEvaluator`. Grid values (Ē, U₀), installed power and
+the number of luminaires complete the record.
 
 Undefined view metrics: a view without glare sources has no UGR or DGP from sources (NaN);
 for objectives and constraints such a view counts as free of glare (UGR, DGP = 0). A view
 whose Q or E_v is undefined counts as the worst possible.
 
-The search is **exhaustive** where the design space is small (every design evaluated, the
-exact Pareto set), otherwise **NSGA-II** (pymoo) over the integer genomes with the
-constraints as inequality constraints; the Pareto set reported is the non-dominated set of
+The search is **exhaustive** where the design space is small (every design evaluated, in
+batches, the exact Pareto set), otherwise **NSGA-II** (pymoo) over the integer genomes with
+the constraints as one inequality constraint, uniform crossover and random-reset mutation
+(a gene's choices are categories); the Pareto set reported is the non-dominated set of
 every design evaluated. The **best** design is the feasible Pareto design that is best in the
 first objective, ties broken by the following ones. When no design is feasible the records
 closest to feasibility (smallest summed relative violation) are reported instead.
@@ -39,6 +42,20 @@ __all__ = ["DesignEvaluator", "DesignRecord", "pareto_front", "search"]
 
 #: Metrics that are 0 where a view has no glare source (undefined in score_map).
 _GLARE = ("ugr_pixel", "ugr_grouped", "dgp")
+#: Designs per batch of the exhaustive search.
+_CHUNK = 4096
+#: A view's metrics with an uncertainty in the records (score_map's names).
+_UNCERTAIN = ("q", "ugr_pixel", "ugr_grouped", "dgp", "vertical_illuminance")
+
+
+def _view_record(values):
+    """A view's record from the batch evaluator's values: None where undefined; no
+    uncertainties (the search's evaluations have the noise resampling off)."""
+    out = {k: (float(values[k]) if math.isfinite(values[k]) else None)
+           for k in ("q", "ugr_pixel", "ugr_grouped", "dgp", "E_v")}
+    out["uncertainty"] = dict.fromkeys(_UNCERTAIN)
+    out["sources"] = int(values["sources"])
+    return out
 
 
 @dataclass
@@ -69,6 +86,11 @@ class DesignRecord:
 class DesignEvaluator:
     """Evaluates genomes of ``problem`` from the candidates' solutions (with a cache).
 
+    The search evaluates designs in batches through :class:`~lsadphoto.design.batch.BatchEvaluator`
+    (equal to score_map on the superposed maps, see there); :meth:`evaluate` with
+    ``score_options`` scores the superposed maps with :func:`~lsadphoto.metrics.score_map`
+    itself (the reported best design, with its uncertainties).
+
     Parameters
     ----------
     problem : DesignProblem
@@ -76,20 +98,43 @@ class DesignEvaluator:
         ``(position index, type name) → CandidateSolution`` at full output.
     base : CandidateSolution, optional
         The space's own luminaires (always on), if it has any.
-    score_options : dict, optional
-        Keywords of :func:`~lsadphoto.metrics.score_map` (the search switches the noise
-        resampling off; the reported best design is scored with it).
     """
 
-    def __init__(self, problem, solutions, *, base=None, score_options=None):
+    def __init__(self, problem, solutions, *, base=None):
         self.problem = problem
         self.choices = problem.choices
         self.solutions = solutions
         self.base = base
-        self.score_options = {"noise_samples": 0, "q_noise_samples": 0, **(score_options or {})}
+        self.keys = list(solutions)
+        column = {key: k for k, key in enumerate(self.keys)}
+        # choice (position i, index g) → (column, weight); g = 0 is off
+        self.table = [[None] + [(column[(i, kind)], level) for kind, level in choices[1:]]
+                      for i, choices in enumerate(self.choices)]
+        self._batch = None
         self.cache = {}
         self.evaluations = 0
         self.seconds = 0.0
+
+    @property
+    def batch(self):
+        """The :class:`~lsadphoto.design.batch.BatchEvaluator` (built on first use)."""
+        if self._batch is None:
+            from .batch import BatchEvaluator
+
+            self._batch = BatchEvaluator([self.solutions[k] for k in self.keys],
+                                         [[c for c in row if c is not None] for row in self.table],
+                                         base=self.base)
+        return self._batch
+
+    def weights(self, genomes):
+        """The (designs × candidates) weight matrix of ``genomes``."""
+        genomes = np.atleast_2d(np.asarray(genomes, dtype=np.int64))
+        w = np.zeros((genomes.shape[0], len(self.keys)))
+        for i, row in enumerate(self.table):
+            for g, choice in enumerate(row):
+                if choice is not None:
+                    w[genomes[:, i] == g, choice[0]] = choice[1]
+        return w
 
     def combine(self, genome):
         """The chosen candidates and weights of ``genome``: (solutions, weights, choices)."""
@@ -115,43 +160,57 @@ class DesignEvaluator:
             sols, weights = [next(iter(self.solutions.values()))], [0.0]
         return superpose(sols, weights)
 
+    def evaluate_many(self, genomes):
+        """The :class:`DesignRecord` of each genome, new ones evaluated in one batch (cached)."""
+        genomes = [tuple(int(g) for g in genome) for genome in genomes]
+        new = list(dict.fromkeys(g for g in genomes if g not in self.cache))
+        if new:
+            t0 = time.perf_counter()
+            values = self.batch.evaluate(self.weights(new))
+            for k, genome in enumerate(new):
+                views = {name: _view_record({key: v[key][k] for key in v}) for name, v in values["views"].items()}
+                grids = {name: {key: float(v[key][k]) for key in v} for name, v in values["grids"].items()}
+                self.cache[genome] = self._record(genome, views, grids)
+            self.evaluations += len(new)
+            self.seconds += time.perf_counter() - t0
+        return [self.cache[g] for g in genomes]
+
     def evaluate(self, genome, *, score_options=None):
-        """The :class:`DesignRecord` of ``genome`` (cached unless ``score_options`` differ)."""
-        genome = tuple(int(g) for g in genome)
-        if score_options is None and genome in self.cache:
-            return self.cache[genome]
+        """The :class:`DesignRecord` of ``genome``; with ``score_options`` (keywords of
+        :func:`~lsadphoto.metrics.score_map`, noise resampling off unless given) scored by
+        score_map on the superposed maps, with its uncertainties, and not cached."""
+        if score_options is None:
+            return self.evaluate_many([genome])[0]
         from ..metrics import score_map
 
-        t0 = time.perf_counter()
-        sols, weights, chosen = self.combine(genome)
+        genome = tuple(int(g) for g in genome)
         maps, grids = self.maps_and_grids(genome)
-        options = {**self.score_options, **(score_options or {})}
+        options = {"noise_samples": 0, "q_noise_samples": 0, **score_options}
         views = {}
         for name, lmap in maps.items():
-            score = score_map(lmap, **options)
-            rec = score.to_dict()
+            rec = score_map(lmap, **options).to_dict()
             views[name] = {"q": rec.get("q"), "ugr_pixel": rec.get("ugr_pixel"),
                            "ugr_grouped": rec.get("ugr_grouped"), "dgp": rec.get("dgp"),
                            "E_v": rec.get("vertical_illuminance"),
-                           "uncertainty": {k: rec["uncertainty"].get(k) for k in
-                                           ("q", "ugr_pixel", "ugr_grouped", "dgp", "vertical_illuminance")},
+                           "uncertainty": {k: rec["uncertainty"].get(k) for k in _UNCERTAIN},
                            "sources": len(rec["sources"])}
         grid_values = {name: {"e_m": g.average, "e_m_standard_error": g.average_standard_error,
                               "e_min": g.minimum, "u0": g.uniformity}
                        for name, g in grids.items()}
+        return self._record(genome, views, grid_values)
+
+    def _record(self, genome, views, grids):
+        chosen = [None if c is None else {"type": c[0], "level": c[1]}
+                  for c in (self.choices[i][g] for i, g in enumerate(genome))]
         power = sum(self.problem.catalogue[c["type"]]["power_w"] * c["level"] for c in chosen if c)
         count = sum(1 for c in chosen if c)
-        record = DesignRecord(genome=genome, choices=chosen, views=views, grids=grid_values,
+        record = DesignRecord(genome=genome, choices=chosen, views=views, grids=grids,
                               power=float(power), luminaires=count, objectives=[], violation=0.0)
         record.objectives = [self._value(o, record, worst=o["sense"]) for o in self.problem.objectives]
         record.objectives = [v if o["sense"] == "min" else -v
                              for v, o in zip(record.objectives, self.problem.objectives)]
         record.violations = self._violations(record)
         record.violation = float(sum(v for _, v in record.violations))
-        self.evaluations += 1
-        self.seconds += time.perf_counter() - t0
-        if score_options is None:
-            self.cache[genome] = record
         return record
 
     def _value(self, target, record, *, worst):
@@ -190,21 +249,26 @@ class DesignEvaluator:
 
 
 def pareto_front(records):
-    """The non-dominated records (all objectives minimised), in input order."""
+    """The non-dominated records (all objectives minimised), in input order; of records with
+    identical objective vectors the first.
+
+    Records are visited in lexicographic order of their objectives, so that any record that
+    dominates another comes before it and only the front found so far needs checking.
+    """
     objs = np.array([r.objectives for r in records], dtype=float)
-    keep = []
-    for i, a in enumerate(objs):
-        dominated = np.any(np.all(objs <= a, axis=1) & np.any(objs < a, axis=1))
-        if not dominated:
-            keep.append(records[i])
-    # identical objective vectors: keep the first of each
-    seen, unique = set(), []
-    for r in keep:
-        key = tuple(r.objectives)
-        if key not in seen:
-            seen.add(key)
-            unique.append(r)
-    return unique
+    if objs.size == 0:
+        return []
+    order = np.lexsort(objs.T[::-1])
+    front = []
+    for i in order:
+        a = objs[i]
+        if front:
+            f = objs[front]
+            if np.any(np.all(f <= a, axis=1)):  # dominated, or a copy of a front member
+                continue
+        front.append(i)
+    # of identical vectors the lexsort keeps the first in input order (a stable sort)
+    return [records[i] for i in sorted(front)]
 
 
 def _best(front):
@@ -232,10 +296,13 @@ def search(evaluator, *, progress=None):
             raise BadInputError(f"exhaustive search over {count} designs is too large "
                                 f"(max_exhaustive = {settings['max_exhaustive']}); use method = 'nsga2'")
         ranges = [range(len(c)) for c in evaluator.choices]
-        for k, genome in enumerate(itertools.product(*ranges)):
-            evaluator.evaluate(genome)
-            if progress is not None and k % 16 == 0:
-                progress((k + 1) / count, None)
+        genomes = itertools.product(*ranges)
+        done = 0
+        while chunk := list(itertools.islice(genomes, _CHUNK)):
+            evaluator.evaluate_many(chunk)
+            done += len(chunk)
+            if progress is not None:
+                progress(done / count, None)
     else:
         _nsga2(evaluator, settings, progress)
     records = list(evaluator.cache.values())
@@ -249,10 +316,9 @@ def search(evaluator, *, progress=None):
 
 def _nsga2(evaluator, settings, progress):
     from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.core.mutation import Mutation
     from pymoo.core.problem import Problem
-    from pymoo.operators.crossover.sbx import SBX
-    from pymoo.operators.mutation.pm import PM
-    from pymoo.operators.repair.rounding import RoundingRepair
+    from pymoo.operators.crossover.ux import UniformCrossover
     from pymoo.operators.sampling.rnd import IntegerRandomSampling
     from pymoo.optimize import minimize
 
@@ -267,15 +333,22 @@ def _nsga2(evaluator, settings, progress):
             self.generation = 0
 
         def _evaluate(self, X, out, *args, **kwargs):
-            recs = [evaluator.evaluate(np.clip(np.rint(x), 0, upper).astype(int)) for x in X]
+            recs = evaluator.evaluate_many(np.clip(np.rint(X), 0, upper).astype(int))
             out["F"] = np.array([r.objectives for r in recs], dtype=float)
             out["G"] = np.array([[r.violation] for r in recs], dtype=float)
             self.generation += 1
             if progress is not None:
                 progress(min(1.0, self.generation / (generations + 1)), None)
 
+    class _Reset(Mutation):
+        """Random reset: each gene, with probability 1/genes, takes any of its choices. A
+        gene's choices (off, or a type at a level) are categories, without an order that a
+        small step (polynomial mutation) or a blend (SBX) could follow."""
+
+        def _do(self, problem, X, random_state=None, **kwargs):
+            reset = random_state.random(X.shape) < self.get_prob_var(problem, size=(len(X), 1))
+            return np.where(reset, random_state.integers(0, upper + 1, size=X.shape), X)
+
     algorithm = NSGA2(pop_size=settings["population"], sampling=IntegerRandomSampling(),
-                      crossover=SBX(prob=0.9, eta=15, vtype=float, repair=RoundingRepair()),
-                      mutation=PM(eta=20, vtype=float, repair=RoundingRepair()),
-                      eliminate_duplicates=True)
+                      crossover=UniformCrossover(), mutation=_Reset(), eliminate_duplicates=True)
     minimize(_Problem(), algorithm, ("n_gen", generations), seed=settings["seed"], verbose=False)

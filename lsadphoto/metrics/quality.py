@@ -93,6 +93,7 @@ __all__ = [
     "METHODS",
     "THRESHOLDS",
     "QualityResult",
+    "gradient_components",
     "q_Budak2021",
     "q_sweep",
     "quality",
@@ -806,3 +807,45 @@ def quality(luminance, directions, solid_angle, position_index, *, method="Budak
     """
     check_choice(method, "quality method", METHODS)
     return q_Budak2021(luminance, directions, solid_angle, position_index, **options)
+
+
+def gradient_components(filled, directions, index, *, sigma_px):
+    """The angular gradient of Q as two components linear in the map: g² = a² + b².
+
+    ``filled`` is a float32 map with the luminance on Q's field and 0 elsewhere; its pixel
+    derivatives L_u, L_v (the kernels of :func:`q_Budak2021` for a blur of ``sigma_px``
+    pixels, 0 for none) and the metric E, F, G at the flat pixels ``index`` give
+    a = √(G/(EG − F²))·(L_u − F·L_v/G) and b = L_v/√G [cd·m⁻²·rad⁻¹], whose a² + b² is
+    the g² that Q uses (the Cholesky factor of the inverse metric). Both are linear in the
+    map, so a superposition of maps has the superposed components (what the design
+    module's batch evaluator uses). NaN where the metric is degenerate.
+
+    Parameters
+    ----------
+    filled : ndarray, shape (rows, cols), float32
+    directions : ndarray, shape (rows, cols, 3)
+    index : ndarray of int
+        Flat pixels with a complete stencil (Q's evaluated pixels).
+    sigma_px : float
+        ``settings["blur_sigma_px"]`` of :func:`q_Budak2021` for this field.
+
+    Returns
+    -------
+    (a, b) : tuple of ndarray, float64
+    """
+    import cv2
+
+    smooth, derivative, _ = _kernels(float(sigma_px))
+    image = np.ascontiguousarray(filled, dtype=np.float32)
+    lu = cv2.sepFilter2D(image, cv2.CV_32F, derivative, smooth).ravel()[index].astype(np.float64)
+    lv = cv2.sepFilter2D(image, cv2.CV_32F, smooth, derivative).ravel()[index].astype(np.float64)
+    index = np.asarray(index, dtype=np.int64)
+    metric = np.empty((index.size, 3))
+    _metric_kernel(index, np.asarray(directions).reshape(-1, 3), image.shape[1], metric)
+    e, f, g = metric.T
+    det = e * g - f * f
+    with np.errstate(invalid="ignore", divide="ignore"):
+        good = (det > 0) & (g > 0)
+        a = np.where(good, np.sqrt(g / det) * (lu - f * lv / g), np.nan)
+        b = np.where(good, lv / np.sqrt(g), np.nan)
+    return a, b
