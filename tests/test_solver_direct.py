@@ -21,13 +21,14 @@ POSITIONS = [[1.0 + 2 * i, 3.0 + 4 * (i % 2), 4.0] for i in range(20)] + \
 INTENSITIES = [100.0 + 10 * k for k in range(40)]
 
 
-def hall(*, columns=False):
+def hall(*, columns=False, extent=None):
     surfaces = [{"type": "polygon", "material": "grey",
                  "vertices": [[0, 0, 0], [40, 0, 0], [40, 10, 0], [0, 10, 0]]}]
     if columns:  # 1 m square columns that shadow parts of the floor
         surfaces += [{"type": "box", "material": "grey", "min": [4.0 * k + 2.5, 4.5, 0],
                       "max": [4.0 * k + 3.5, 5.5, 3.5]} for k in range(9)]
-    luminaires = [{"type": "point", "position": p, "intensity": i}
+    luminaires = [{"type": "point", "position": p, "intensity": i,
+                   **({"extent": extent} if extent else {})}
                   for p, i in zip(POSITIONS, INTENSITIES, strict=True)]
     return scene_from_dict({"materials": {"grey": {"reflectance": 0.5}}, "surfaces": surfaces,
                             "luminaires": luminaires})
@@ -94,6 +95,28 @@ def test_area_luminaires_sampled_are_exact_unoccluded():
     assert np.allclose(e, expected, rtol=1e-9)  # rounding only (see the first test)
     u, exact = unoccluded_illuminance(scene, pts, nrm)
     assert exact.all() and np.allclose(u.sum(axis=1), expected, rtol=1e-12)
+
+
+def test_sampled_luminaires_do_not_depend_on_chunking():
+    # Each block of points draws from its own stream: the points in one call or block by block
+    # give the same values, bit for bit (renders promise results independent of chunk size).
+    # Block 0 lies between the rows (no luminaire dominates), block 1 right under luminaires
+    # (one is taken whole besides the draws), so the blocks evaluate different numbers of
+    # luminaires per point; luminous rectangles make each estimate use its uniforms.
+    scene = hall(columns=True, extent=[0.6, 0.6])
+    engine = engine_for(scene)
+    between, nrm = floor_points(32, seed=2)
+    between[:, 1] = 5.0
+    under = np.asarray(POSITIONS[:32]) * [1.0, 1.0, 0.0]
+    pts, nrm = np.vstack([between, under]), np.vstack([nrm, nrm])
+    blocks = np.arange(64) // 32
+    whole = direct_illuminance(scene, engine, pts, nrm, luminaires=4, seed=5, block_ids=blocks)
+    for j in range(2):
+        m = blocks == j
+        part = direct_illuminance(scene, engine, pts[m], nrm[m], luminaires=4, seed=5,
+                                  block_ids=blocks[m])
+        np.testing.assert_array_equal(part[0], whole[0][m])
+        np.testing.assert_array_equal(part[1], whole[1][m])
 
 
 def test_luminaire_draws_are_checked():

@@ -450,9 +450,13 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     weight, counts, prob = _luminaire_weights(guide, exact, draws, picks)
     used = weight > 0
     slot = np.cumsum(used, axis=1) - 1
-    u = np.empty((P, int(used.sum(axis=1).max(initial=0)), s, 3))
+    n_used = used.sum(axis=1)
+    u = np.empty((P, int(n_used.max(initial=0)), s, 3))
     for m, g in slots:
-        u[m] = g.random((m.size, *u.shape[1:]))
+        # as many slots as the block's own points use, so a block's draws do not depend on
+        # which other blocks share the call (chunking)
+        k = int(n_used[m].max(initial=0))
+        u[m, :k] = g.random((m.size, k, s, 3))
     sum_v = np.zeros(P)   # Σ over draws of Ê/p (for the draws' spread)
     sum_v2 = np.zeros(P)
     for li, (lum, estimate) in enumerate(lums):
