@@ -106,7 +106,9 @@ def warn_odd_view(scene, engine, prim, dist, lum_b, position, *, stacklevel=3):
 
     An eye within a few ray offsets of a surface (in the plane of a wall) makes the rays
     that start there ambiguous in float32; an eye outside a closed room or inside a solid
-    sees only surfaces that no light reaches, so the whole view is black.
+    sees only surfaces that no light reaches, so the whole view is black. ``stacklevel``
+    is :func:`warnings.warn`'s as seen from this function (3: the caller of the estimator
+    that calls it).
     """
     hit = prim >= 0
     close = hit & (dist < _ON_SURFACE_OFFSETS * engine.epsilon)
