@@ -157,10 +157,11 @@ class Material:
             raise BadInputError(f"{where}: colour must be 3 numbers, got {colour!r}") from None
         if len(c) != 3 or not all(math.isfinite(v) for v in c):
             raise BadInputError(f"{where}: colour must be 3 finite numbers, got {colour!r}")
-        top = 1.0 if kind in ("glass", "mirror") else 1.0 - 1e-12
-        if min(c) < 0 or max(c) > top:
-            rng = "[0, 1]" if kind in ("glass", "mirror") else "[0, 1)"
-            raise BadInputError(f"{where}: colour components must be in {rng}, got {c}")
+        if min(c) < 0:
+            raise BadInputError(f"{where}: negative colour ({' '.join(f'{v:g}' for v in c)})")
+        if kind in ("glass", "mirror") and max(c) > 1:
+            raise BadInputError(f"{where}: colour components must be in [0, 1], got "
+                                f"{' '.join(f'{v:g}' for v in c)}")
         for name, value in (("specularity", specularity), ("transmissivity", transmissivity),
                             ("transmitted specularity", transmitted_specularity)):
             if not 0 <= value <= 1:
@@ -174,7 +175,8 @@ class Material:
         if kind in ("lambertian", "plastic", "metal", "trans"):
             y = luminance_of(c)
             if not y < 1:
-                raise BadInputError(f"{where}: reflectance {y:g} (luminance of {c}) must be below 1")
+                raise BadInputError(f"{where}: reflectance {y:g} (of {' '.join(f'{v:g}' for v in c)}) "
+                                    "not in [0, 1)")
             if kind in ("plastic", "metal") and specularity >= 1 and roughness > 0:
                 raise BadInputError(f"{where}: specularity 1 leaves no diffuse part; use metal of "
                                     "colour < 1 or a mirror")
