@@ -111,8 +111,8 @@ def glass_transmissivity(transmittance):
 
     Examples
     --------
-    >>> round(glass_transmissivity(0.88), 4)   # Radiance: "standard 88 % glass is 0.96"
-    0.9596
+    >>> round(glass_transmissivity(0.88), 2)   # Radiance: "standard 88 % glass is 0.96"
+    0.96
     """
     tn = float(transmittance)
     if not 0 < tn < 1:
@@ -243,13 +243,15 @@ class MaterialTable:
 
     # --- the components at ω_o ------------------------------------------------------------
 
-    def parts(self, m, mu_o):
+    def parts(self, m, mu_o, front=None):
         """Component coefficients at μ_o = n·ω_o, each shape (k,) [–].
 
         ``kd``, ``td``: diffuse reflection and transmission (f = kd·g(μ_i)/π with
         g = 1 − F(μ_i) where ``fresnel`` else 1); ``rs``, ``ts``: glossy reflection and
         transmission lobes (α > 0); ``R``, ``T``: delta reflection and straight-through
-        transmission; ``fresnel`` (bool).
+        transmission; ``fresnel`` (bool). ``front`` (bool per point, default all True): whether
+        ω_o lies on the surface's front side; a mirror's back is black, as in Radiance's
+        ``m_mirror.c`` (every other type scatters alike from both sides).
         """
         m = np.asarray(m)
         mu_o = np.clip(np.asarray(mu_o, float), 0.0, 1.0)
@@ -284,6 +286,8 @@ class MaterialTable:
         if gl.any():
             R[gl], T[gl] = self._glass(m[gl], mu_o[gl])
         mi = code == _CODE["mirror"]
+        if front is not None:
+            mi &= np.asarray(front, bool)
         R[mi] = self.y[m[mi]]
         return {"kd": kd, "td": td, "rs": rs, "ts": ts, "R": R, "T": T, "fresnel": self.fresnel[m]}
 
@@ -301,9 +305,9 @@ class MaterialTable:
         w = np.asarray(RADIANCE_RGB_LUMINANCE_WEIGHTS)
         return refl @ w, trans @ w
 
-    def delta(self, m, mu_o):
+    def delta(self, m, mu_o, front=None):
         """Delta reflectance R and straight-through transmittance T at μ_o [–]."""
-        p = self.parts(m, mu_o)
+        p = self.parts(m, mu_o, front)
         return p["R"], p["T"]
 
     # --- evaluation -----------------------------------------------------------------------
@@ -366,10 +370,11 @@ class MaterialTable:
             out[t, 3] = np.where(ok, np.exp(-tan2 / a2[t]) / (math.pi * a2[t] * cbp ** 3), 0.0)
         return out
 
-    def sample(self, m, n, wo, u):
+    def sample(self, m, n, wo, u, front=None):
         """Sample ω_i for points with materials ``m``, normals ``n``, directions ``wo``.
 
-        ``u``: uniforms (k, 3). One component is chosen with probability proportional to
+        ``u``: uniforms (k, 3) (the third is left to the caller); ``front`` as in
+        :meth:`parts`. One component is chosen with probability proportional to
         its coefficient (kd, td, rs, ts, R, T at μ_o); non-delta directions get the
         one-sample balance-heuristic weight f·|μ_i|/Σ_c P_c p_c(ω_i), deltas R/P_R or
         T/P_T. Returns ``(wi, weight, is_delta, albedo)``, ``albedo`` = Σ of the
@@ -379,7 +384,7 @@ class MaterialTable:
         m = np.asarray(m)
         k = m.size
         mu_o = np.clip(_dot(n, wo), 1e-3, 1.0)
-        p = self.parts(m, mu_o)
+        p = self.parts(m, mu_o, front)
         coef = np.stack([p["kd"], p["td"], p["rs"], p["ts"], p["R"], p["T"]], axis=1)
         total = coef.sum(axis=1)
         safe = np.where(total > 0, total, 1.0)
