@@ -235,7 +235,13 @@ def _room(variant):
                 "void mirror mir 0 0 3 0.9 0.9 0.9\n"
                 "mir polygon m2 0 0 12 3.2 0.01 0.3  3.2 0.01 2.5  5 0.01 2.5  5 0.01 0.3\n"), \
             (3.0, 3.5, 1.4), (0.0, -1.0, -0.1)
-    return (room + "void glass gl 0 0 3 0.96 0.96 0.96\n"
+    # Radiance's ambient rays ignore light sources and glass relays none (only mirrors have
+    # virtual sources), so the luminaires' reflections in the pane would be missing from its
+    # reference: the room is lit by a luminous ceiling of glow (radius 0), which Radiance's
+    # rays see like any surface, with no source sampling to skip
+    room = "\n".join(line for line in room.splitlines() if "panel" not in line and "ceiling polygon" not in line)
+    return (room + "\nvoid glow lum 0 0 4 1 1 1 0\nlum polygon c 0 0 12 0 0 3  0 4 3  6 4 3  6 0 3\n"
+            "void glass gl 0 0 3 0.96 0.96 0.96\n"
             "gl polygon g1 0 0 12 3 0 0  3 4 0  3 4 3  3 0 3\n"), (1.0, 2.0, 1.5), (1.0, 0.3, -0.3)
 
 
