@@ -312,14 +312,16 @@ class MaterialTable:
 
     # --- evaluation -----------------------------------------------------------------------
 
-    def evaluate(self, m, n, wo, wi, parts=None):
-        """Non-delta BSDF value f(ω_i, ω_o) [sr⁻¹] (diffuse and glossy components)."""
+    def evaluate(self, m, n, wo, wi, parts=None, split=False):
+        """Non-delta BSDF value f(ω_i, ω_o) [sr⁻¹] (diffuse and glossy components), or with
+        ``split`` the pair (diffuse, glossy)."""
         mu_o = np.clip(_dot(n, wo), 1e-3, 1.0)
         mu_i = _dot(n, wi)
         p = self.parts(m, mu_o) if parts is None else parts
         g = np.where(p["fresnel"], 1 - fresnel_estimate(np.abs(mu_i)), 1.0)
         refl = mu_i > 0
         f = np.where(refl, p["kd"], p["td"]) * g / math.pi
+        diffuse = f.copy() if split else None
         a2 = self.alpha2[np.asarray(m)]
         glossy_r = refl & (p["rs"] > 0)
         if glossy_r.any():
@@ -337,7 +339,7 @@ class MaterialTable:
             a = a2[glossy_t]
             f[glossy_t] += (p["ts"][glossy_t] * np.exp(-2 * (1 - cb) / a) / (math.pi * a)
                             / np.sqrt(-mu_i[glossy_t] * mu_o[glossy_t]))
-        return f
+        return (diffuse, f - diffuse) if split else f
 
     # --- sampling -------------------------------------------------------------------------
 
@@ -424,6 +426,16 @@ class MaterialTable:
             weight[idx] = np.where(pdf > 0, f * mu_i / np.maximum(pdf, 1e-300), 0.0)
         weight[is_delta & (total > 0)] = total[is_delta & (total > 0)]
         return wi, weight, is_delta, total
+
+    def pdf(self, m, n, wo, wi, front=None):
+        """Density [sr⁻¹] with which :meth:`sample` picks the non-delta direction ``wi``
+        (the mixture Σ_c P_c p_c over the non-delta components)."""
+        m = np.asarray(m)
+        p = self.parts(m, np.clip(_dot(n, wo), 1e-3, 1.0), front)
+        coef = np.stack([p["kd"], p["td"], p["rs"], p["ts"], p["R"], p["T"]], axis=1)
+        total = coef.sum(axis=1)
+        dens = (self._pdfs(m, n, wo, wi, p) * coef[:, :4]).sum(axis=1)
+        return np.where(total > 0, dens / np.where(total > 0, total, 1.0), 0.0)
 
     @staticmethod
     def _sample_about(axis, a2, u):
