@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from lsadphoto.errors import BadInputError
-from lsadphoto.solver import read_radiance_scene, render_path_traced, simulate
+from lsadphoto.solver import read_radiance_scene, render, render_path_traced, simulate
 from lsadphoto.solver.examples import canonical_room_rad
 from lsadphoto.solver.materials import (Material, MaterialTable, glass_transmissivity,
                                         luminance_of)
@@ -131,7 +131,7 @@ def test_toml_materials_and_their_errors():
                                                           "colour": [0.5, 0.5, 0.5]}}})
     with pytest.raises(BadInputError, match=r"materials.floor: glass transmittance must be in \(0, 1\)"):
         scene_from_dict({**base, "materials": {"floor": {"type": "glass", "transmittance": 1.2}}})
-    with pytest.raises(BadInputError, match=r"light chains .* use lsadphoto.solver.render_path_traced"):
+    with pytest.raises(BadInputError, match=r"a stored simulation .* use lsadphoto.solver.render with the scene"):
         simulate(glossy, samples=256)
 
 
@@ -246,8 +246,9 @@ def _room(variant):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("estimator", ["path tracer", "local estimate"])
 @pytest.mark.parametrize("variant", ["glossy floor", "metal and mirror", "glass partition"])
-def test_path_tracer_matches_rtrace_in_rooms_with_materials(tmp_path, variant):
+def test_estimators_match_rtrace_in_rooms_with_materials(tmp_path, variant, estimator):
     from lsadphoto.geometry.pinhole import PinholeProjection
     from lsadphoto.solver.engine import engine_for
     from lsadphoto.solver.integrators.eye import primary_rays
@@ -259,7 +260,10 @@ def test_path_tracer_matches_rtrace_in_rooms_with_materials(tmp_path, variant):
     focal = size / (2 * math.tan(math.radians(35)))
     proj = PinholeProjection(fx=focal, fy=focal, cx=(size - 1) / 2, cy=(size - 1) / 2, width=size, height=size)
     pos, rot = np.asarray(eye, float), camera_to_world(sight)
-    lmap = render_path_traced(scene, proj, position=pos, rotation=rot, samples=2048, batches=16, seed=1)
+    if estimator == "path tracer":
+        lmap = render_path_traced(scene, proj, position=pos, rotation=rot, samples=2048, batches=16, seed=1)
+    else:
+        lmap = render(scene, proj, position=pos, rotation=rot, samples=65536, nodes_per_pixel=128, seed=1)
     valid, _, _, d = primary_rays(scene, engine_for(scene), proj, pos, rot)
     pick = np.random.default_rng(0).choice(len(valid), 80, replace=False)
     rays = [(pos, v) for v in d[pick]]

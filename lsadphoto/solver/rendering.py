@@ -14,10 +14,11 @@ import math
 import warnings
 
 from ..errors import BadInputError, SolverWarning
-from .integrators.local_estimate import render_local_estimate
+from .integrators.local_estimate import (AUTO_NODES_PER_PIXEL, render_local_estimate,
+                                         render_local_estimate_materials)
 from .integrators.path_tracer import render_path_traced
 from .scene import Scene
-from .simulation import simulate
+from .simulation import DEFAULT_CHAINS, simulate
 from .store import LsadStore
 
 __all__ = ["ESTIMATORS", "FIRST_RENDER_CHAINS", "MAX_RENDER_CHAINS", "MIN_PIXEL_TARGET_ERROR",
@@ -136,6 +137,16 @@ def render(store_or_scene, projection, *, position, rotation, samples=None, targ
         return render_local_estimate(store_or_scene, projection, progress=progress, **options)
     if not isinstance(store_or_scene, Scene):
         raise BadInputError("render needs an LsadStore or a Scene")
+    if not store_or_scene.lambertian:
+        # glossy, specular, transmitting materials: chains and view in one go (no store)
+        if target_error is not None or near_field == "clamp":
+            raise BadInputError("scenes with non-Lambertian materials render with samples and the "
+                                "unbiased near field only (no target_error, no near_field='clamp')")
+        k = AUTO_NODES_PER_PIXEL if nodes_per_pixel in ("auto", None) else nodes_per_pixel
+        return render_local_estimate_materials(
+            store_or_scene, projection, position=position, rotation=rotation,
+            samples=DEFAULT_CHAINS if samples is None else samples, seed=seed, nodes_per_pixel=k,
+            near_distance=near_distance, chunk_pixels=chunk_pixels, workers=workers, progress=progress)
     if target_error is None:
         store = simulate(store_or_scene, samples=samples, seed=seed,
                          near_field=near_field or "unbiased")

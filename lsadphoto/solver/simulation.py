@@ -109,8 +109,9 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
     """
     if not isinstance(scene, Scene):
         raise BadInputError("simulate needs a Scene (see load_scene)")
-    scene.require_lambertian("the light chains (simulate, and render and the surface cache through it)",
-                             "lsadphoto.solver.render_path_traced")
+    scene.require_lambertian("a stored simulation (simulate, and the surface cache through it)",
+                             "lsadphoto.solver.render with the scene (its double local estimate with "
+                             "materials) or render_path_traced")
     check_choice(near_field, "near_field", NEAR_FIELD_TREATMENTS)
     check_choice(absorption, "absorption", ABSORPTION_MODES)
     batches = int(batches)

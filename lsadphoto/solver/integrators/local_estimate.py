@@ -508,30 +508,41 @@ def _material_paths(scene, engine, gatherer, rng, x, n, front, tri, wo, batch, n
 
 
 def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_distance):
-    """What the connections leave out, by BSDF-sampled rays: at each vertex one ray drawn
-    from the BSDF mixture with weight h·|μ_i|/p, h = f_glossy + f_diffuse·[hit closer than ε]
-    (plus, below the first vertex, the delta parts R/P_R, T/P_T, which at the first vertex
-    the eye path follows itself); the hit adds its emission and connections and scatters
-    again, with Russian roulette min(1, weight) after the first ray."""
+    """What the connections leave out, by BSDF-sampled rays.
+
+    At each vertex one ray is drawn from the BSDF mixture (weight w = f·|μ_i|/p, or R/P_R,
+    T/P_T for a delta; at the first vertex the eye path follows the deltas itself). A path
+    carries two weights: β for the radiance that the previous vertex's connections did not
+    cover (h = f_glossy + f_diffuse·[hit closer than ε], and for emission the
+    balance-heuristic complement), and β_f for radiance reflected by a delta at the hit,
+    which no connection reaches (the full w). A delta reflection turns β_f into the weight
+    of everything beyond it; a straight-through transmission keeps both (connections pass
+    it). Russian roulette min(1, w) after the first ray.
+    """
     bsdf = scene.bsdf
     eps = engine.epsilon
     total = np.zeros(len(x))
     idx = np.arange(len(x))
     beta = np.ones(len(x))
+    beta_f = np.ones(len(x))
     first = True
     while idx.size:
         u = rng.random((idx.size, 4))
         wi, w, delta, _ = bsdf.sample(mat, n, wo, u[:, :3], front)
         keep = (w > 0) & ~(delta & first)
-        idx, beta, x, n, wi, w, delta, wo, mat, u = (idx[keep], beta[keep], x[keep], n[keep], wi[keep],
-                                                     w[keep], delta[keep], wo[keep], mat[keep], u[keep])
+        idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u = (
+            idx[keep], beta[keep], beta_f[keep], x[keep], n[keep], wi[keep], w[keep], delta[keep], wo[keep],
+            mat[keep], u[keep])
         front = np.asarray(front)[keep]
         if not idx.size:
             break
         side = np.sign(np.einsum("ij,ij->i", wi, n))[:, None]
         prim, dist = engine.closest_hit(x + eps * side * n, wi)
-        h = w.copy()           # weight of what the hit reflects
-        h_e = w.copy()         # weight of the hit's emission
+        reflected = delta & (side[:, 0] > 0)
+        # weights of the hit's reflected radiance (b), delta radiance (bf) and emission (be)
+        b = np.where(reflected, beta_f, beta) * w
+        bf = np.where(delta, beta_f, beta) * w
+        be = b.copy()
         nd = np.flatnonzero(~delta & (prim >= 0))
         if nd.size:
             f_d, f_g = bsdf.evaluate(mat[nd], n[nd], wo[nd], wi[nd], split=True)
@@ -539,20 +550,20 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
             mu = np.abs(np.einsum("ij,ij->i", n[nd], wi[nd]))
             near = dist[nd] < near_distance
             scale = np.where(pdf > 0, mu / np.maximum(pdf, 1e-300), 0.0)
-            h[nd] = (f_g + f_d * near) * scale
+            b[nd] = beta[nd] * (f_g + f_d * near) * scale
             lit = scene.emitter[prim[nd]] >= 0
             w_b = np.ones(nd.size)
             if lit.any():
                 cos_y = np.abs(np.einsum("ij,ij->i", scene.normals[prim[nd][lit]], wi[nd][lit]))
                 w_b[lit] = 1 - gatherer.light_weight(batch, prim[nd][lit], dist[nd][lit] ** 2, cos_y, pdf[lit])
-            h_e[nd] = np.where(near, f_d + f_g, f_g * w_b) * scale
+            be[nd] = beta[nd] * np.where(near, f_d + f_g, f_g * w_b) * scale
         hit = prim >= 0
         if hit.any():
-            total[idx[hit]] += beta[hit] * h_e[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
-        q = np.ones(idx.size) if first else np.minimum(h, 1.0)
-        go = hit & (h > 0) & (u[:, 3] < q)
-        idx, beta, x, n, wi, side, prim, dist = (idx[go], beta[go] * h[go] / q[go], x[go], n[go], wi[go],
-                                                 side[go], prim[go], dist[go])
+            total[idx[hit]] += be[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
+        q = np.ones(idx.size) if first else np.minimum(w, 1.0)
+        go = hit & ((b > 0) | (bf > 0)) & (u[:, 3] < q)
+        idx, beta, beta_f, x, n, wi, side, prim, dist = (
+            idx[go], b[go] / q[go], bf[go] / q[go], x[go], n[go], wi[go], side[go], prim[go], dist[go])
         if not idx.size:
             break
         x = x + eps * side * n + dist[:, None] * wi
@@ -576,10 +587,9 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
     non-delta BSDF is evaluated towards the eye and connected to ``nodes_per_pixel`` chain
     nodes (:class:`_MaterialGatherer`), with the near field (nodes closer than
     ``near_distance``, default 1 % of the scene size) replaced by BSDF-sampled rays.
-    Unbiased except for what a connection cannot reach: light that arrives at a
-    non-specular point *after a delta reflection* (a floor lit by a mirror or by the
-    reflection of a luminaire in glass) is missing — use :func:`render_path_traced` for it.
-    Connections pass straight-through transmitters (glass) with their transmittance.
+    Connections pass straight-through transmitters (glass) with their transmittance; light
+    that reaches a non-specular point after a delta reflection (a floor lit by a mirror, by
+    the reflection of a luminaire in glass) comes from the sampled rays (:func:`_scattered`).
 
     References
     ----------
@@ -630,5 +640,5 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
                "nodes": int(nodes["position"].shape[0]), "near_field": "unbiased",
                "near_distance_m": near_distance, "near_field_biased": False,
                "nodes_per_pixel": int(nodes_per_pixel), "seed": int(seed),
-               "missing": "light reaching non-specular points after a delta reflection"},
+               },
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
