@@ -21,7 +21,7 @@ What is read, as Radiance reads it:
   ``source.cal`` (``flatcorr``, ``corr``, ``boxcorr``, ``cylcorr`` over ``src_theta``,
   ``src_phi``, ``src_phi2``, ``src_phi4``) becomes one luminaire with a luminous intensity
   distribution (:class:`~lsadphoto.solver.PointLuminaire` with an
-  :class:`~lsadphoto.solver.IntensityTable`): its intensity is Radiance's emitted radiance
+  :class:`~lsadphoto.solver.Photometry`): its intensity is Radiance's emitted radiance
   times the emitting surfaces' projected area, I(ω) = 179·Y(rgb)·b(ω)·A⊥(ω), where b is the
   ``.dat`` table interpolated as Radiance's ``datavalue`` does (linear, one division of linear
   extrapolation, then a harmonic taper to zero), so for ies2rad's geometry I(ω) is the IES
@@ -70,7 +70,7 @@ import numpy as np
 from ...constants import RADIANCE_RGB_LUMINANCE_WEIGHTS, RADIANCE_WHITE_EFFICACY
 from ...errors import BadInputError
 from ...io.hdr import parse_view
-from ..intensity import IntensityTable, luminaire_frame
+from ..photometry import Photometry, luminaire_frame
 from ..scene import AreaLuminaire, PointLuminaire, Scene, as_views, polygon_triangles
 from .shapes import DEFAULT_TESSELLATION_ERROR, annulus_triangles, cone_triangles, sphere_triangles
 from .xform import TRANSFORM_WORDS, Transform, parse_transform
@@ -756,17 +756,19 @@ class _Reader:
                 out[k:k + 2048] = weights @ luminance + spheres
             return out.reshape(world.shape[:-1])
 
-        gamma = np.radians(_angle_grid(180.0, 1.0, [table.axes[k] for k, n in enumerate(coords)
-                                                    if n == "src_theta"], (90.0,)))
+        gamma = _angle_grid(180.0, 1.0, [table.axes[k] for k, n in enumerate(coords)
+                                         if n == "src_theta"], (90.0,))
         phi_axes = [_phi_nodes(table.axes[k], n) for k, n in enumerate(coords) if n != "src_theta"]
         if xf.mirrored:
             phi_axes = [np.mod(360.0 - p, 360.0) for p in phi_axes]
-        c = np.radians(_angle_grid(360.0, 5.0, phi_axes, ()))
-        cc, gg = np.meshgrid(c, gamma, indexing="ij")
+        c = _angle_grid(360.0, 5.0, phi_axes, ())
+        cc, gg = np.meshgrid(np.radians(c), np.radians(gamma), indexing="ij")
         values = intensity(cc, gg)
         values[-1] = values[0]
         try:
-            itable = IntensityTable(c, gamma, values)
+            photometry = Photometry(c, gamma, values, source=where, format="Radiance brightdata")
+            if not photometry.luminous_flux > 0:
+                raise BadInputError("its intensity distribution emits no flux")
         except BadInputError as exc:
             raise BadInputError(f"{where}: {exc}") from None
         centroid = (tris.mean(axis=1) * _areas(tris)[:, None]).sum(axis=0) / _areas(tris).sum()
@@ -780,7 +782,7 @@ class _Reader:
             scale = math.sqrt(down / (length * width))
             length, width = length * scale, width * scale
         name = parts[0][3].rsplit(".", 1)[0] if len(parts) > 1 else parts[0][3]
-        return PointLuminaire(name, centroid, itable, frame, (length, width), 1.0)
+        return PointLuminaire(name, centroid, photometry, frame, (length, width), 1.0)
 
 
 def _is_number(word):
