@@ -15,7 +15,8 @@ What is read, as Radiance reads it:
   (reflectance ρ = 0.265074 R + 0.670115 G + 0.064811 B, :func:`radiance_luminance`), ``trans``
   of specularity 0 and transmissivity 0, ``light`` (a Lambertian emitter of luminance
   179 lm/W × the same weights, front side only, not reflecting), ``glow`` whose radius of
-  influence is 0 (it then lights everything, like a ``light``). Anything else is refused
+  influence is 0 (it then lights everything, like a ``light``), ``illum`` as its alternate
+  material (or left out without one: see :meth:`_Reader.place_illum`). Anything else is refused
   when a surface uses it, in one line naming file, line, modifier and parameter.
 - **Luminaires from ies2rad**: a ``light`` modified by a ``brightdata`` of Radiance's
   ``source.cal`` (``flatcorr``, ``corr``, ``boxcorr``, ``cylcorr`` over ``src_theta``,
@@ -436,6 +437,9 @@ class _Reader:
         """Add a surface's triangles with the material (or emission) its modifier gives."""
         what = f"{ptype} {ident!r}"
         material, patterns = self.material_of(self.resolve(modifier, where, what), where, what)
+        if material.kind == "illum":
+            self.place_illum(material, ident, ptype, reals, tris, where, transform)
+            return
         if material.kind in ("light", "glow"):
             luminance = material.emitted_luminance()
             if material.kind == "glow" and material.reals[3] != 0:
@@ -558,6 +562,25 @@ class _Reader:
                                   inward=ptype in ("cup", "tube"), tessellation_error=eps)
         except BadInputError as exc:
             raise BadInputError(f"{name}: {exc}") from None
+
+    def place_illum(self, illum, ident, ptype, reals, tris, where, transform):
+        """An ``illum`` surface (mkillum's secondary light source) as the solver needs it.
+
+        Radiance uses an illum as a light source for shadow rays only; every other ray sees its
+        alternate material (its first string argument), or nothing when that is absent or
+        ``void`` (refman, "illum"). The solver traces the light that an illum stands for through
+        the scene itself (full interreflection), so it takes the surface as its alternate
+        material — or leaves it out — and not the illum's precomputed distribution, which would
+        count that light twice.
+        """
+        alternate = illum.strings[0] if illum.strings else "void"
+        if alternate == "void":
+            return
+        record = self.resolve(alternate, where, f"alternate material of illum {illum.name!r}")
+        if record is not None and record.kind == "illum":
+            raise BadInputError(f"{where}: illum {illum.name!r} ({illum.where}) has another illum "
+                                f"({alternate!r}) as its alternate material")
+        self.place(alternate, ident, ptype, reals, tris, where, transform)
 
     def patterned_emitter(self, light, patterns, tris, disc, ident, where, what):
         pattern = patterns[0]
