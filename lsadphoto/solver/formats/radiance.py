@@ -16,7 +16,8 @@ What is read, as Radiance reads it:
   of specularity 0 and transmissivity 0, ``light`` (a Lambertian emitter of luminance
   179 lm/W × the same weights, front side only, not reflecting), ``glow`` whose radius of
   influence is 0 (it then lights everything, like a ``light``), ``illum`` as its alternate
-  material (or left out without one: see :meth:`_Reader.place_illum`). Anything else is refused
+  material (or left out without one: see :meth:`_Reader.place_illum`), ``spotlight`` as a
+  luminaire emitting within its cone (:meth:`_Reader.spotlight`). Anything else is refused
   when a surface uses it, in one line naming file, line, modifier and parameter.
 - **Luminaires from ies2rad**: a ``light`` modified by a ``brightdata`` of Radiance's
   ``source.cal`` (``flatcorr``, ``corr``, ``boxcorr``, ``cylcorr`` over ``src_theta``,
@@ -63,13 +64,14 @@ import os
 import shlex
 import subprocess
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ...constants import RADIANCE_RGB_LUMINANCE_WEIGHTS, RADIANCE_WHITE_EFFICACY
-from ...errors import BadInputError
+from ...errors import BadInputError, SolverWarning
 from ...io.hdr import parse_view
 from ..photometry import Photometry, luminaire_frame
 from ..scene import AreaLuminaire, PointLuminaire, Scene, as_views, polygon_triangles
@@ -97,6 +99,9 @@ _PATTERNS = {"brightfunc", "brightdata", "brighttext", "colorfunc", "colordata",
 #: Number of real arguments of the materials read here.
 _REALS = {"plastic": 5, "metal": 5, "trans": 7, "light": 3, "glow": 4, "spotlight": 7, "mirror": 3,
           "glass": (3, 4), "illum": 3}
+#: Focal length [m] of a ``spotlight`` (its aim vector's length) up to which the solver emits
+#: from the surface itself: Radiance's falloff (d/(d + f))² then stays above 0.99 beyond 0.2 m.
+SPOT_FOCUS_NEGLIGIBLE = 1e-3
 _SOURCE_COORDINATES = ("src_theta", "src_phi", "src_phi2", "src_phi4")
 _SOURCE_CORRECTIONS = {"flatcorr": (0, 1), "corr": (0, 1), "boxcorr": (4, 4), "cylcorr": (3, 3)}
 _MAX_DEPTH = 16
@@ -321,7 +326,7 @@ class _Reader:
         self.triangles, self.material, self.emitter = [], [], []
         self.count = 0  # triangles so far
         self.names, self.rho, self.index = [], [], {}
-        self.area_luminaires, self.luminaire_parts = [], {}
+        self.area_luminaires, self.luminaire_parts, self.spot_parts = [], {}, {}
         self.folder_of = {}  # definition -> folder of the file that defined it
 
     # the scene's materials (reflectance) by record
@@ -439,6 +444,15 @@ class _Reader:
         material, patterns = self.material_of(self.resolve(modifier, where, what), where, what)
         if material.kind == "illum":
             self.place_illum(material, ident, ptype, reals, tris, where, transform)
+            return
+        if material.kind == "spotlight":
+            if patterns:
+                raise BadInputError(f"{where}: {what}: {material.describe()} is modified by "
+                                    f"{patterns[0].describe()}: patterns on a spotlight are not supported")
+            if len(material.reals) != 7:
+                raise BadInputError(f"{where}: {what}: {material.describe()} needs 7 real arguments "
+                                    f"(r g b angle xdir ydir zdir), got {len(material.reals)}")
+            self.spot_parts.setdefault(material, []).append((tris, ident))
             return
         if material.kind in ("light", "glow"):
             luminance = material.emitted_luminance()
@@ -697,7 +711,7 @@ class _Reader:
 
     def scene(self, name, views):
         """The :class:`Scene` of everything read."""
-        points = self.luminaires()
+        points = self.luminaires() + self.spotlights()
         if not self.triangles:
             raise BadInputError(f"{name}: the scene has no surfaces")
         if not self.area_luminaires and not points:
@@ -785,27 +799,90 @@ class _Reader:
         if xf.mirrored:
             phi_axes = [np.mod(360.0 - p, 360.0) for p in phi_axes]
         c = _angle_grid(360.0, 5.0, phi_axes, ())
-        cc, gg = np.meshgrid(np.radians(c), np.radians(gamma), indexing="ij")
-        values = intensity(cc, gg)
-        values[-1] = values[0]
-        try:
-            photometry = Photometry(c, gamma, values, source=where, format="Radiance brightdata")
-            if not photometry.luminous_flux > 0:
-                raise BadInputError("its intensity distribution emits no flux")
-        except BadInputError as exc:
-            raise BadInputError(f"{where}: {exc}") from None
-        centroid = (tris.mean(axis=1) * _areas(tris)[:, None]).sum(axis=0) / _areas(tris).sum()
-        pts = tris.reshape(-1, 3) - centroid
-        u, v = pts @ frame[0], pts @ frame[1]
-        length, width = float(np.ptp(u)), float(np.ptp(v))
-        # projected area towards the nadir
-        down = float(np.maximum(0.0, normals @ frame[2]).sum() * 0.5) + sum(
-            disc for _, _, disc, _ in parts if disc is not None)
-        if down > 0 and length * width > 0:  # a rectangle of the projected area towards the nadir
-            scale = math.sqrt(down / (length * width))
-            length, width = length * scale, width * scale
         name = parts[0][3].rsplit(".", 1)[0] if len(parts) > 1 else parts[0][3]
-        return PointLuminaire(name, centroid, photometry, frame, (length, width), 1.0)
+        discs = sum(disc for _, _, disc, _ in parts if disc is not None)
+        return _tabulated_luminaire(name, tris, normals, discs, frame, intensity, c, gamma, where,
+                                    "Radiance brightdata")
+
+    def spotlights(self):
+        """One luminaire per ``spotlight`` material: its surfaces' emission inside its cone."""
+        return [self.spotlight(record, parts) for record, parts in self.spot_parts.items()]
+
+    def spotlight(self, record, parts):
+        """A ``spotlight``'s surfaces as one luminaire (refman, "spotlight"; Radiance
+        ``srcsupp.c`` ``makespot``, ``source.c`` ``spotout`` and ``srcray``).
+
+        Radiance: the radiance of a ``light`` (179 lm/W × Y of its RGB, front side only) in the
+        directions within half the cone angle of the aim vector, none outside; the aim vector
+        turns with the surfaces (xform), and its length f is the distance of the "effective
+        focus" behind the source: Radiance's direct calculation scales each source sample's
+        solid angle by (d/(d + f))², as if the light came from a point f further away. The
+        solver emits I(ω) = L·Σ A_t·max(0, n_t·ω) inside the cone — from the surfaces
+        themselves (a visible opening) when f ≤ :data:`SPOT_FOCUS_NEGLIGIBLE`, otherwise from the
+        focus point, which reproduces that falloff (exactly on the axis; off the axis
+        Radiance's d + f is the distance along the ray, ours the distance from the focus) and
+        does not appear in renders (a :class:`SolverWarning` says so)."""
+        where = f"{record.where}: spotlight {record.name!r}"
+        angle = float(record.reals[3])
+        if not 0 < angle <= 360:
+            raise BadInputError(f"{where}: cone angle {angle:g}° must be in (0, 360]")
+        aim = record.transform.vector(np.asarray(record.reals[4:7], float))
+        focus = float(np.linalg.norm(aim))
+        if not focus > 0:
+            raise BadInputError(f"{where}: zero aim (focus) vector")
+        aim = aim / focus
+        tris = np.concatenate([t for t, _ in parts])
+        normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])  # 2·area·n
+        luminance = record.emitted_luminance()
+        cos_half = math.cos(math.radians(angle / 2))
+        helper = np.eye(3)[int(np.argmin(np.abs(aim)))]
+        frame = luminaire_frame(aim, helper - (helper @ aim) * aim)
+
+        def intensity(c, gamma):
+            local = np.stack([np.sin(gamma) * np.cos(c), np.sin(gamma) * np.sin(c), np.cos(gamma)], axis=-1)
+            world = (local @ frame).reshape(-1, 3)
+            projected = np.maximum(world @ normals.T * 0.5, 0.0).sum(axis=1)
+            inside = world @ aim >= cos_half - 1e-12
+            return (luminance * projected * inside).reshape(np.shape(c))
+
+        gamma = _angle_grid(180.0, 1.0, (), (angle / 2,) if angle < 360 else ())
+        c = _angle_grid(360.0, 5.0, (), ())
+        name = parts[0][1].rsplit(".", 1)[0] if len(parts) > 1 else parts[0][1]
+        lum = _tabulated_luminaire(name, tris, normals, 0.0, frame, intensity, c, gamma, where,
+                                   "Radiance spotlight")
+        if focus <= SPOT_FOCUS_NEGLIGIBLE:
+            return lum
+        warnings.warn(f"{where}: its aim vector's length puts Radiance's effective focus {focus:g} m "
+                      "behind the surface; the solver emits from that point, which does not appear in "
+                      f"renders (an aim vector shorter than {SPOT_FOCUS_NEGLIGIBLE:g} m emits from the "
+                      "surface itself)", SolverWarning, stacklevel=2)
+        return PointLuminaire(lum.name, lum.position - focus * aim, lum.photometry, frame, (0.0, 0.0), 1.0)
+
+
+def _tabulated_luminaire(name, tris, normals, discs, frame, intensity, c, gamma, where, fmt):
+    """A :class:`PointLuminaire` of emitting surfaces ``tris`` (n, 3, 3) [m] with the luminous
+    intensity ``intensity(c, gamma)`` [cd] (angles [rad] in ``frame``) tabulated on the grid
+    ``c``, ``gamma`` [deg], emitting from a rectangle of the surfaces' projected area towards
+    the frame's nadir (``normals``: 2·area·n of the flat ones; ``discs``: the projected area
+    [m²] of spheres, the same from everywhere)."""
+    cc, gg = np.meshgrid(np.radians(c), np.radians(gamma), indexing="ij")
+    values = intensity(cc, gg)
+    values[-1] = values[0]
+    try:
+        photometry = Photometry(c, gamma, values, source=where, format=fmt)
+        if not photometry.luminous_flux > 0:
+            raise BadInputError("its intensity distribution emits no flux")
+    except BadInputError as exc:
+        raise BadInputError(f"{where}: {exc}") from None
+    centroid = (tris.mean(axis=1) * _areas(tris)[:, None]).sum(axis=0) / _areas(tris).sum()
+    pts = tris.reshape(-1, 3) - centroid
+    u, v = pts @ frame[0], pts @ frame[1]
+    length, width = float(np.ptp(u)), float(np.ptp(v))
+    down = float(np.maximum(0.0, normals @ frame[2]).sum() * 0.5) + discs
+    if down > 0 and length * width > 0:  # a rectangle of the projected area towards the nadir
+        scale = math.sqrt(down / (length * width))
+        length, width = length * scale, width * scale
+    return PointLuminaire(name, centroid, photometry, frame, (length, width), 1.0)
 
 
 def _is_number(word):
