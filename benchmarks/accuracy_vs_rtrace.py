@@ -36,33 +36,18 @@ import argparse
 import math
 import os
 import platform
-import resource
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
+from _clock import Clock
 
 from lsadphoto.constants import RADIANCE_RGB_LUMINANCE_WEIGHTS
 from lsadphoto.solver import read_scene, render, simulate
 from lsadphoto.solver.examples import canonical_room_rad
 from lsadphoto.solver.integrators.surface_cache import render_cached
-
-
-def _cpu():
-    own, children = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
-    return own.ru_utime + own.ru_stime + children.ru_utime + children.ru_stime
-
-
-class _Clock:
-    def __enter__(self):
-        self.t, self.c = time.perf_counter(), _cpu()
-        return self
-
-    def __exit__(self, *exc):
-        self.wall, self.cpu = time.perf_counter() - self.t, _cpu() - self.c
 
 
 def _radiance():
@@ -117,7 +102,7 @@ def _reference(rad, view_options, size, pixels, rtrace_options, seed):
     inside = np.flatnonzero(rays[:, 3:] @ (forward / np.linalg.norm(forward)) > 1e-6)
     pick = np.sort(np.random.default_rng(seed).choice(inside, min(pixels, inside.size), replace=False))
     runs = []
-    with _Clock() as clock:
+    with Clock() as clock:
         for order in (slice(None), slice(None, None, -1)):
             subset = np.ascontiguousarray(rays[pick][order])
             out = subprocess.run([os.path.join(binpath, "rtrace"), "-h", "-ff", *rtrace_options.split(),
@@ -182,14 +167,14 @@ def main(argv=None):
     workers = os.cpu_count() or 1
     estimators = args.estimators.split(",")
     if "cache" in estimators:
-        with _Clock() as clock:
+        with Clock() as clock:
             store = simulate(scene, samples=args.chains, seed=1)
             lmap = render_cached(store, view.projection, seed=1, workers=workers, **pose)
         keep = np.isfinite(lmap.luminance.ravel()[pick]) & (ref < args.max_luminance) & (
             lmap.luminance.ravel()[pick] < args.max_luminance)
         rows.append(("ours, surface cache", f"{args.chains} chains, defaults", lmap, clock.cpu))
     if "local" in estimators:
-        with _Clock() as clock:
+        with Clock() as clock:
             store = simulate(scene, samples=args.local_chains, seed=2)
             lmap = render(store, view.projection, seed=2, workers=workers, **pose)
         if keep is None:
