@@ -131,3 +131,35 @@ def test_spotlight_cone_and_aim_follow_xform(tmp_path):
     assert a.flux == pytest.approx(179 * 20 * 0.25 * np.pi * 0.25, rel=2e-3)
     with pytest.raises(BadInputError, match="cone angle"):
         read_radiance_scene(SPOT.replace("20 20 20 60 0 0 -0.0005", "20 20 20 0 0 0 -0.0005"))
+
+
+def test_instance_is_read_from_the_files_its_octree_was_compiled_from(tmp_path):
+    # Peer: Radiance's own oconv makes the octree (its header records the command); the
+    # reference is the same chair placed by !xform with the instance's transform words —
+    # what Radiance renders for an instance with modifier void. The instance's definitions
+    # stay inside it: the outer scene's 'grey' (ρ = 0.5) is not replaced by the chair's (0.2).
+    import os
+    import subprocess
+
+    from .conftest import radiance_tool
+
+    (tmp_path / "chair.rad").write_text("void plastic grey 0 0 5 .2 .2 .2 0 0\n!genbox grey seat .5 .5 .45\n")
+    env = dict(os.environ, PATH=os.pathsep.join([os.path.dirname(radiance_tool("oconv")), os.environ["PATH"]]))
+    with open(tmp_path / "chair.oct", "wb") as fh:
+        subprocess.run([radiance_tool("oconv"), "-f", "chair.rad"], stdout=fh, check=True, cwd=tmp_path, env=env)
+    head = LAMP
+    (tmp_path / "room.rad").write_text(head + "void instance chair1 7 chair.oct -rz 30 -t 1 0 0 0 0\n"
+                                       "grey polygon wall 0 0 12 3 -3 0  3 3 0  3 3 3  3 -3 3\n")
+    (tmp_path / "xformed.rad").write_text(head + "!xform -n chair1 -rz 30 -t 1 0 0 chair.rad\n"
+                                          "void plastic grey 0 0 5 .5 .5 .5 0 0\n"
+                                          "grey polygon wall 0 0 12 3 -3 0  3 3 0  3 3 3  3 -3 3\n")
+    a, b = (read_radiance_scene(tmp_path / name) for name in ("room.rad", "xformed.rad"))
+    for x, y in zip(_surfaces(a), _surfaces(b)):
+        np.testing.assert_allclose(x, y, atol=1e-12)
+    assert sorted(set(_surfaces(a)[1])) == [0.2, 0.5]
+    # a source edited after the octree was made: the octree may be stale
+    os.utime(tmp_path / "chair.rad", (os.path.getmtime(tmp_path / "chair.oct") + 10,) * 2)
+    with pytest.raises(BadInputError, match="newer than chair.oct"):
+        read_radiance_scene(tmp_path / "room.rad")
+    with pytest.raises(BadInputError, match="only instances with the octree's own materials"):
+        read_radiance_scene(LAMP + "grey instance c 1 chair.oct 0 0\n")

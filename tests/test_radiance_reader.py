@@ -232,7 +232,7 @@ REFUSALS = [
     ("nothing polygon p 0 0 9 0 0 0 1 0 0 0 1 0\n", r"scene.rad:3: polygon 'p': modifier 'nothing' is not defined"),
     ("void source sun 0 0 4 0 0 1 .5\n", r"scene.rad:3: source 'sun': a distant source"),
     ("void mesh m 1 m.rtm 0 0\n", r"scene.rad:3: mesh 'm': m.rtm is a compiled \(binary\) mesh and its source m.obj"),
-    ("void instance i 1 i.oct 0 0\n", r"scene.rad:3: instance 'i': octree instances"),
+    ("void instance i 1 i.oct 0 0\n", r"scene.rad:3: instance 'i': octree i.oct not found"),
     ("void brightdata d 5 flatcorr none.dat source.cal src_phi src_theta 0 0\nd light l 0 0 3 1 1 1\n"
      "l polygon p 0 0 12 0 0 1 1 0 1 1 1 1 0 1 1\n", r"scene.rad:3: brightdata 'd': data file none.dat not found"),
     ("grey sphere s 0 0 3 0 0 0\n", r"scene.rad:3: sphere 's' needs 4 real arguments, got 3"),

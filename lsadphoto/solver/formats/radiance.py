@@ -38,9 +38,10 @@ What is read, as Radiance reads it:
   errors; transforms ``-t -rx -ry -rz -s -mx -my -mz -a -i``, ``-n``, ``-m``).
 
 A ``mesh`` is read from the OBJ it was compiled from (``name.obj`` beside ``name.rtm``,
-through trimesh; one modifier for all faces). Everything else is refused with one line
+through trimesh; one modifier for all faces), an ``instance`` from the Radiance files its
+octree's header names (its ``oconv`` command). Everything else is refused with one line
 (:class:`~lsadphoto.errors.BadInputError`) naming the file, the line, the primitive or
-modifier: distant ``source``\\ s, ``instance`` (octrees are binary), compiled meshes
+modifier: distant ``source``\\ s, compiled meshes
 without their OBJ (or with per-face ``usemtl``: use ``!obj2rad``), patterns and textures on materials, other functions or ``.cal``
 files. Colour is reduced to luminance with Radiance's own RGB weights (those of its
 primaries, ``color.h``), the weights the photo pipeline uses for Radiance pictures
@@ -87,7 +88,6 @@ DEFAULT_COMMAND_TIMEOUT = 60.0
 _SURFACES = {"polygon", "sphere", "bubble", "cone", "cup", "cylinder", "tube", "ring"}
 _REFUSED_SURFACES = {
     "source": "a distant source (sun or sky) is not supported",
-    "instance": "octree instances are binary files; give the geometry as Radiance text",
 }
 _MATERIALS = {"plastic", "metal", "trans", "plastic2", "metal2", "trans2", "glass", "dielectric",
               "interface", "mirror", "light", "glow", "illum", "spotlight", "mist", "prism1", "prism2",
@@ -392,6 +392,9 @@ class _Reader:
                 raise BadInputError(f"{where}: {ptype} {ident!r}: real arguments must be finite")
             if ptype == "mesh":
                 self.mesh(override or modifier, prefix + ident, args[0], where, transform, folder)
+            elif ptype == "instance":
+                self.instance(override or modifier, prefix + ident, args[0], where, transform, folder,
+                              depth)
             elif ptype in _SURFACES or ptype in _REFUSED_SURFACES:
                 self.surface(override or modifier, ptype, prefix + ident, reals, where, transform)
             elif ptype in _MATERIALS or ptype in _PATTERNS:
@@ -521,6 +524,36 @@ class _Reader:
         if transform.mirrored:
             tris = tris[:, ::-1]
         self.place(modifier, ident, "mesh", None, tris, where, transform)
+
+    def instance(self, modifier, ident, strings, where, transform, folder, depth):
+        """An ``instance`` of an octree, read from the Radiance files it was compiled from.
+
+        An octree is binary, but its header records the ``oconv`` command that made it: the
+        files named there (relative to the octree's folder; ``-i`` octrees in turn) are read
+        with the instance's transform words, their own modifiers kept, as Radiance shows an
+        instance whose modifier is ``void``. Refused in one line: a source file that is missing
+        or newer than the octree (the octree would no longer be what Radiance renders), input
+        from the standard input, and a modifier other than ``void``."""
+        what = f"instance {ident!r}"
+        if not strings:
+            raise BadInputError(f"{where}: {what} names no octree")
+        if modifier != "void":
+            raise BadInputError(f"{where}: {what} has modifier {modifier!r}; only instances with the "
+                                "octree's own materials (modifier void) are supported")
+        octree = next((f / strings[0] for f in (folder, self.base) if (f / strings[0]).is_file()), None)
+        if octree is None:
+            raise BadInputError(f"{where}: {what}: octree {strings[0]} not found")
+        inner = transform
+        if len(strings) > 1:
+            inner = transform @ parse_transform(strings[1:], f"{where}: {what}")[0][1]
+        # an octree is compiled on its own: its definitions neither see the scene's nor leak into it
+        outer, self.defs = self.defs, {}
+        try:
+            for path in _octree_sources(octree, f"{where}: {what}"):
+                self.read(path.read_text(encoding="utf-8", errors="replace"), str(path), inner,
+                          folder=path.parent, prefix=f"{ident}.", depth=depth + 1)
+        finally:
+            self.defs = outer
 
     @staticmethod
     def material_of(record, where, what):
@@ -883,6 +916,49 @@ def _tabulated_luminaire(name, tris, normals, discs, frame, intensity, c, gamma,
         scale = math.sqrt(down / (length * width))
         length, width = length * scale, width * scale
     return PointLuminaire(name, centroid, photometry, frame, (length, width), 1.0)
+
+
+def _octree_sources(octree, where, seen=()):
+    """The Radiance files an octree was compiled from, in order, as its header's ``oconv``
+    command names them (``-i`` octrees expanded), each checked to exist and to be no newer than
+    the octree."""
+    octree = Path(octree).resolve()
+    if octree in seen:
+        raise BadInputError(f"{where}: octree {octree.name} includes itself (oconv -i)")
+    with open(octree, "rb") as fh:
+        head = fh.read(1 << 16)
+    if not head.startswith(b"#?RADIANCE"):
+        raise BadInputError(f"{where}: {octree.name} is not a Radiance octree (no #?RADIANCE header)")
+    lines = head.split(b"\n\n", 1)[0].decode("latin-1").splitlines()
+    command = next((line.split() for line in lines if line.split()[:1] == ["oconv"]), None)
+    if command is None:
+        raise BadInputError(f"{where}: the header of {octree.name} names no oconv command to read its "
+                            "sources from")
+    takes = {"-b": 4, "-n": 1, "-r": 1, "-i": 1}
+    files, k = [], 1
+    while k < len(command):
+        word = command[k]
+        if word == "-i":
+            files += _octree_sources(octree.parent / command[k + 1], where, seen + (octree,))
+            k += 2
+        elif word in takes:
+            k += 1 + takes[word]
+        elif word in ("-f", "-w"):
+            k += 1
+        elif word.startswith("-"):
+            raise BadInputError(f"{where}: {octree.name} was made from {'standard input' if word == '-' else word} "
+                                f"(oconv {' '.join(command[1:])}); give its Radiance files instead")
+        else:
+            path = octree.parent / word
+            if not path.is_file():
+                raise BadInputError(f"{where}: {octree.name} was compiled from {word}, which is not "
+                                    f"beside it; give the Radiance files instead of the octree")
+            if path.stat().st_mtime > octree.stat().st_mtime + 1:
+                raise BadInputError(f"{where}: {word} is newer than {octree.name}, so the octree may no "
+                                    "longer hold it; run oconv again or give the Radiance files")
+            files.append(path)
+            k += 1
+    return files
 
 
 def _is_number(word):
