@@ -131,8 +131,25 @@ def test_toml_materials_and_their_errors():
                                                           "colour": [0.5, 0.5, 0.5]}}})
     with pytest.raises(BadInputError, match=r"materials.floor: glass transmittance must be in \(0, 1\)"):
         scene_from_dict({**base, "materials": {"floor": {"type": "glass", "transmittance": 1.2}}})
-    with pytest.raises(BadInputError, match=r"a stored simulation .* use lsadphoto.solver.render with the scene"):
+    with pytest.raises(BadInputError, match=r"a stored simulation .* use render with the scene itself"):
         simulate(glossy, samples=256)
+
+
+@pytest.mark.slow
+def test_cli_renders_a_glossy_radiance_scene_and_refuses_the_cache_in_one_line(tmp_path):
+    import sys
+
+    room = canonical_room_rad().replace("void plastic floor 0 0 5 0.2 0.2 0.2 0 0",
+                                        "void plastic floor 0 0 5 0.2 0.2 0.2 0.05 0.05")
+    (tmp_path / "g.rad").write_text(room)
+    view = "--view=-vta -vp 1 2 1.2 -vd 1 0 0 -vu 0 0 1 -vh 180 -vv 180"
+    base = [sys.executable, "-m", "lsadphoto.cli", "render", str(tmp_path / "g.rad"), view, "--size", "4x4",
+            "--samples", "512"]
+    ok = subprocess.run([*base, "-o", str(tmp_path / "m.exr")], capture_output=True, text=True)
+    assert ok.returncode == 0, ok.stderr
+    bad = subprocess.run([*base, "--estimator", "cache", "-o", str(tmp_path / "c.exr")], capture_output=True, text=True)
+    assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
+    assert "plastic materials" in bad.stderr and not (tmp_path / "c.exr").exists()
 
 
 # --- against Radiance ---------------------------------------------------------------------------
