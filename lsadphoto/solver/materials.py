@@ -235,11 +235,8 @@ class MaterialTable:
         self.fresnel = normal_kind & self.pure & (self.s >= FRESNEL_THRESHOLD)
         self.metal = self.code == _CODE["metal"]
         self.normal_kind = normal_kind
-        self.lambert = self.code == _CODE["lambertian"]
         # materials whose straight-through delta transmission shadow rays pass
         self.straight = (self.code == _CODE["glass"]) | (normal_kind & self.pure & (self.tau * self.tau_s > 0))
-        self.has_glossy = bool(np.any(normal_kind & ~self.pure & (self.s > 0))
-                               or np.any(normal_kind & ~self.pure & (self.tau * self.tau_s > 0)))
 
     # --- the components at ω_o ------------------------------------------------------------
 

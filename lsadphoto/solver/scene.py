@@ -1,7 +1,8 @@
-"""Scene model of the solver: Lambertian surfaces, luminaires and views, and its TOML structure.
+"""Scene model of the solver: surfaces, luminaires and views, and its TOML structure.
 
 A scene is a set of triangles (every shape is triangulated when it is read), each with a
-Lambertian reflectance and possibly a Lambertian emission, plus point-like luminaires with
+material — a Lambertian reflectance, or one of Radiance's plastic, metal, trans, glass and
+mirror (:mod:`lsadphoto.solver.materials`) — and possibly a Lambertian emission, plus point-like luminaires with
 a luminous intensity distribution, plus named views. Lengths are in metres, flux in lumens,
 intensity in candelas, luminance in cd·m⁻². The TOML schema is declared in
 :data:`SCENE_SCHEMA` and documented in ``docs/user-guide-solver.md``;
