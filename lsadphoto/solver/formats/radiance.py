@@ -173,7 +173,7 @@ class RadianceMaterial:
         where = f"{self.where}: {self.kind} {self.name!r}"
         if self.kind not in SURFACE_MATERIALS:
             raise BadInputError(f"{where} is not a surface material; the solver models "
-                                f"{', '.join(SURFACE_MATERIALS)}, light and glow")
+                                f"{', '.join(SURFACE_MATERIALS)}, light, glow, illum and spotlight")
         self._check_reals()
         if self.kind == "mirror" and self.strings:
             raise BadInputError(f"{where}: a mirror with an alternate material ({self.strings[0]!r}) "
@@ -495,7 +495,7 @@ class _Reader:
             return
         if material.kind not in SURFACE_MATERIALS:
             raise BadInputError(f"{where}: {what}: {material.describe()} is not supported: "
-                                f"the solver models {', '.join(SURFACE_MATERIALS)}, light and glow")
+                                f"the solver models {', '.join(SURFACE_MATERIALS)}, light, glow, illum and spotlight")
         if patterns:
             raise BadInputError(f"{where}: {what}: {material.describe()} is modified by "
                                 f"{patterns[0].describe()}: patterns and textures are not supported")
