@@ -263,37 +263,49 @@ def _room(variant):
 
 
 # The local estimate finds the light a mirror relays to the floor only by its one sampled
-# ray per pixel and batch (as a path tracer would, with 16 instead of 2048 rays): unbiased but
+# ray per pixel and batch (as a path tracer would, with 16 instead of 1024 rays): unbiased but
 # far too noisy for a per-pixel test at this size, so it is compared in the other two rooms.
-@pytest.mark.slow
-@pytest.mark.parametrize("variant, estimator", [
-    ("glossy floor", "path tracer"), ("metal and mirror", "path tracer"), ("glass partition", "path tracer"),
-    ("glossy floor", "local estimate"), ("glass partition", "local estimate")])
-def test_estimators_match_rtrace_in_rooms_with_materials(tmp_path, variant, estimator):
+_REFERENCES = {}
+
+
+def _room_reference(variant, folder):
+    """Scene, view and the two rtrace runs of a room (computed once per variant)."""
     from lsadphoto.geometry.pinhole import PinholeProjection
     from lsadphoto.solver.engine import engine_for
     from lsadphoto.solver.integrators.eye import primary_rays
 
-    binpath = _radiance_bin()
-    rad, eye, sight = _room(variant)
-    scene = read_radiance_scene(rad)
-    size = 16
-    focal = size / (2 * math.tan(math.radians(35)))
-    proj = PinholeProjection(fx=focal, fy=focal, cx=(size - 1) / 2, cy=(size - 1) / 2, width=size, height=size)
-    pos, rot = np.asarray(eye, float), camera_to_world(sight)
+    if variant not in _REFERENCES:
+        binpath = _radiance_bin()
+        rad, eye, sight = _room(variant)
+        scene = read_radiance_scene(rad)
+        size = 16
+        focal = size / (2 * math.tan(math.radians(35)))
+        proj = PinholeProjection(fx=focal, fy=focal, cx=(size - 1) / 2, cy=(size - 1) / 2, width=size,
+                                 height=size)
+        pos, rot = np.asarray(eye, float), camera_to_world(sight)
+        valid, _, _, d = primary_rays(scene, engine_for(scene), proj, pos, rot)
+        pick = valid[np.random.default_rng(0).choice(len(valid), 80, replace=False)]
+        rays = [(pos, v) for v in d[np.searchsorted(valid, pick)]]
+        options = ["-ab", "10", "-ad", "1024", "-aa", "0", "-lw", "1e-5", "-st", "0", "-ds", "0.02", "-dj", "0"]
+        a = 179 * _rtrace(binpath, folder, rad, rays, options)
+        b = 179 * _rtrace(binpath, folder, rad, rays[::-1], options)[::-1]
+        _REFERENCES[variant] = (scene, proj, pos, rot, pick, a, b)
+    return _REFERENCES[variant]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("variant, estimator", [
+    ("glossy floor", "path tracer"), ("glossy floor", "local estimate"), ("metal and mirror", "path tracer"),
+    ("glass partition", "path tracer"), ("glass partition", "local estimate")])
+def test_estimators_match_rtrace_in_rooms_with_materials(tmp_path, variant, estimator):
+    scene, proj, pos, rot, pick, a, b = _room_reference(variant, tmp_path)
     if estimator == "path tracer":
-        lmap = render_path_traced(scene, proj, position=pos, rotation=rot, samples=2048, batches=16, seed=1)
+        lmap = render_path_traced(scene, proj, position=pos, rotation=rot, samples=1024, batches=16, seed=1)
     else:
-        lmap = render(scene, proj, position=pos, rotation=rot, samples=65536, nodes_per_pixel=128, seed=1)
-    valid, _, _, d = primary_rays(scene, engine_for(scene), proj, pos, rot)
-    pick = np.random.default_rng(0).choice(len(valid), 80, replace=False)
-    rays = [(pos, v) for v in d[pick]]
-    options = ["-ab", "10", "-ad", "1024", "-aa", "0", "-lw", "1e-5", "-st", "0", "-ds", "0.02", "-dj", "0"]
-    a = 179 * _rtrace(binpath, tmp_path, rad, rays, options)
-    b = 179 * _rtrace(binpath, tmp_path, rad, rays[::-1], options)[::-1]
+        lmap = render(scene, proj, position=pos, rotation=rot, samples=32768, nodes_per_pixel=96, seed=1)
     ref, ref_se = (a + b) / 2, np.abs(a - b) / 2
-    ours = np.asarray(lmap.luminance, float).ravel()[valid[pick]]
-    se = np.asarray(lmap.uncertainty, float).ravel()[valid[pick]]
+    ours = np.asarray(lmap.luminance, float).ravel()[pick]
+    se = np.asarray(lmap.uncertainty, float).ravel()[pick]
     # per-pixel z with both noises (and rtrace's 7-digit output); median |z| of a standard
     # normal is 0.674: 1.0 allows for the noise of the noise estimates of 16 batches / 2 runs
     z = (ours - ref) / np.sqrt(se ** 2 + ref_se ** 2 + (1e-4 * ref) ** 2)
