@@ -208,3 +208,33 @@ def test_real_samples_exposure_metadata_match_exifread(source):
         if exif > 0:
             assert getattr(meta, field) == pytest.approx(exif, rel=0.01), field
     assert np.all(image.white_level > image.black_level)
+
+
+#: Side of the square blocks, per CFA channel, whose mean estimates a dark region's level [px].
+DARK_BLOCK = 32
+
+
+@pytest.mark.skipif(not SAMPLES, reason="no real RAW samples (../shared/realdata/raw, LSADPHOTO_RAW_SAMPLES)")
+@pytest.mark.parametrize("source", SAMPLES, ids=_sample_ids())
+@EMPTY_EXPOSURE
+def test_real_samples_black_level_not_above_their_darkest_pixels(source):
+    """The decoder's black level of each CFA channel is not above the mean of that channel's
+    darkest 32 × 32 block of the file's own pixels (read by LibRaw, the independent
+    reference): an unlit region averages the black level, so a higher one would clip real
+    shadows. Tolerance: 4 standard errors of that block's mean (its pixel noise / 32). The
+    Sony ARW's darkest red block averages 511.85 ± 0.35 ADU against its black level 512."""
+    import rawpy
+
+    image = decode_raw(source)
+    with rawpy.imread(str(source)) as raw:
+        values = raw.raw_image_visible.astype(np.float64)
+        colours = raw.raw_colors_visible
+    for dr in (0, 1):
+        for dc in (0, 1):
+            plane = values[dr::2, dc::2]
+            rows, cols = (plane.shape[0] // DARK_BLOCK) * DARK_BLOCK, (plane.shape[1] // DARK_BLOCK) * DARK_BLOCK
+            blocks = plane[:rows, :cols].reshape(rows // DARK_BLOCK, DARK_BLOCK, cols // DARK_BLOCK, DARK_BLOCK)
+            blocks = blocks.transpose(0, 2, 1, 3).reshape(-1, DARK_BLOCK * DARK_BLOCK)
+            darkest = blocks[blocks.mean(axis=1).argmin()]
+            black = image.black_level[colours[dr, dc]]
+            assert black <= darkest.mean() + 4 * darkest.std() / DARK_BLOCK, (dr, dc, black, darkest.mean())
