@@ -17,7 +17,8 @@ import warnings
 from .._validation import check_choice
 from ..errors import BadInputError, SolverWarning
 from .direct import DIRECT_SAMPLES
-from .integrators.local_estimate import render_local_estimate
+from .integrators.local_estimate import (AUTO_NODES_PER_PIXEL, render_local_estimate,
+                                         render_local_estimate_materials)
 from .integrators.path_tracer import render_path_traced
 from .integrators.surface_cache import CACHE_NODES, build_surface_cache, render_cached
 from .scene import Scene
@@ -178,7 +179,9 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
     if not isinstance(store_or_scene, (LsadStore, Scene)):
         raise BadInputError("render needs an LsadStore or a Scene")
     choice = None
-    if estimator == "auto":
+    if estimator == "auto" and isinstance(store_or_scene, Scene) and not store_or_scene.lambertian:
+        estimator, choice = "local", "auto: local (non-Lambertian materials)"
+    elif estimator == "auto":
         estimator, reason = choose_estimator(store_or_scene, samples=samples, target_error=target_error)
         choice = f"auto: {estimator} ({reason})"
     if estimator == "cache":
@@ -217,6 +220,18 @@ def _render_local(store_or_scene, projection, *, samples, target_error, max_samp
             raise BadInputError("samples and target_error apply when rendering a scene; a store's "
                                 f"{store_or_scene.chains} chains are fixed (simulate again for more)")
         return render_local_estimate(store_or_scene, projection, progress=progress, **options)
+    if not store_or_scene.lambertian:
+        # glossy, specular, transmitting materials: chains and view in one go (no store)
+        if target_error is not None or near_field == "clamp":
+            raise BadInputError("scenes with non-Lambertian materials render with samples and the "
+                                "unbiased near field only (no target_error, no near_field='clamp')")
+        k = rest["nodes_per_pixel"]
+        return render_local_estimate_materials(
+            store_or_scene, projection, position=rest["position"], rotation=rest["rotation"],
+            samples=DEFAULT_CHAINS if samples is None else samples, seed=seed,
+            nodes_per_pixel=AUTO_NODES_PER_PIXEL if k in ("auto", None) else k,
+            near_distance=rest["near_distance"], chunk_pixels=rest["chunk_pixels"],
+            workers=rest["workers"], progress=progress)
     if target_error is None:
         store = simulate(store_or_scene, samples=samples, seed=seed,
                          near_field=near_field or "unbiased")
