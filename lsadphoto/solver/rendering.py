@@ -53,7 +53,9 @@ def choose_estimator(store_or_scene, *, samples=None, target_error=None):
     """The estimator ``"auto"`` renders with, and why (one line).
 
     A store renders from its surface cache if it holds one, else by the double local estimate
-    (building a cache is a choice for ``simulate --surface-cache``). A scene with a fixed number
+    (building a cache is a choice for ``simulate --surface-cache``). A scene with glossy,
+    specular or transmitting materials renders by the double local estimate (the cache is
+    Lambertian). A Lambertian scene with a fixed number
     of chains and no target renders by the double local estimate, the unbiased reference; a
     scene with a per-pixel target (or neither) by the surface cache, which reaches a per-pixel
     error at a small fraction of the per-pixel estimate's cost (docs/accuracy.md: 0.63 % mean
@@ -64,6 +66,8 @@ def choose_estimator(store_or_scene, *, samples=None, target_error=None):
         if store_or_scene.surface_cache is not None:
             return "cache", "the store holds a surface cache"
         return "local", "the store holds no surface cache (simulate --surface-cache builds one)"
+    if not store_or_scene.lambertian:
+        return "local", "non-Lambertian materials: the surface cache models Lambertian surfaces only"
     if samples is not None and target_error is None:
         return "local", "a fixed number of chains: the unbiased double local estimate"
     return "cache", ("a per-pixel target: the surface cache reaches it at a fraction of the double "
@@ -179,9 +183,7 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
     if not isinstance(store_or_scene, (LsadStore, Scene)):
         raise BadInputError("render needs an LsadStore or a Scene")
     choice = None
-    if estimator == "auto" and isinstance(store_or_scene, Scene) and not store_or_scene.lambertian:
-        estimator, choice = "local", "auto: local (non-Lambertian materials)"
-    elif estimator == "auto":
+    if estimator == "auto":
         estimator, reason = choose_estimator(store_or_scene, samples=samples, target_error=target_error)
         choice = f"auto: {estimator} ({reason})"
     if estimator == "cache":
