@@ -25,8 +25,9 @@ from .conftest import skip_without_ahead_of_time_kernels
 #: run from their ahead-of-time compilation, lsadphoto._compiled), RAW decoding and its
 #: metadata readers, OpenEXR (the input is HDR), plotting, SciPy (numba loaded
 #: scipy.linalg for its BLAS bindings), survey executors, and the package's own stages that
-#: scoring does not touch.
-UNUSED = ["numba", "llvmlite", "scipy", "rawpy", "tifffile", "exifread", "OpenEXR",
+#: scoring does not touch, nor what only other camera models use (thread pools, numpy's
+#: polynomials: 7 and 5 ms to import).
+UNUSED = ["concurrent.futures", "numpy.polynomial", "numba", "llvmlite", "scipy", "rawpy", "tifffile", "exifread", "OpenEXR",
           "matplotlib", "PIL", "colour", "dask", "pandas", "lsadphoto.raw.decode",
           "lsadphoto.calibrate", "lsadphoto.report", "lsadphoto.solver", "lsadphoto.study",
           "lsadphoto.survey", "lsadphoto.luminance", "lsadphoto.datasets", "lsadphoto.io.exr"]

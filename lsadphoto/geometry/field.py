@@ -39,7 +39,6 @@ import math
 import os
 import threading
 from collections import OrderedDict
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -123,6 +122,8 @@ def _run(task, blocks):
         for block in blocks:
             task(*block)
         return
+    from concurrent.futures import ThreadPoolExecutor  # only for models without a kernel
+
     with ThreadPoolExecutor(max_workers=workers) as pool:
         for future in [pool.submit(task, *block) for block in blocks]:
             future.result()
