@@ -19,8 +19,9 @@ How the maps are computed (FORMULAS.md §2.4.2):
   tangent is its series ``t − t³/3 + t⁵/5`` (relative error < t⁶/7 < 2·10⁻¹⁹).
 * For the fisheye models (:class:`IdealFisheyeProjection`, :class:`OpenCVFisheyeProjection`)
   everything is computed per pixel in one compiled pass (:mod:`._kernels`, numba, rows on
-  all CPUs), and σ, τ, cos σ and the position index in a second one, each over the part of
-  every row that can hold valid pixels (the rest is set invalid directly); IEEE float64, no
+  all CPUs), and cos σ and the position index in a second one (σ and τ in the same kernel,
+  only when they are read: the metrics do not need them), each over the part of every row
+  that can hold valid pixels (the rest is set invalid directly); IEEE float64, no
   fast-math. The ideal fisheye's maps equal its methods bit for bit. Other models evaluate
   their own (numpy) ``directions`` in blocks of rows on threads, with the compiled
   solid-angle kernel.
