@@ -117,7 +117,10 @@ def timed(command, kernels=None):
     set to ``kernels`` where given)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, check=True, env=_env(kernels))
+    # From this folder: ``python -c`` puts the working folder first on sys.path, so from a
+    # source tree's root it would import that tree's package whatever PYTHONPATH says.
+    done = subprocess.run(command, capture_output=True, text=True, check=True, env=_env(kernels),
+                          cwd=HERE)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -136,6 +139,7 @@ def _child_stages(path):
         return now_t, now_c
 
     t, c = t_start, c_start
+    sys.argv = ["lsadphoto", "score", str(path), "--json"]  # as the console script sees it
     import lsadphoto.cli as cli
     t, c = lap("import cli", t, c)
     import lsadphoto.io
@@ -188,7 +192,6 @@ def _child_stages(path):
 
     wrap(lsadphoto.io, "read_map", "read picture")
     wrap(score_module, "score_map", "score_map")
-    sys.argv = ["lsadphoto", "score", str(path), "--json"]
     with contextlib.redirect_stdout(io.StringIO()):
         code = cli.main()  # as the console script calls it: the process is the command
     t, c = lap("command", t, c)
