@@ -22,12 +22,19 @@ Usage::
 
     python benchmarks/bench_score_process.py [--sizes 786,1572,4899] [--runs 5]
         [--evalglare-runs-large 1] [--large-mp 10] [--scene disks|window] [--stages 3]
-        [--kernels auto,jit]
+        [--kernels auto,jit] [--before TREE]
+
+``--before TREE`` adds the same command run from another source tree (an earlier commit,
+unpacked with ``git archive``), interleaved with the others: before and after in one run.
 
 ``--kernels`` compares the kernels' compilations (``LSADPHOTO_KERNELS``, see
 ``lsadphoto._compiled``): ``auto`` (the default: ahead of time) and ``jit`` (numba only, its
 parallel code, as every process ran before the ahead-of-time build); their runs interleave
 with evalglare's.
+
+The package's modules are byte-compiled first (``compileall``), as an installed package
+has them: with ``PYTHONDONTWRITEBYTECODE`` set and no ``__pycache__``, every process would
+compile the ~50 modules of the score path from source (0.1 s here).
 
 Sizes above ``--large-mp`` megapixels run evalglare ``--evalglare-runs-large`` times (at
 24 MP one evalglare run takes about five minutes). The machine may be shared: the load
@@ -90,8 +97,19 @@ def _evalglare_command(path):
     return [os.path.join(os.path.dirname(pyradiance.__file__), "bin", "evalglare"), "-d", str(path)]
 
 
+#: Source tree of the ``before`` variant (``--before``), put first on its PYTHONPATH.
+BEFORE = {"tree": None}
+
+
 def _env(kernels):
-    return None if kernels is None else {**os.environ, "LSADPHOTO_KERNELS": kernels}
+    """Environment of a variant: ``LSADPHOTO_KERNELS=kernels``, or for ``before`` the tree
+    of ``--before`` (default kernels)."""
+    if kernels is None:
+        return None
+    if kernels == "before":
+        path = os.pathsep.join([BEFORE["tree"], *filter(None, [os.environ.get("PYTHONPATH")])])
+        return {**os.environ, "PYTHONPATH": path}
+    return {**os.environ, "LSADPHOTO_KERNELS": kernels}
 
 
 def timed(command, kernels=None):
@@ -99,7 +117,10 @@ def timed(command, kernels=None):
     set to ``kernels`` where given)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True, check=True, env=_env(kernels))
+    # From this folder: ``python -c`` puts the working folder first on sys.path, so from a
+    # source tree's root it would import that tree's package whatever PYTHONPATH says.
+    done = subprocess.run(command, capture_output=True, text=True, check=True, env=_env(kernels),
+                          cwd=HERE)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -118,6 +139,7 @@ def _child_stages(path):
         return now_t, now_c
 
     t, c = t_start, c_start
+    sys.argv = ["lsadphoto", "score", str(path), "--json"]  # as the console script sees it
     import lsadphoto.cli as cli
     t, c = lap("import cli", t, c)
     import lsadphoto.io
@@ -170,7 +192,6 @@ def _child_stages(path):
 
     wrap(lsadphoto.io, "read_map", "read picture")
     wrap(score_module, "score_map", "score_map")
-    sys.argv = ["lsadphoto", "score", str(path), "--json"]
     with contextlib.redirect_stdout(io.StringIO()):
         code = cli.main()  # as the console script calls it: the process is the command
     t, c = lap("command", t, c)
@@ -246,11 +267,26 @@ def main():
     parser.add_argument("--stages", type=int, default=3, help="processes timed stage by stage")
     parser.add_argument("--kernels", default="auto",
                         help="LSADPHOTO_KERNELS values to compare, comma-separated (auto, jit)")
+    parser.add_argument("--before", help="another lsadphoto source tree (e.g. an earlier "
+                        "commit's `git archive`): its processes interleave as variant `before`")
     parser.add_argument("--child", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child:
         sys.exit(_child_stages(args.child))
+    variants = args.kernels.split(",")
+    if args.before:
+        BEFORE["tree"] = os.path.abspath(args.before)
+        variants.append("before")
     sys.path.insert(0, str(HERE))
+    # The package byte-compiled, as an installation has it (pip compiles it; an environment
+    # with PYTHONDONTWRITEBYTECODE would otherwise compile every module in every process).
+    import compileall
+
+    import lsadphoto
+
+    compileall.compile_dir(os.path.dirname(lsadphoto.__file__), quiet=1)
+    if args.before:
+        compileall.compile_dir(os.path.join(BEFORE["tree"], "lsadphoto"), quiet=1)
     print(f"# {os.cpu_count()} CPUs; load average before: {os.getloadavg()[0]:.2f}; scene "
           f"{args.scene}; medians of interleaved fresh processes, spread min–max; cpu = user + "
           f"system time of the process (all threads)")
@@ -258,8 +294,7 @@ def main():
     with tempfile.TemporaryDirectory() as folder:
         for size in (int(s) for s in args.sizes.split(",")):
             peer_runs = args.runs if size * size / 1e6 <= args.large_mp else args.evalglare_runs_large
-            for r in bench(size, args.scene, folder, args.runs, peer_runs,
-                           args.kernels.split(",")):
+            for r in bench(size, args.scene, folder, args.runs, peer_runs, variants):
                 r["stages"] = stage_table(r["path"], args.stages, r["kernels"]) \
                     if args.stages else None
                 rows.append(r)

@@ -13,7 +13,16 @@ import sys
 import warnings
 from pathlib import Path
 
-import numpy as np
+# ``lsadphoto score`` does no linear algebra that BLAS threads speed up, and OpenBLAS starting
+# its thread pool as numpy loads costs a score process 0.07 s of CPU and up to 0.1 s of wall
+# time (docs/performance.md, "Latency of a whole score process"): one BLAS thread there,
+# unless the user chose a number (the variables OpenBLAS reads). Only the console script
+# reaches this line before numpy is loaded.
+if sys.argv[1:2] == ["score"] and not any(
+        name in os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")):
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"
+
+import numpy as np  # noqa: E402 (after the BLAS thread setting)
 
 from ._version import __version__
 from .errors import BadInputError, LsadError

@@ -23,7 +23,7 @@ from lsadphoto.datasets import window_scene
 from lsadphoto.geometry import IdealFisheyeProjection
 from lsadphoto.io import write_hdr
 from lsadphoto.luminance_map import LuminanceMap
-from lsadphoto.metrics.quality import _weights
+from lsadphoto.geometry._kernels import quad_solid_angle_grid
 
 from .conftest import skip_without_ahead_of_time_kernels
 
@@ -66,13 +66,21 @@ def test_ahead_of_time_and_just_in_time_scores_are_identical(tmp_path):
 
 
 def test_arguments_outside_the_signatures_run_just_in_time():
-    # _weights is compiled ahead of time for float32 P only: P^(-m) elementwise.
-    P = np.array([1.0, 2.0, 4.0], dtype=np.float32)
-    assert _compiled._matches(_weights._specs[0], (P, 1.0))
-    for other in (P.astype(np.float64), P[::2], P.reshape(1, 3)):
-        assert not _compiled._matches(_weights._specs[0], (other, 1.0))
-    assert not _compiled._matches(_weights._specs[0], (P, 1))  # an int where float64 is compiled
-    # P^(-1) exactly; the float64 and strided calls go to numba and agree with numpy.
-    np.testing.assert_array_equal(_weights(P, 1.0), np.float32([1.0, 0.5, 0.25]))
-    np.testing.assert_array_equal(_weights(P.astype(np.float64), 1.0), [1.0, 0.5, 0.25])
-    np.testing.assert_array_equal(_weights(P[::2], 1.0), np.float32([1.0, 0.25]))
+    # quad_solid_angle_grid is compiled ahead of time for C-ordered float64 grids only. The
+    # corners of a cube's face, seen from its centre, bound a sixth of the sphere: 2π/3 sr.
+    corner = 1.0 / math.sqrt(3.0)
+    grid = (np.array([[-corner, corner], [-corner, corner]]),
+            np.array([[-corner, -corner], [corner, corner]]), np.full((2, 2), corner))
+    spec = quad_solid_angle_grid._specs[0]
+    out = np.empty((1, 1))
+    assert _compiled._matches(spec, (*grid, out))
+    for other in (grid[0].astype(np.float32), np.asfortranarray(grid[0]), grid[0].reshape(4)):
+        assert not _compiled._matches(spec, (other, *grid[1:], out))
+    quad_solid_angle_grid(*grid, out)
+    assert out[0, 0] == pytest.approx(2.0 * math.pi / 3.0, rel=1e-15)  # rounding of a few operations
+    # The float32 and Fortran-ordered calls go to numba and agree (float32 inputs: to its
+    # rounding, 6e-8 relative).
+    for other, rel in ((grid[0].astype(np.float32), 1e-6), (np.asfortranarray(grid[0]), 1e-15)):
+        result = np.empty((1, 1))
+        quad_solid_angle_grid(other, *grid[1:], result)
+        assert result[0, 0] == pytest.approx(2.0 * math.pi / 3.0, rel=rel)

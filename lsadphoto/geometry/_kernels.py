@@ -533,14 +533,18 @@ def _guth_exponent(s, t):
 
 @njit(parallel=True, **_OPTIONS,
       aot=("void(float64[:, :, ::1], boolean[:, ::1], float64[::1], float64[::1], "
-           "float64[::1], int64, float64, float64[:, ::1], float64[:, ::1], float64[:, ::1], "
-           "float64[:, ::1])"))
-def visual_field_maps(directions, valid, v, u, h, method, cap, sigma, tau, position_index,
-                      cos_sigma):
+           "float64[::1], int64, float64, boolean, boolean, float64[:, ::1], float64[:, ::1], "
+           "float64[:, ::1], float64[:, ::1])"))
+def visual_field_maps(directions, valid, v, u, h, method, cap, angles, field, sigma, tau,
+                      position_index, cos_sigma):
     """σ, τ [rad], position index and cos σ of every pixel (see field.visual_field).
 
     ``v, u, h``: line of sight, up and side axes; ``method`` a code of
-    :data:`POSITION_INDEX_METHODS`; ``cap`` the Guth/Iwata cap. The formulas of
+    :data:`POSITION_INDEX_METHODS`; ``cap`` the Guth/Iwata cap. Only the maps asked for are
+    written: σ and τ where ``angles``, the position index and cos σ where ``field``; the others
+    are computed into a scratch row per image row (the arrays passed for them are not touched
+    and may be of any shape), so that a caller needing only P and cos σ allocates and faults
+    in two full-size maps fewer, with the same values bit for bit. The formulas of
     :mod:`~lsadphoto.geometry.position_index` (Iwata's β from the components, as
     position_index_from_components). Per row, between its first and last valid pixel, the
     angles are computed on SIMD lanes (:func:`atan2_nonnegative`; the "evalglare" method
@@ -560,20 +564,26 @@ def visual_field_maps(directions, valid, v, u, h, method, cap, sigma, tau, posit
             j0 += 1
         while j1 > j0 and not ok[j1 - 1]:
             j1 -= 1
-        sigma[i, :j0] = np.nan
-        sigma[i, j1:] = np.nan
-        tau[i, :j0] = np.nan
-        tau[i, j1:] = np.nan
-        position_index[i, :j0] = np.nan
-        position_index[i, j1:] = np.nan
-        cos_sigma[i, :j0] = 0.0
-        cos_sigma[i, j1:] = 0.0
         # The span as arrays of its own: loops over range(n) index from 0, which the compiler
         # knows to be non-negative (no wraparound select) and vectorises.
         n = j1 - j0
         d = flat[i, 3 * j0:3 * j1]
-        s_row, t_row, p_row, c_row = sigma[i, j0:j1], tau[i, j0:j1], position_index[i, j0:j1], \
-            cos_sigma[i, j0:j1]
+        if angles:
+            sigma[i, :j0] = np.nan
+            sigma[i, j1:] = np.nan
+            tau[i, :j0] = np.nan
+            tau[i, j1:] = np.nan
+            s_row, t_row = sigma[i, j0:j1], tau[i, j0:j1]
+        else:
+            s_row, t_row = np.empty(n), np.empty(n)
+        if field:
+            position_index[i, :j0] = np.nan
+            position_index[i, j1:] = np.nan
+            cos_sigma[i, :j0] = 0.0
+            cos_sigma[i, j1:] = 0.0
+            p_row, c_row = position_index[i, j0:j1], cos_sigma[i, j0:j1]
+        else:
+            p_row, c_row = np.empty(n), np.empty(n)
         ok = ok[j0:j1]
         for j in range(n):
             dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
@@ -589,6 +599,8 @@ def visual_field_maps(directions, valid, v, u, h, method, cap, sigma, tau, posit
             c_row[j] = forward if ok[j] else 0.0
             if iwata:
                 p_row[j] = atan2_nonnegative(math.sqrt(side * side + 1.3225 * (up * up)), forward)
+        if not field:
+            continue
         if method == 2:  # Kim2011
             for j in range(n):
                 s = s_row[j] * _DEGREES

@@ -19,8 +19,9 @@ How the maps are computed (FORMULAS.md §2.4.2):
   tangent is its series ``t − t³/3 + t⁵/5`` (relative error < t⁶/7 < 2·10⁻¹⁹).
 * For the fisheye models (:class:`IdealFisheyeProjection`, :class:`OpenCVFisheyeProjection`)
   everything is computed per pixel in one compiled pass (:mod:`._kernels`, numba, rows on
-  all CPUs), and σ, τ, cos σ and the position index in a second one, each over the part of
-  every row that can hold valid pixels (the rest is set invalid directly); IEEE float64, no
+  all CPUs), and cos σ and the position index in a second one (σ and τ in the same kernel,
+  only when they are read: the metrics do not need them), each over the part of every row
+  that can hold valid pixels (the rest is set invalid directly); IEEE float64, no
   fast-math. The ideal fisheye's maps equal its methods bit for bit. Other models evaluate
   their own (numpy) ``directions`` in blocks of rows on threads, with the compiled
   solid-angle kernel.
@@ -39,7 +40,6 @@ import math
 import os
 import threading
 from collections import OrderedDict
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -123,6 +123,8 @@ def _run(task, blocks):
         for block in blocks:
             task(*block)
         return
+    from concurrent.futures import ThreadPoolExecutor  # only for models without a kernel
+
     with ThreadPoolExecutor(max_workers=workers) as pool:
         for future in [pool.submit(task, *block) for block in blocks]:
             future.result()
@@ -306,9 +308,13 @@ def pixel_geometry(projection):
 # --- visual field ---------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, eq=False)
 class VisualField:
     """The observer's visual angles and position index of every pixel.
+
+    The position index and cos σ are computed with the object; σ and τ on first access
+    (the same kernel, the same values bit for bit): the glare metrics need only the first
+    two, and two full-size float64 maps fewer is 16 bytes per pixel not allocated, written
+    and faulted in (0.4 GB at 24 MP; docs/performance.md).
 
     Attributes
     ----------
@@ -325,23 +331,41 @@ class VisualField:
         0 where invalid, so that sums over the image need no mask. Read-only.
     """
 
-    sigma: np.ndarray
-    tau: np.ndarray
-    position_index: np.ndarray
-    cos_sigma: np.ndarray
+    def __init__(self, geometry, axes, method):
+        self._inputs = (geometry, axes, method)
+        self._angles = None
+        self._lock = threading.Lock()
+        self.position_index, self.cos_sigma = _visual_field_maps(*self._inputs, angles=False)
+
+    def _angle_maps(self):
+        with self._lock:
+            if self._angles is None:
+                self._angles = _visual_field_maps(*self._inputs, angles=True)
+        return self._angles
+
+    @property
+    def sigma(self):
+        return self._angle_maps()[0]
+
+    @property
+    def tau(self):
+        return self._angle_maps()[1]
 
 
-def _compute_visual_field(geometry, axes, method):
+def _visual_field_maps(geometry, axes, method, *, angles):
+    """(σ, τ) where ``angles``, else (position index, cos σ): read-only maps."""
     from . import _kernels
     from .position_index import POSITION_INDEX_CAP
 
     v, u, h = (np.ascontiguousarray(a, dtype=np.float64) for a in axes)
-    rows, cols = geometry.valid.shape
-    out = {name: np.empty((rows, cols)) for name in ("sigma", "tau", "position_index", "cos_sigma")}
+    shape = geometry.valid.shape
+    unused = np.empty((1, 1))
+    out = [np.empty(shape), np.empty(shape)]
+    maps = (out + [unused, unused]) if angles else ([unused, unused] + out)
     _kernels.visual_field_maps(geometry.directions, geometry.valid, v, u, h,
                                _kernels.POSITION_INDEX_METHODS.index(method), POSITION_INDEX_CAP,
-                               out["sigma"], out["tau"], out["position_index"], out["cos_sigma"])
-    return VisualField(**{name: _read_only(array) for name, array in out.items()})
+                               angles, not angles, *maps)
+    return tuple(_read_only(array) for array in out)
 
 
 def visual_field(projection, frame, *, position_index_method="evalglare"):
@@ -384,6 +408,6 @@ def visual_field(projection, frame, *, position_index_method="evalglare"):
     key = json.dumps([_projection_key(projection), [a.tolist() for a in axes], position_index_method])
     cached = _FIELD_CACHE.get(key)
     if cached is None:
-        cached = _compute_visual_field(pixel_geometry(projection), axes, position_index_method)
+        cached = VisualField(pixel_geometry(projection), axes, position_index_method)
         _FIELD_CACHE.put(key, cached)
     return cached

@@ -30,7 +30,6 @@ wide-angle, and fish-eye lenses", IEEE TPAMI 28(8), 2006, 1335–1340.
 import math
 
 import numpy as np
-from numpy.polynomial import polynomial as P
 
 from .._validation import check_positive
 from ..errors import BadInputError
@@ -79,6 +78,8 @@ def _split_camera_matrix(K):
 
 def _smallest_positive_root(coefficients, upper=math.inf):
     """Smallest real root in (0, upper) of a polynomial (ascending coefficients), else inf."""
+    from numpy.polynomial import polynomial as P  # not at import: 5 ms of every score process
+
     c = np.trim_zeros(np.asarray(coefficients, float), "b")
     if c.size <= 1:
         return math.inf
@@ -242,6 +243,8 @@ class OpenCVPinholeProjection(_OpenCVBase):
 
     def _fold_radius(self):
         """Radius r [normalised] where the radial mapping stops increasing (inf if never)."""
+        from numpy.polynomial import polynomial as P
+
         n = np.array([1.0, self._k1, self._k2, self._k3])  # N(s), s = r²
         d = np.array([1.0, self._k4, self._k5, self._k6])  # D(s)
         s = np.array([0.0, 1.0])

@@ -9,9 +9,10 @@ times (k counts the consecutive repeat pixels: Radiance's old-style runs). It ru
 the file's bytes; a Python loop over the packets (the previous decoder) took 1.2 s for a
 1572² picture.
 
-:func:`rgbe_luminance` decodes a pixel as Radiance's ``colr_color`` does,
+:func:`decode_luminance` decodes a pixel as Radiance's ``colr_color`` does,
 (mantissa + ½)·2^(exponent − 136), divides by the EXPOSURE product and the COLORCORR factors
-and weights the channels, without a float64 RGB copy of the whole picture.
+and weights the channels, scanline by scanline, without an RGBE or float64 RGB copy of the
+whole picture.
 
 References
 ----------
@@ -24,7 +25,7 @@ import math
 import numpy as np
 from .._compiled import njit, prange
 
-__all__ = ["SCANLINE_ERRORS", "decode_scanlines", "rgbe_luminance"]
+__all__ = ["SCANLINE_ERRORS", "decode_luminance", "decode_scanlines"]
 
 
 #: Messages of the error codes :func:`decode_scanlines` returns.
@@ -37,6 +38,65 @@ SCANLINE_ERRORS = {
 }
 
 
+@njit(cache=True, nogil=True)
+def _decode_scanline(data, pos, rle, out):
+    """Decode one scanline from ``data[pos:]`` (uint8) into ``out`` ``(cols, 4)`` uint8, new
+    style where ``rle`` (the width allows it); returns ``(position after it, error code)``,
+    error code 0 on success (else a key of :data:`SCANLINE_ERRORS`)."""
+    cols = out.shape[0]
+    n = data.size
+    if rle and pos + 4 <= n and data[pos] == 2 and data[pos + 1] == 2 and data[pos + 2] < 128:
+        if (np.int64(data[pos + 2]) << 8 | np.int64(data[pos + 3])) != cols:
+            return pos, 2
+        pos += 4
+        for c in range(4):
+            col = 0
+            while col < cols:
+                if pos >= n:
+                    return pos, 1
+                code = np.int64(data[pos])
+                pos += 1
+                if code > 128:
+                    run = code - 128
+                    if col + run > cols or pos >= n:
+                        return pos, 3
+                    value = data[pos]
+                    pos += 1
+                    for k in range(col, col + run):
+                        out[k, c] = value
+                    col += run
+                else:
+                    if code == 0 or col + code > cols or pos + code > n:
+                        return pos, 3
+                    for k in range(code):
+                        out[col + k, c] = data[pos + k]
+                    pos += code
+                    col += code
+        return pos, 0
+    col, shift = 0, 0
+    while col < cols:
+        if pos + 4 > n:
+            return pos, 1
+        if data[pos] == 1 and data[pos + 1] == 1 and data[pos + 2] == 1:
+            if col == 0:
+                return pos, 4
+            run = np.int64(data[pos + 3]) << shift
+            if col + run > cols:
+                return pos, 5
+            for k in range(col, col + run):
+                for c in range(4):
+                    out[k, c] = out[col - 1, c]
+            col += run
+            shift += 8
+        else:
+            for c in range(4):
+                out[col, c] = data[pos + c]
+            col += 1
+            shift = 0
+        pos += 4
+    return pos, 0
+
+
 @njit(cache=True, nogil=True,
       aot="UniTuple(int64, 3)(uint8[::1], int64, boolean, uint8[:, :, ::1])")
 def decode_scanlines(data, pos, rle, rgbe):
@@ -44,79 +104,38 @@ def decode_scanlines(data, pos, rle, rgbe):
     ``(rows, cols, 4)`` uint8, taking new-style scanlines where ``rle`` (the width allows
     them); returns ``(position after the last scanline, error code, row)`` with error code 0
     on success (else a key of :data:`SCANLINE_ERRORS`)."""
-    rows, cols = rgbe.shape[0], rgbe.shape[1]
-    n = data.size
-    for row in range(rows):
-        out = rgbe[row]
-        if rle and pos + 4 <= n and data[pos] == 2 and data[pos + 1] == 2 and data[pos + 2] < 128:
-            if (np.int64(data[pos + 2]) << 8 | np.int64(data[pos + 3])) != cols:
-                return pos, 2, row
-            pos += 4
-            for c in range(4):
-                col = 0
-                while col < cols:
-                    if pos >= n:
-                        return pos, 1, row
-                    code = np.int64(data[pos])
-                    pos += 1
-                    if code > 128:
-                        run = code - 128
-                        if col + run > cols or pos >= n:
-                            return pos, 3, row
-                        value = data[pos]
-                        pos += 1
-                        for k in range(col, col + run):
-                            out[k, c] = value
-                        col += run
-                    else:
-                        if code == 0 or col + code > cols or pos + code > n:
-                            return pos, 3, row
-                        for k in range(code):
-                            out[col + k, c] = data[pos + k]
-                        pos += code
-                        col += code
-            continue
-        col, shift = 0, 0
-        while col < cols:
-            if pos + 4 > n:
-                return pos, 1, row
-            if data[pos] == 1 and data[pos + 1] == 1 and data[pos + 2] == 1:
-                if col == 0:
-                    return pos, 4, row
-                run = np.int64(data[pos + 3]) << shift
-                if col + run > cols:
-                    return pos, 5, row
-                for k in range(col, col + run):
-                    for c in range(4):
-                        out[k, c] = out[col - 1, c]
-                col += run
-                shift += 8
-            else:
-                for c in range(4):
-                    out[col, c] = data[pos + c]
-                col += 1
-                shift = 0
-            pos += 4
-    return pos, 0, rows
+    for row in range(rgbe.shape[0]):
+        pos, error = _decode_scanline(data, pos, rle, rgbe[row])
+        if error:
+            return pos, error, row
+    return pos, 0, rgbe.shape[0]
 
 
-@njit(parallel=True, cache=True, nogil=True,
-      aot="void(uint8[:, :, ::1], float64, float64[::1], float64[::1], float64, float32[:, ::1])")
-def rgbe_luminance(rgbe, exposure, colorcorr, weights, efficacy, out):
-    """``out`` (rows, cols) float32 = efficacy · Σ_c weights[c] · rgb_c with
-    rgb_c = (m_c + ½)·2^(e − 136) / exposure / colorcorr[c] (the float64 operations of
-    :func:`lsadphoto.io.hdr.read_hdr_rgb`) for the RGBE pixels ``rgbe`` (rows, cols, 4);
-    0 where the exponent byte is 0."""
+@njit(cache=True, nogil=True,
+      aot=("UniTuple(int64, 3)(uint8[::1], int64, boolean, float64, float64[::1], float64[::1], "
+           "float64, float32[:, ::1])"))
+def decode_luminance(data, pos, rle, exposure, colorcorr, weights, efficacy, out):
+    """Decode ``out.shape[0]`` scanlines from ``data[pos:]`` (as :func:`decode_scanlines`)
+    straight into luminance: ``out`` (rows, cols) float32 = efficacy · Σ_c weights[c] · rgb_c
+    with rgb_c = (m_c + ½)·2^(e − 136) / exposure / colorcorr[c] (the float64 operations of
+    :func:`lsadphoto.io.hdr.read_hdr_rgb`); 0 where the exponent byte is 0. Each scanline
+    goes through one row of RGBE bytes, not a copy of the whole picture (4 bytes per pixel
+    less to allocate and fault in). Returns what :func:`decode_scanlines` returns."""
     rows, cols = out.shape
-    for row in prange(rows):
+    rgbe = np.empty((cols, 4), dtype=np.uint8)
+    for row in range(rows):
+        pos, error = _decode_scanline(data, pos, rle, rgbe)
+        if error:
+            return pos, error, row
         for col in range(cols):
-            e = np.int64(rgbe[row, col, 3])
+            e = np.int64(rgbe[col, 3])
             if e == 0:
                 out[row, col] = 0.0
                 continue
             scale = math.ldexp(1.0, e - 136)
             total = 0.0
             for c in range(3):
-                value = (np.float64(rgbe[row, col, c]) + 0.5) * scale
+                value = (np.float64(rgbe[col, c]) + 0.5) * scale
                 total += value / exposure / colorcorr[c] * weights[c]
             out[row, col] = np.float32(efficacy * total)
+    return pos, 0, rows

@@ -606,28 +606,33 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
         _candidate_fill(candidate, offsets, r0, c0, cols, local, index)
         grad = _angular_gradient(index, local, flat_directions, lu.ravel(), lv.ravel(), cols)
         key = grad * alpha
-    if weighted:
-        weight = _weights(P.ravel()[index].astype(np.float32), weight_exponent).astype(np.float64)
-    else:
-        weight = np.ones(index.size)
     out.index = index
     out.key = key
-    out.contrast = weight * grad / mean
-    out.omega = omega.ravel()[index].astype(np.float32).astype(np.float64)
-    out.weighted_contrast = out.contrast * out.omega
+    out.contrast, out.omega, out.weighted_contrast = (np.empty(index.size) for _ in range(3))
+    _candidate_values(index, grad, (L if P is None else P).reshape(-1), omega.reshape(-1),
+                      float(weight_exponent), weighted, mean, out.contrast, out.omega,
+                      out.weighted_contrast)
     if not out.weighted_solid_angle > 0:
         out.reason = "every field pixel has weight 0 (position index ∞)"
     return out
 
 
-@njit(**_KERNEL_OPTIONS,
-      aot="float32[::1](float32[::1], float64)")
-def _weights(P, m):
-    """:func:`_weight` of every element of a float32 array."""
-    out = np.empty_like(P)
-    for i in range(P.size):
-        out[i] = _weight(P[i], m)
-    return out
+@njit(parallel=True, **_KERNEL_OPTIONS,
+      aot=("void(int64[::1], float64[::1], float64[::1], float64[::1], float64, boolean, float64, "
+           "float64[::1], float64[::1], float64[::1])"))
+def _candidate_values(index, grad, P, omega, m, weighted, mean, contrast, omega_out,
+                      weighted_contrast):
+    """Per candidate (flat image ``index``, gradient ``grad``): the contrast w·g/L̄ with the
+    weight w = :func:`_weight` of P in float32 (1 unweighted), ω in float32, and their
+    product, in one pass (no temporaries of the candidates' size)."""
+    for k in prange(index.size):
+        i = index[k]
+        w = np.float64(np.float32(_weight(np.float32(P[i]), m))) if weighted else 1.0
+        c = w * grad[k] / mean
+        o = np.float64(np.float32(omega[i]))
+        contrast[k] = c
+        omega_out[k] = o
+        weighted_contrast[k] = c * o
 
 
 def _q_value(kept_sum, analysis):

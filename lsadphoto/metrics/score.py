@@ -72,32 +72,58 @@ _CHUNK = 1 << 16
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot=("void(float32[::1], boolean[::1], float64[::1], float64[::1], boolean[::1], "
-           "float64[::1], float64[::1])",
-           "void(float64[::1], boolean[::1], float64[::1], float64[::1], boolean[::1], "
-           "float64[::1], float64[::1])"))
-def _field_inputs_kernel(image, evaluated, solid_angle, cos_sigma, valid, luminance, omega):
+      aot=("int64(float32[::1], boolean[::1], float64[::1], float64[::1])",
+           "int64(float64[::1], boolean[::1], float64[::1], float64[::1])"))
+def _field_luminance_kernel(image, evaluated, cos_sigma, luminance):
+    """The luminance (float64; NaN outside the valid pixels) and the number of evaluated
+    pixels that are not valid (luminance not finite or cos σ < 0)."""
     n = image.size
+    dropped = 0
     for k in prange((n + _CHUNK - 1) // _CHUNK):
+        count = 0
         for i in range(k * _CHUNK, min(n, (k + 1) * _CHUNK)):
             L = np.float64(image[i])
             ok = evaluated[i] & (np.abs(L) < np.inf) & (cos_sigma[i] >= 0)
-            valid[i] = ok
             luminance[i] = L if ok else np.nan
+            count += 1 if evaluated[i] and not ok else 0
+        dropped += count
+    return dropped
+
+
+@njit(parallel=True, cache=True, error_model="numpy", nogil=True,
+      aot="void(float64[::1], float64[::1], boolean[::1], float64[::1])")
+def _field_solid_angle_kernel(luminance, solid_angle, valid, omega):
+    """Valid pixels (luminance not NaN) and their solid angle (0 elsewhere)."""
+    n = luminance.size
+    for k in prange((n + _CHUNK - 1) // _CHUNK):
+        for i in range(k * _CHUNK, min(n, (k + 1) * _CHUNK)):
+            ok = luminance[i] == luminance[i]
+            valid[i] = ok
             omega[i] = solid_angle[i] if ok else 0.0
 
 
-def _field_inputs(image, evaluated, solid_angle, cos_sigma):
+def _field_inputs(image, geometry, evaluated, cos_sigma):
     """Valid pixels (``evaluated``, finite luminance, cos σ ≥ 0), the luminance [cd·m⁻²]
-    as float64 with NaN elsewhere and the solid angle [sr] with 0 elsewhere, in one pass.
-    (Outputs are allocated by numpy, which asks for huge pages: faulting in 400 MB of
-    small pages costs more than the pass itself.)"""
+    as float64 with NaN elsewhere and the solid angle [sr] with 0 elsewhere.
+
+    Where every evaluated pixel is valid and the evaluated pixels are the geometry's valid
+    ones (the usual case), the validity and solid angle are the geometry's own read-only
+    maps (its solid angle is 0 where it is not valid): two full-size maps fewer to allocate
+    and fault in (9 bytes per pixel). (Outputs are allocated by numpy, which asks for huge
+    pages: faulting in 400 MB of small pages costs more than the pass itself.)"""
     shape = evaluated.shape
-    valid = np.empty(shape, dtype=bool)
     luminance = np.empty(shape)
+    dropped = _field_luminance_kernel(np.ascontiguousarray(image).reshape(-1),
+                                      np.ascontiguousarray(evaluated).reshape(-1),
+                                      np.ascontiguousarray(cos_sigma).reshape(-1),
+                                      luminance.reshape(-1))
+    if dropped == 0 and evaluated is geometry.valid:
+        return geometry.valid, luminance, geometry.solid_angle
+    valid = np.empty(shape, dtype=bool)
     omega = np.empty(shape)
-    flat = [np.ascontiguousarray(a).reshape(-1) for a in (image, evaluated, solid_angle, cos_sigma)]
-    _field_inputs_kernel(*flat, valid.reshape(-1), luminance.reshape(-1), omega.reshape(-1))
+    _field_solid_angle_kernel(luminance.reshape(-1),
+                              np.ascontiguousarray(geometry.solid_angle).reshape(-1),
+                              valid.reshape(-1), omega.reshape(-1))
     return valid, luminance, omega
 
 
@@ -509,8 +535,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if illuminance_fill is not None:
         image = fill_rows_evalglare(image, geometry.valid & (vf.cos_sigma >= 0),
                                     row_max=illuminance_fill[1], row_min=illuminance_fill[2])
-    valid, luminance, omega = _field_inputs(image, evaluated,
-                                            geometry.solid_angle, vf.cos_sigma)
+    valid, luminance, omega = _field_inputs(image, geometry, evaluated, vf.cos_sigma)
     pindex = vf.position_index
     notes = []
     settings = {
