@@ -397,24 +397,31 @@ def _small_sides(scene, level):
 
 
 def _patches_to_split(values, point, normal, radius, start, index, contrast):
-    """Patches whose mean differs from that of a neighbour its kernel would use by more than
-    ``contrast`` × the larger and by more than 3 standard errors of the difference."""
+    """Patches whose value differs from the kernel average of their neighbours' (the
+    interpolation at the patch's own point without it) by more than ``contrast`` × its
+    value and by more than 3 standard errors: where the interpolation would miss a
+    curvature, an edge of the mesh or a shadow of indirect light (a steady gradient
+    passes)."""
     G = values.shape[1]
+    C = len(point)
     mean = values.mean(axis=1)
     se = values.std(axis=1, ddof=1) / math.sqrt(G)
-    owner = np.repeat(np.arange(len(point)), np.diff(start))
+    owner = np.repeat(np.arange(C), np.diff(start))
     other = index
     d = point[other] - point[owner]
-    dist = np.linalg.norm(d, axis=1)
+    d2 = np.einsum("ij,ij->i", d, d)
+    dist = np.sqrt(d2)
     agree = np.einsum("ij,ij->i", normal[owner], normal[other])
     tilt = np.abs(np.einsum("ij,ij->i", normal[owner], d)) / np.maximum(dist, 1e-300)
     used = (owner != other) & (dist < radius[owner]) & (agree > 0.5) & (tilt < 0.5)
-    spread = np.abs(mean[owner] - mean[other])
-    flag = used & (spread > contrast * np.maximum(mean[owner], mean[other])) & (
-        spread > 3.0 * np.hypot(se[owner], se[other]))
-    out = np.zeros(len(point), dtype=bool)
-    out[owner[flag]] = True
-    return np.flatnonzero(out)
+    w = np.where(used, (1 - d2 / radius[owner] ** 2) ** 2 * (agree - 0.5) / 0.5
+                 * (1 - tilt / 0.5), 0.0)
+    total = np.bincount(owner, weights=w, minlength=C)
+    pred = np.bincount(owner, weights=w * mean[other], minlength=C) / np.maximum(total, 1e-300)
+    pred_se = np.sqrt(np.bincount(owner, weights=(w * se[other]) ** 2, minlength=C)) / np.maximum(total, 1e-300)
+    gap = np.abs(pred - mean)
+    flag = (total > 0) & (gap > contrast * mean) & (gap > 3.0 * np.hypot(se, pred_se))
+    return np.flatnonzero(flag)
 
 
 def _cells_to_refine(level, offset, values, contrast):
