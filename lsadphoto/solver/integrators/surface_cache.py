@@ -63,7 +63,8 @@ from ..._validation import check_positive_int
 from ...errors import BadInputError
 from .._sampling import stream
 from ..cache_grid import PATCH_KERNEL, SurfaceCache, grid_index, patch_neighbours, patch_sides
-from ..direct import DIRECT_SAMPLES, direct_illuminance
+from ..direct import (ALL_LUMINAIRES_UP_TO, DIRECT_SAMPLES, LuminaireTable, direct_illuminance,
+                      sampled_direct_illuminance)
 from ..engine import engine_for
 from ..store import LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, luminance_map_from_batches,
@@ -200,6 +201,9 @@ class _IndirectEstimator:
         self.near_draws = max(1, self.draws // 8)
         self.pos = np.ascontiguousarray(store.position)
         self.hull = None
+        # Many luminaires: a near hit draws one of them from a per-region table.
+        many = len(self.scene.area_luminaires) + len(self.scene.point_luminaires) > ALL_LUMINAIRES_UP_TO
+        self.luminaire_table = LuminaireTable(self.scene, near_distance) if many else None
 
     def far(self, x, n, group, blocks, level, draws=None):
         """Far-node part of E_ind [lx] at points ``x`` for one group: Σc/k · Σ_draws cos θ_n
@@ -288,10 +292,14 @@ class _IndirectEstimator:
             lit = np.flatnonzero(rho_y > 0)
             if lit.size:
                 paths = active[lit]
-                e_dir, _ = direct_illuminance(scene, engine, y[lit], ny[lit],
-                                              samples=self.direct_samples, seed=self.seed,
-                                              block_ids=blocks[paths] * G + group[paths],
-                                              purpose_key=self._direct_key(level))
+                keys = {"seed": self.seed, "block_ids": blocks[paths] * G + group[paths],
+                        "purpose_key": self._direct_key(level)}
+                if self.luminaire_table is None:
+                    e_dir, _ = direct_illuminance(scene, engine, y[lit], ny[lit],
+                                                  samples=self.direct_samples, **keys)
+                else:
+                    e_dir = sampled_direct_illuminance(scene, engine, y[lit], ny[lit],
+                                                       table=self.luminaire_table, **keys)
                 e_far = np.zeros(lit.size)
                 for g in np.unique(group[paths]):
                     m = group[paths] == g
