@@ -15,7 +15,8 @@ surface *area*, not the triangle count:
   nearest the patch's area centroid (:func:`patch_sides`); patches whose values differ
   strongly from their neighbours' are split again at half the spacing. A point's value is a
   normalised kernel average of the patch points within 1.5 patch sizes whose normal agrees
-  with its own and which lie near its tangent plane (:meth:`SurfaceCache.interpolate`;
+  with its own, which lie near its tangent plane and which its own patch's point sees (a
+  visibility ray per pair of neighbouring patches, cast when the cache is built) (:meth:`SurfaceCache.interpolate`;
   Shepard 1968, with Wendland's compact weight and Ward et al.'s normal criterion).
 
 So a mesh of many small triangles costs as many points as its area needs. The cache holds
@@ -258,7 +259,7 @@ class SurfaceCache:
         its patch size).
     patch_start, patch_index : ndarray of int
         CSR lists of the patches that may lie within the kernel radius of a point of each
-        patch (:func:`patch_neighbours`).
+        patch (:func:`patch_neighbours`) and whose point that patch's point sees.
     """
 
     spacing: float

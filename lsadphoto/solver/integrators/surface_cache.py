@@ -594,7 +594,7 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     for halving in range(1, int(patch_refine) + 1):
         radius = PATCH_KERNEL * p_size
         start, index = patch_neighbours(p_point, radius, p_reach)
-        start, index = _leaf_lists(start, index, leaf)
+        start, index = _visible_lists(engine, p_point, p_normal, *_leaf_lists(start, index, leaf))
         split = _patches_to_split(values[p_row], p_point, p_normal, radius, start, index, contrast)
         if split.size == 0:
             break
@@ -620,7 +620,8 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     renumber = np.full(len(leaf), -1, np.int64)
     renumber[keep] = np.arange(keep.size)
     radius = PATCH_KERNEL * p_size[keep]
-    start, index = patch_neighbours(p_point[keep], radius, p_reach[keep])
+    start, index = _visible_lists(engine, p_point[keep], p_normal[keep],
+                                  *patch_neighbours(p_point[keep], radius, p_reach[keep]))
     patch = np.full((len(scene.triangles), 2), -1, np.int64)
     patch[side_tri, side_of] = renumber[leaf_of_side]
     return SurfaceCache(spacing, level, offset, values, points, keys, refined_offset, int(refine),
@@ -633,6 +634,22 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         "build_time_s": time.perf_counter() - t0},
                         patch=patch, patch_row=p_row[keep], patch_normal=p_normal[keep],
                         patch_radius=radius, patch_start=start, patch_index=index)
+
+
+def _visible_lists(engine, point, normal, start, index):
+    """The CSR neighbour lists ``start``/``index`` of patches restricted to the pairs whose
+    points see each other (both moved a ray offset off their surfaces) and each patch
+    itself: the far side of a thin solid or a sheet behind a wall never enters a kernel."""
+    owner = np.repeat(np.arange(len(start) - 1), np.diff(start))
+    keep = owner == index
+    pair = np.flatnonzero(~keep)
+    if pair.size:
+        a, b = owner[pair], index[pair]
+        keep[pair] = engine.visible(point[a] + engine.epsilon * normal[a],
+                                    point[b] + engine.epsilon * normal[b])
+    new_start = np.zeros_like(start)
+    new_start[1:] = np.cumsum(np.bincount(owner[keep], minlength=len(start) - 1))
+    return new_start, index[keep]
 
 
 def _leaf_lists(start, index, leaf):
