@@ -31,13 +31,12 @@ import argparse
 import math
 import os
 import platform
-import resource
 import subprocess
 import sys
 import tempfile
-import time
 
 import numpy as np
+from _clock import Clock
 
 from lsadphoto.io.hdr import read_hdr
 from lsadphoto.solver import (
@@ -70,21 +69,6 @@ RPICT_SETTINGS = {
     "IC -ab 5 -ad 1024 -as 256 -aa 0.15 -ar 32": "-ab 5 -ad 1024 -as 256 -aa 0.15 -ar 32 -lw 1e-4",
     "no cache -ab 6 -ad 16 -aa 0": "-ab 6 -ad 16 -aa 0 -lw 1e-4",
 }
-
-
-def _cpu():
-    r = resource.getrusage(resource.RUSAGE_SELF)
-    c = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime + c.ru_utime + c.ru_stime
-
-
-class _Clock:
-    def __enter__(self):
-        self.t, self.c = time.perf_counter(), _cpu()
-        return self
-
-    def __exit__(self, *exc):
-        self.wall, self.cpu = time.perf_counter() - self.t, _cpu() - self.c
 
 
 def errors(lum, ref, ref_sigma, mask, sigma=None):
@@ -166,7 +150,7 @@ def main(argv=None):
         print(text, flush=True)
         lines.append(text)
 
-    with _Clock() as c_ref:
+    with Clock() as c_ref:
         ref_index, ref_all, ref_sigma_all = reference(scene, view, step=args.ref_step,
                                                       chains=args.ref_chains, nodes=args.ref_nodes,
                                                       direct_samples=64)
@@ -180,19 +164,19 @@ def main(argv=None):
         return np.asarray(image, dtype=float).ravel()[ref_index]
 
     rows = []
-    with _Clock() as c_sim:
+    with Clock() as c_sim:
         store = simulate(scene, samples=args.chains, seed=1)
     for k in args.cache_nodes:
-        with _Clock() as c_cache:
+        with Clock() as c_cache:
             cache = build_surface_cache(store, nodes=k, seed=1, workers=workers)
-        with _Clock() as c:
+        with Clock() as c:
             lmap = render_cached(store, view.projection, cache=cache, seed=1, workers=workers, **pose)
         e = errors(at_ref(lmap.luminance), ref, ref_sigma, every, at_ref(lmap.uncertainty))
         rows.append(("ours, cache", f"{args.chains} chains, {k} nodes/point ({cache.size} points)",
                      c_sim.wall + c_cache.wall + c.wall, c_sim.cpu + c_cache.cpu + c.cpu, c.wall, e, k))
         store.surface_cache = cache
     for k in args.local_nodes:
-        with _Clock() as c:
+        with Clock() as c:
             lmap = render(store, view.projection, nodes_per_pixel=k, seed=1, workers=workers, **pose)
         e = errors(at_ref(lmap.luminance), ref, ref_sigma, every, at_ref(lmap.uncertainty))
         rows.append(("ours, per pixel", f"{args.chains} chains, K = {k}", c_sim.wall + c.wall,
@@ -202,7 +186,7 @@ def main(argv=None):
     store.save(path)
     further = []
     for _ in range(2):
-        with _Clock() as c:
+        with Clock() as c:
             again = load_store(path)
             render_cached(again, view.projection, position=[4.0, 2.0, 1.2],
                           rotation=camera_to_world([-1, 0, 0], [0, 0, 1]), seed=2, workers=workers)
@@ -210,7 +194,7 @@ def main(argv=None):
     settings = list(RPICT_SETTINGS.items())[:2] if args.quick else list(RPICT_SETTINGS.items())
     for label, opts in settings:
         picture = os.path.join(tmp, "rpict.hdr")
-        with _Clock() as c, open(picture, "wb") as fh:
+        with Clock() as c, open(picture, "wb") as fh:
             subprocess.run([os.path.join(binpath, "rpict"), *VIEW, "-x", str(size), "-y", str(size),
                             *COMMON, *opts.split(), octree], stdout=fh, check=True, env=env,
                            timeout=600)

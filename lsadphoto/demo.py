@@ -9,7 +9,10 @@
 5. the main job: ``lsadphoto survey`` processes the bundled survey of six station halls
    (luminance maps, metrics, and each view's scene model rendered by the Monte Carlo solver
    and compared with the photo), then ``lsadphoto study`` correlates the synthetic observers'
-   ratings with the metrics and writes the HTML report with the paper's figures.
+   ratings with the metrics and writes the HTML report with the paper's figures;
+6. ``lsadphoto render`` renders the Radiance worked example (``data_samples/radiance``: a
+   Radiance office with ies2rad downlights placed by ``!xform``) through its ``.vf`` view;
+7. ``lsadphoto design`` chooses luminaires for a stated quality.
 
 Outputs go to ``demo_output/`` (EXR, HDR, false-colour PNG, fitted profile, scores JSON and
 figures).
@@ -82,6 +85,12 @@ def run(out=Path("demo_output")):
         return code
     print(f"model-vs-photo reports: {survey / 'views' / '<view>' / '<view>-model-comparison.html'}")
     print(f"open the survey report: {survey / 'report.html'}")
+    model = samples / "radiance"
+    code = cli(["render", str(model / "office.rad"), "--view", f"-vf {model / 'office.vf'}", "--size", "96x96",
+                "--estimator", "cache", "-o", str(out / "radiance-office.exr"),
+                "--hdr", str(out / "radiance-office.hdr"), "--quiet"])
+    if code:
+        return code
     design = out / "design"
     code = cli(["design", str(samples / "design" / "problem.toml"), "-o", str(design), "--quiet"])
     if code:

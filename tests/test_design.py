@@ -1,7 +1,6 @@
 """lsadphoto design: problem checks, exhaustive vs NSGA-II, and best.toml scored afresh."""
 
 import json
-import shutil
 from pathlib import Path
 
 import pytest

@@ -222,7 +222,7 @@ REFUSALS = [
     ("void plastic w 0 0 5 1 1 1 0 0\nw sphere s 0 0 4 0 0 0 1\n", r"plastic 'w': reflectance 1 .* not in \[0, 1\)"),
     ("void glass g 0 0 3 .9 .9 .9\ng polygon p 0 0 9 0 0 0 1 0 0 0 1 0\n", r"scene.rad:4: polygon 'p': glass 'g' \(.*scene.rad:3\) is not supported"),
     ("void mirror m 0 0 3 .9 .9 .9\nm polygon p 0 0 9 0 0 0 1 0 0 0 1 0\n", r"mirror 'm' .* is not supported"),
-    ("void spotlight s 0 0 7 9 9 9 30 0 0 -1\ns ring r 0 0 8 0 0 2 0 0 -1 0 .1\n", r"spotlight 's' .* is not supported"),
+    ("void brightfunc b 2 f x.cal 0 0\nb spotlight s 0 0 7 9 9 9 30 0 0 -1\ns ring r 0 0 8 0 0 2 0 0 -1 0 .1\n", r"patterns on a spotlight are not supported"),
     ("void glow g 0 0 4 5 5 5 1.5\ng sphere b 0 0 4 0 0 1 .1\n", r"glow 'g' .* has radius of influence 1.5"),
     ("void brightfunc f 2 ring . 0 0\nf light l 0 0 3 1 1 1\nl sphere b 0 0 4 0 0 1 .1\n",
      r"light 'l' .* is modified by brightfunc 'f'"),
@@ -232,7 +232,7 @@ REFUSALS = [
     ("nothing polygon p 0 0 9 0 0 0 1 0 0 0 1 0\n", r"scene.rad:3: polygon 'p': modifier 'nothing' is not defined"),
     ("void source sun 0 0 4 0 0 1 .5\n", r"scene.rad:3: source 'sun': a distant source"),
     ("void mesh m 1 m.rtm 0 0\n", r"scene.rad:3: mesh 'm': m.rtm is a compiled \(binary\) mesh and its source m.obj"),
-    ("void instance i 1 i.oct 0 0\n", r"scene.rad:3: instance 'i': octree instances"),
+    ("void instance i 1 i.oct 0 0\n", r"scene.rad:3: instance 'i': octree i.oct not found"),
     ("void brightdata d 5 flatcorr none.dat source.cal src_phi src_theta 0 0\nd light l 0 0 3 1 1 1\n"
      "l polygon p 0 0 12 0 0 1 1 0 1 1 1 1 0 1 1\n", r"scene.rad:3: brightdata 'd': data file none.dat not found"),
     ("grey sphere s 0 0 3 0 0 0\n", r"scene.rad:3: sphere 's' needs 4 real arguments, got 3"),

@@ -18,7 +18,7 @@ import pytest
 from lsadphoto.geometry import IdealFisheyeProjection, PinholeProjection
 from lsadphoto.solver import (
     AreaLuminaire,
-    IntensityTable,
+    Photometry,
     PointLuminaire,
     Scene,
     camera_to_world,
@@ -28,7 +28,7 @@ from lsadphoto.solver import (
     simulate,
 )
 from lsadphoto.solver.examples import canonical_room
-from lsadphoto.solver.intensity import luminaire_frame
+from lsadphoto.solver.photometry import luminaire_frame
 
 #: Statistical tolerance in standard errors, and the relative accuracy asked of the solver.
 K_SIGMA = 3.0
@@ -101,7 +101,7 @@ def test_point_luminaire_over_a_plane():
     # the floor edge-on, so both estimators are exact up to the 1° intensity table (bilinear
     # interpolation of cos: ≤ 4e-5 relative) and float32 output: tolerance 2e-4.
     rho, h, i0 = 0.5, 2.0, 100.0
-    table = IntensityTable.from_function(lambda c, g: i0 * np.clip(np.cos(g), 0.0, None))
+    table = Photometry.from_function(lambda c, g: i0 * np.clip(np.cos(g), 0.0, None))
     floor = scene_from_dict({
         "materials": {"grey": {"reflectance": rho}},
         "surfaces": [{"type": "polygon", "material": "grey",

@@ -7,7 +7,7 @@ import pytest
 
 from lsadphoto.errors import BadInputError
 from lsadphoto.solver import (
-    IntensityTable,
+    Photometry,
     camera_to_world,
     load_scene,
     scene_from_dict,
@@ -108,7 +108,7 @@ translate = [1, 1, 0.5]
 
 
 def test_point_luminaire_with_callable_distribution():
-    table = IntensityTable.from_function(lambda c, g: 100 * np.clip(np.cos(g), 0, None))
+    table = Photometry.from_function(lambda c, g: 100 * np.clip(np.cos(g), 0, None))
     # flux of I₀·cos γ over the lower hemisphere is π·I₀; the 1° bilinear table is within 1e-4
     assert table.luminous_flux == pytest.approx(100 * math.pi, rel=1e-4)
     frame = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, -1.0]])
@@ -248,5 +248,5 @@ def test_luminaires_of_one_file_share_its_table(tmp_path):
         "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [6, 4, 3], "facing": "inward", "material": "w"}],
         "luminaires": [{"type": "point", "position": [1.0 + k, 2.0, 2.9], "photometry": "a.ies"} for k in range(5)],
     }, base=tmp_path)
-    assert len({id(l.table) for l in scene.point_luminaires}) == 1
+    assert len({id(l.photometry) for l in scene.point_luminaires}) == 1
     assert len(EmissionSampler(scene).tables) == 1

@@ -145,6 +145,12 @@ def test_render_to_a_per_pixel_target_error(room):
     assert p["rounds"][-1]["chains"] == p["chains"]
     errors = [r["pixel_relative_error_median"] for r in p["rounds"]]
     assert all(b < a for a, b in zip(errors, errors[1:]))
+    # The rounds append chains to the earlier ones (chain i has its own random stream), so
+    # the result is exactly one simulation of the final number of chains, rendered once:
+    # an independent run through simulate + render, bit for bit.
+    once = render(simulate(room, samples=p["chains"]), proj, **pose)
+    np.testing.assert_array_equal(lmap.luminance, once.luminance)
+    np.testing.assert_array_equal(lmap.uncertainty, once.uncertainty)
 
 
 def test_render_target_error_says_when_it_stalls_or_applies_not(room, store):

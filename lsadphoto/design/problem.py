@@ -36,7 +36,7 @@ Schema ``lsadphoto.design/1`` (TOML; paths relative to the problem file)::
 
     [search]
     method = "auto"                     # "exhaustive", "nsga2" or "auto"
-    max_exhaustive = 20000              # "auto" enumerates up to this many designs
+    max_exhaustive = 100000             # "auto" enumerates up to this many designs
     population = 40
     generations = 25
     seed = 0
@@ -105,7 +105,7 @@ PROBLEM_SCHEMA = Table({
     "objectives": ArrayOf(_OBJECTIVE, required=True, min_items=1),
     "constraints": ArrayOf(_CONSTRAINT),
     "search": Table({"method": Key(str, default="auto", choices=("auto", "exhaustive", "nsga2")),
-                     "max_exhaustive": Key(int, minimum=1, default=20000),
+                     "max_exhaustive": Key(int, minimum=1, default=100_000),
                      "population": Key(int, minimum=4, default=40),
                      "generations": Key(int, minimum=1, default=25),
                      "seed": Key(int, minimum=0, default=0)}),

@@ -20,7 +20,7 @@ Public names are imported on first use (:mod:`lsadphoto._lazy`).
 from .._lazy import lazy_exports
 
 __getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
-    ".intensity": ["IntensityTable"],
+    ".photometry": ["Photometry", "read_photometry"],
     ".formats": ["load_scene", "read_radiance_scene", "read_rif_scene", "read_scene", "read_view"],
     ".integrators.path_tracer": ["render_path_traced"],
     ".rendering": ["SolverWarning", "render"],

@@ -88,7 +88,7 @@ class EmissionSampler:
             self._multipliers = np.array([l.multiplier for l in points], dtype=float)
             tables = {}
             for k, l in enumerate(points):
-                tables.setdefault(id(l.table), (l.table, []))[1].append(k)
+                tables.setdefault(id(l.photometry), (l.photometry, []))[1].append(k)
             self._table_of = np.zeros(len(points), np.int64)
             self.tables = []
             for j, (table, members) in enumerate(tables.values()):
@@ -141,11 +141,8 @@ class EmissionSampler:
         for j, table in enumerate(self.tables):
             rows = np.flatnonzero(table_of == j)
             if rows.size:
-                frames = self._frames[luminaire[rows]]
-                local = np.einsum("nj,nkj->nk", directions[rows], frames)
-                gamma = np.arccos(np.clip(local[:, 2], -1.0, 1.0))
-                c = np.mod(np.arctan2(local[:, 1], local[:, 0]), 2 * math.pi)
-                out[rows] = table(c, gamma) * self._multipliers[luminaire[rows]]
+                out[rows] = (table.evaluate(directions[rows], self._frames[luminaire[rows]])
+                             * self._multipliers[luminaire[rows]])
         return out
 
     def first_directions(self, rng, src):

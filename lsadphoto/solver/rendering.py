@@ -17,7 +17,7 @@ from ..errors import BadInputError, SolverWarning
 from .integrators.local_estimate import render_local_estimate
 from .integrators.path_tracer import render_path_traced
 from .scene import Scene
-from .simulation import simulate
+from .simulation import DEFAULT_BATCHES, ChainRun, check_simulation_options, simulate
 from .store import LsadStore
 
 __all__ = ["ESTIMATORS", "FIRST_RENDER_CHAINS", "MAX_RENDER_CHAINS", "MIN_PIXEL_TARGET_ERROR",
@@ -152,23 +152,28 @@ def _render_to_target(scene, projection, options, *, samples, target_error, max_
                             f"{MIN_PIXEL_TARGET_ERROR:g} to below 1, got {target_error!r}")
     if int(max_samples) != max_samples or max_samples < 1:
         raise BadInputError(f"max_samples must be a positive integer, got {max_samples!r}")
+    near_field = options["near_field"] or "unbiased"
+    check_simulation_options(scene, near_field=near_field, absorption="weight",
+                             batches=DEFAULT_BATCHES, max_depth=None, samples=samples)
+    run = ChainRun(scene, seed=options["seed"], max_depth=None, near_field=near_field,
+                   absorption="weight", batches=DEFAULT_BATCHES)
     chains = min(int(samples or FIRST_RENDER_CHAINS), int(max_samples))
     rounds = []
     while True:
-        store = simulate(scene, samples=chains, seed=options["seed"],
-                         near_field=options["near_field"] or "unbiased")
+        # each round appends chains to the last round's (the same streams as one long run)
+        store = run.grow(chains)
         lmap = render_local_estimate(store, projection, progress=progress, **options)
         error = lmap.provenance["pixel_relative_error_median"]
         rounds.append({"chains": int(store.chains), "pixel_relative_error_median": error})
         reached = bool(error <= target)
         stalled = (len(rounds) > 1 and lmap.provenance["nodes_per_pixel"] != "all"
                    and error > 0.8 * rounds[-2]["pixel_relative_error_median"])
-        if reached or stalled or not math.isfinite(error) or chains >= max_samples:
+        if reached or stalled or not math.isfinite(error) or store.chains >= max_samples:
             break
         # σ ∝ 1/√chains: the chains that reach the target, with a 20 % margin; at least 2× and
         # at most 16× per round (a stalling error shows before the budget is spent)
-        predicted = math.ceil(1.2 * chains * (error / target) ** 2)
-        chains = min(int(max_samples), max(2 * chains, min(16 * chains, predicted)))
+        predicted = math.ceil(1.2 * store.chains * (error / target) ** 2)
+        chains = min(int(max_samples), max(2 * store.chains, min(16 * store.chains, predicted)))
     lmap.provenance.update({"target_error": target, "target_reached": reached,
                             "target_measure": "median per-pixel relative standard error",
                             "rounds": rounds})

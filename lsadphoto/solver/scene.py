@@ -30,7 +30,7 @@ from .._schema import ArrayOf, Key, MapOf, Table, Variants, validate
 from ..errors import BadInputError, SolverWarning
 from ..geometry.base import Projection, projection_from_dict
 from ..geometry.observer import orthonormal_pair
-from .intensity import IntensityTable, luminaire_frame
+from .photometry import Photometry, luminaire_frame, read_photometry
 
 __all__ = [
     "AreaLuminaire",
@@ -279,19 +279,26 @@ class PointLuminaire:
 
     name: str
     position: np.ndarray
-    table: IntensityTable
+    photometry: Photometry
     frame: np.ndarray  # rows e_C0, e_C90, e_nadir
     extent: tuple = (0.0, 0.0)
     multiplier: float = 1.0
 
+    def __post_init__(self):
+        if not isinstance(self.photometry, Photometry):
+            raise BadInputError(f"luminaire {self.name!r}: its intensity distribution is a "
+                                f"{type(self.photometry).__name__}, not a Photometry")
+        if not self.photometry.luminous_flux > 0:
+            raise BadInputError(f"luminaire {self.name!r}: its intensity distribution emits no flux")
+
     @property
     def flux(self):
         """Luminous flux [lm]."""
-        return self.multiplier * self.table.luminous_flux
+        return self.multiplier * self.photometry.luminous_flux
 
     def intensity(self, directions):
         """Luminous intensity [cd] towards world directions ``(..., 3)``."""
-        return self.multiplier * self.table.evaluate(directions, self.frame)
+        return self.multiplier * self.photometry.evaluate(directions, self.frame)
 
 
 @dataclass
@@ -627,7 +634,7 @@ def _build_checked(data, base, photometry_reader):
             mat_list.append(np.full(len(tris), mat))
             emit_list.append(np.full(len(tris), -1))
     area_lums, point_lums = [], []
-    tables = {}
+    files = {}
     for k, spec in enumerate(data.get("luminaires", [])):
         ctx = f"luminaires[{k}]"
         lname = spec.get("name", f"luminaire{k}")
@@ -655,17 +662,17 @@ def _build_checked(data, base, photometry_reader):
                                     "(isotropic) or 'photometry' (file)")
             extent = (0.0, 0.0)
             if given[0] == "intensity":
-                table = IntensityTable.isotropic(spec["intensity"])
+                photometry = Photometry.isotropic(spec["intensity"])
             elif given[0] == "flux":
-                table = IntensityTable.isotropic(spec["flux"] / (4 * math.pi))
+                photometry = Photometry.isotropic(spec["flux"] / (4 * math.pi))
             else:
                 key = (str(Path(base or ".") / spec["photometry"]), photometry_reader)
-                if key not in tables:  # luminaires of one file share its table (one draw each)
-                    tables[key] = _photometry_table(spec["photometry"], ctx, base, photometry_reader)
-                table, extent = tables[key]
+                if key not in files:  # luminaires of one file share its distribution (one draw each)
+                    files[key] = _photometry_file(spec["photometry"], ctx, base, photometry_reader)
+                photometry, extent = files[key]
             if "extent" in spec:
                 extent = tuple(spec["extent"])
-            point_lums.append(PointLuminaire(lname, position, table, frame, extent, spec["multiplier"]))
+            point_lums.append(PointLuminaire(lname, position, photometry, frame, extent, spec["multiplier"]))
     views = _views(data.get("views", []))
     if not tri_list:
         raise BadInputError("scene has no surfaces")
@@ -699,50 +706,24 @@ def as_views(items):
     return [v for v in items if isinstance(v, View)] + built
 
 
-def _photometry_table(file, ctx, base, reader):
-    """The intensity table and luminous rectangle of a photometric file.
+def _photometry_file(file, ctx, base, reader):
+    """The :class:`Photometry` and luminous rectangle (length, width) [m] of a photometric file.
 
-    The file's own (C, γ) grid is used, so the solver interpolates exactly as
-    :meth:`Photometry.intensity` does; γ ranges that stop short of 0° or 180° are closed
-    with zero intensity 1e-6° beyond the last sampled angle (the reader returns 0 outside
-    its range). The luminous opening gives the emission rectangle (length along C0, width
-    along C90); a circular opening (negative sizes, IES convention) becomes the square of
-    the same area.
+    The luminous opening gives the emission rectangle (length along C0, width along C90); a
+    circular opening (negative sizes, IES convention) becomes the square of the same area.
     """
     file = Path(file)
     if not file.is_absolute() and base is not None:
         file = Path(base) / file
-    if reader is None:
-        try:
-            from .photometry import read_photometry as reader
-        except ImportError:
-            raise BadInputError(f"{ctx}: photometric files are not supported in this build") from None
     try:
-        phot = reader(file)
+        phot = (reader or read_photometry)(file)
     except BadInputError as exc:
         raise BadInputError(f"{ctx}: {exc}") from None
-    table = photometry_table(phot)
-    length = float(getattr(phot, "length", 0.0) or 0.0)
-    width = float(getattr(phot, "width", 0.0) or 0.0)
+    if not isinstance(phot, Photometry):
+        raise BadInputError(f"{ctx}: the photometry reader returned a {type(phot).__name__}, "
+                            "not a Photometry")
+    length, width = phot.length, phot.width
     if length < 0 or width < 0:  # circular/elliptical opening: square of equal area
         side = math.sqrt(math.pi * abs(length) * abs(width)) / 2.0
         length = width = side
-    return table, (length, width)
-
-
-def photometry_table(phot):
-    """:class:`IntensityTable` of a :class:`~lsadphoto.solver.photometry.Photometry`."""
-    if hasattr(phot, "c_angles") and hasattr(phot, "gamma_angles") and hasattr(phot, "candela"):
-        c = np.radians(np.asarray(phot.c_angles, float))
-        g = np.asarray(phot.gamma_angles, float)
-        cd = np.asarray(phot.candela, float)
-        tiny = 1e-6
-        if g[0] > 0:
-            g = np.concatenate([[0.0, g[0] - tiny], g]) if g[0] > tiny else np.concatenate([[0.0], g[1:]])
-            cd = np.concatenate([np.zeros((len(c), len(g) - cd.shape[1])), cd], axis=1)
-        if g[-1] < 180:
-            extra = [g[-1] + tiny, 180.0] if g[-1] < 180 - tiny else [180.0]
-            g = np.concatenate([g, extra])
-            cd = np.concatenate([cd, np.zeros((len(c), len(extra)))], axis=1)
-        return IntensityTable(c, np.radians(g), cd)
-    return IntensityTable.from_function(phot.intensity, c_step_deg=2.5, gamma_step_deg=0.5)
+    return phot, (length, width)

@@ -21,7 +21,7 @@ from .engine import engine_for
 from .integrators.local_estimate import NEAR_FIELD_TREATMENTS, render_local_estimate
 from .scene import Scene
 
-__all__ = ["DEFAULT_BATCHES", "DEFAULT_CHAINS", "MAX_CHAINS", "simulate"]
+__all__ = ["DEFAULT_BATCHES", "DEFAULT_CHAINS", "MAX_CHAINS", "ChainRun", "check_simulation_options", "simulate"]
 
 #: Light chains of a simulation when neither ``samples`` nor ``target_error`` is given.
 DEFAULT_CHAINS = 65_536
@@ -61,6 +61,79 @@ def _error_estimate(store):
     np.add.at(total, store.batch[surf], store.coefficient[surf])
     rel = total.std(ddof=1) / math.sqrt(store.batches) / total.mean() if total.mean() > 0 else 0.0
     return float(rel), "area-mean reflected exitance"
+
+
+class ChainRun:
+    """Light chains added to one store in rounds: round k traces the next blocks of chains.
+
+    Chain i always uses the same random stream (:func:`~lsadphoto.solver.chains.trace_chains`),
+    so a run grown in rounds to N chains holds exactly the chains of one run of N chains: rounds
+    cost no more than the final run alone. Options as :func:`simulate`'s (checked there).
+    """
+
+    def __init__(self, scene, *, seed, max_depth, near_field, absorption, batches, progress=None):
+        self.scene, self.seed, self.max_depth = scene, seed, max_depth
+        self.near_field, self.absorption, self.batches = near_field, absorption, batches
+        self.engine = engine_for(scene)
+        self.sampler = EmissionSampler(scene)
+        self.store = None
+        self.blocks = 0
+        self.started = time.perf_counter()
+        self._progress = progress
+
+    @property
+    def chains(self):
+        """Chains traced so far."""
+        return self.blocks * CHAIN_BLOCK
+
+    def grow(self, chains):
+        """Trace chains until at least ``chains`` are held (whole blocks); return the store."""
+        blocks = max(1 if self.store is None else 0, math.ceil(chains / CHAIN_BLOCK) - self.blocks)
+        if blocks:
+            done, planned = self.blocks, self.blocks + blocks
+
+            def report(k):
+                if self._progress is not None:
+                    frac = min(1.0, (done + k) / planned)
+                    elapsed = time.perf_counter() - self.started
+                    self._progress(frac, elapsed * (1 - frac) / frac if frac > 0 else float("nan"))
+
+            part = trace_chains(self.scene, self.engine, seed=self.seed, first_block=self.blocks,
+                                blocks=blocks, batches=self.batches, max_depth=self.max_depth,
+                                absorption=self.absorption, sampler=self.sampler, progress=report)
+            if self.store is None:
+                self.store = part
+            else:
+                self.store.extend(part)
+            self.blocks += blocks
+        self.store.near_field = self.near_field
+        return self.store
+
+    def provenance(self, arguments, **results):
+        """The store's provenance: the call's ``arguments``, the run's settings and ``results``."""
+        store = self.store
+        return {
+            **build_provenance(arguments=arguments),
+            "solver": "lsadphoto.solver", "version": __version__,
+            "chains": int(store.chains), "batches": self.batches, "seed": int(self.seed),
+            "max_depth": self.max_depth, "absorption": self.absorption, "nodes": int(store.nodes),
+            "total_flux_lm": float(self.scene.total_flux),
+            "simulation_time_s": time.perf_counter() - self.started, **results,
+        }
+
+
+def check_simulation_options(scene, *, near_field, absorption, batches, max_depth, samples):
+    """One-line errors for the options of :func:`simulate` (and of renders that simulate)."""
+    if not isinstance(scene, Scene):
+        raise BadInputError("simulate needs a Scene (see load_scene)")
+    check_choice(near_field, "near_field", NEAR_FIELD_TREATMENTS)
+    check_choice(absorption, "absorption", ABSORPTION_MODES)
+    if int(batches) != batches or batches < 8 or CHAIN_BLOCK % int(batches):
+        raise BadInputError(f"batches must be a divisor of {CHAIN_BLOCK} and at least 8, got {batches}")
+    if max_depth is not None and (int(max_depth) != max_depth or max_depth < 1):
+        raise BadInputError(f"max_depth must be a positive integer, got {max_depth!r}")
+    if samples is not None and (int(samples) != samples or samples < 1):
+        raise BadInputError(f"samples must be a positive integer, got {samples!r}")
 
 
 def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
@@ -107,69 +180,29 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
     ----------
     Budak, Zheltov & Kalakutsky (2012); Marchuk et al. (1980), ch. 2–3.
     """
-    if not isinstance(scene, Scene):
-        raise BadInputError("simulate needs a Scene (see load_scene)")
-    check_choice(near_field, "near_field", NEAR_FIELD_TREATMENTS)
-    check_choice(absorption, "absorption", ABSORPTION_MODES)
+    check_simulation_options(scene, near_field=near_field, absorption=absorption, batches=batches,
+                             max_depth=max_depth, samples=samples)
     batches = int(batches)
-    if batches < 8 or CHAIN_BLOCK % batches:
-        raise BadInputError(f"batches must be a divisor of {CHAIN_BLOCK} and at least 8, got {batches}")
-    if max_depth is not None and (int(max_depth) != max_depth or max_depth < 1):
-        raise BadInputError(f"max_depth must be a positive integer, got {max_depth!r}")
     if target_error is not None and not (MIN_TARGET_ERROR <= float(target_error) < 1):
         raise BadInputError(f"target_error must be a relative error from {MIN_TARGET_ERROR:g} to below 1, "
                             f"got {target_error!r}")
-    if samples is not None and (int(samples) != samples or samples < 1):
-        raise BadInputError(f"samples must be a positive integer, got {samples!r}")
     first = samples if samples is not None else (16_384 if target_error is not None else DEFAULT_CHAINS)
-    blocks = max(1, math.ceil(first / CHAIN_BLOCK))
-    max_blocks = max(blocks, int(max_samples) // CHAIN_BLOCK)
-    engine = engine_for(scene)
-    sampler = EmissionSampler(scene)
-    t0 = time.perf_counter()
-    store = None
-    done_blocks = 0
-    planned = blocks
+    run = ChainRun(scene, seed=seed, max_depth=max_depth, near_field=near_field,
+                   absorption=absorption, batches=batches, progress=progress)
+    max_chains = max(math.ceil(first / CHAIN_BLOCK), int(max_samples) // CHAIN_BLOCK) * CHAIN_BLOCK
     achieved, measured = None, None
-
-    def report(k):
-        if progress is not None:
-            frac = min(1.0, (done_blocks + k) / planned)
-            elapsed = time.perf_counter() - t0
-            progress(frac, elapsed * (1 - frac) / frac if frac > 0 else float("nan"))
-
-    while True:
-        part = trace_chains(scene, engine, seed=seed, first_block=done_blocks, blocks=blocks,
-                            batches=batches, max_depth=max_depth, absorption=absorption,
-                            sampler=sampler, progress=report)
-        if store is None:
-            store = part
-        else:
-            store.extend(part)
-        done_blocks += blocks
-        if target_error is None:
-            break
-        store.near_field = near_field
+    store = run.grow(first)
+    while target_error is not None:
         achieved, measured = _error_estimate(store)
-        if not achieved > target_error or done_blocks >= max_blocks:
+        if not achieved > target_error or run.chains >= max_chains:
             break
-        need = math.ceil(done_blocks * (achieved / target_error) ** 2 * 1.1)
-        blocks = max(1, min(need, max_blocks) - done_blocks)
-        planned = done_blocks + blocks
-    store.near_field = near_field
-    store.provenance = {
-        **build_provenance(arguments={"samples": samples, "target_error": target_error, "seed": seed,
-                                      "max_depth": max_depth, "near_field": near_field,
-                                      "absorption": absorption, "batches": batches,
-                                      "max_samples": max_samples}),
-        "solver": "lsadphoto.solver", "version": __version__,
-        "chains": int(store.chains), "batches": batches, "seed": int(seed),
-        "max_depth": max_depth, "absorption": absorption, "nodes": int(store.nodes),
-        "total_flux_lm": float(scene.total_flux), "simulation_time_s": time.perf_counter() - t0,
-        "target_error": target_error, "achieved_relative_error": achieved,
-        "error_measured_on": measured,
-        "target_reached": None if target_error is None else bool(achieved <= target_error),
-    }
+        store = run.grow(min(max_chains, math.ceil(run.chains * (achieved / target_error) ** 2 * 1.1)))
+    store.provenance = run.provenance(
+        {"samples": samples, "target_error": target_error, "seed": seed, "max_depth": max_depth,
+         "near_field": near_field, "absorption": absorption, "batches": batches,
+         "max_samples": max_samples},
+        target_error=target_error, achieved_relative_error=achieved, error_measured_on=measured,
+        target_reached=None if target_error is None else bool(achieved <= target_error))
     if target_error is not None and not achieved <= target_error:
         warnings.warn(f"target_error {target_error:g} not reached: achieved {achieved:.3g} "
                       f"with {store.chains} chains (max_samples = {int(max_samples)}; "

@@ -29,13 +29,13 @@ from ..errors import BadInputError, UnsupportedFileError
 from ..geometry.base import projection_from_dict
 from .._atomic import atomic_path
 from .cache_grid import SurfaceCache
-from .intensity import IntensityTable
+from .photometry import Photometry
 from .scene import AreaLuminaire, PointLuminaire, Scene, View
 
 __all__ = ["STORE_FORMAT", "LsadStore", "load_store"]
 
 #: Identifier and version of the store file layout.
-STORE_FORMAT = "lsadphoto-lsad-store/1"
+STORE_FORMAT = "lsadphoto-lsad-store/2"
 
 #: Node kinds: 0 = cosine lobe (Lambertian surface or emitter), 1 = intensity distribution
 #: of a point luminaire (index in ``luminaire``).
@@ -122,7 +122,8 @@ class LsadStore:
                 "area_luminaires": [{"name": l.name, "flux": l.flux} for l in scene.area_luminaires],
                 "point_luminaires": [
                     {"name": l.name, "position": l.position.tolist(), "frame": l.frame.tolist(),
-                     "extent": list(l.extent), "multiplier": l.multiplier}
+                     "extent": list(l.extent), "multiplier": l.multiplier,
+                     "photometry": {"source": l.photometry.source, "format": l.photometry.format}}
                     for l in scene.point_luminaires],
                 "views": [
                     {"name": v.name, "position": v.position.tolist(), "rotation": v.rotation.tolist(),
@@ -140,8 +141,9 @@ class LsadStore:
             arrays.update({f"cache_{name}": getattr(cache, name) for name in SurfaceCache.ARRAYS})
             meta["surface_cache"]["refine"] = cache.refine
         for k, lum in enumerate(scene.point_luminaires):
-            c, g, i = lum.table.to_arrays()
-            arrays[f"table{k}_c"], arrays[f"table{k}_gamma"], arrays[f"table{k}_intensity"] = c, g, i
+            p = lum.photometry
+            arrays[f"table{k}_c"], arrays[f"table{k}_gamma"], arrays[f"table{k}_intensity"] = (
+                p.c_angles, p.gamma_angles, p.candela)
         arrays["meta"] = np.frombuffer(json.dumps(meta).encode("utf-8"), dtype=np.uint8)
         with atomic_path(path) as temp, open(temp, "wb") as fh:
             np.savez_compressed(fh, **arrays)
@@ -170,9 +172,9 @@ def load_store(path):
                 for k, l in enumerate(s["area_luminaires"])]
         points = []
         for k, l in enumerate(s["point_luminaires"]):
-            table = IntensityTable(arrays[f"table{k}_c"], arrays[f"table{k}_gamma"],
-                                   arrays[f"table{k}_intensity"])
-            points.append(PointLuminaire(l["name"], np.asarray(l["position"]), table,
+            photometry = Photometry(arrays[f"table{k}_c"], arrays[f"table{k}_gamma"],
+                                    arrays[f"table{k}_intensity"], **l["photometry"])
+            points.append(PointLuminaire(l["name"], np.asarray(l["position"]), photometry,
                                          np.asarray(l["frame"]), tuple(l["extent"]), l["multiplier"]))
         views = [View(v["name"], np.asarray(v["position"]), np.asarray(v["rotation"]),
                       projection_from_dict(v["projection"])) for v in s["views"]]

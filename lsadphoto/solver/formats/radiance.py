@@ -15,13 +15,15 @@ What is read, as Radiance reads it:
   (reflectance ρ = 0.265074 R + 0.670115 G + 0.064811 B, :func:`radiance_luminance`), ``trans``
   of specularity 0 and transmissivity 0, ``light`` (a Lambertian emitter of luminance
   179 lm/W × the same weights, front side only, not reflecting), ``glow`` whose radius of
-  influence is 0 (it then lights everything, like a ``light``). Anything else is refused
+  influence is 0 (it then lights everything, like a ``light``), ``illum`` as its alternate
+  material (or left out without one: see :meth:`_Reader.place_illum`), ``spotlight`` as a
+  luminaire emitting within its cone (:meth:`_Reader.spotlight`). Anything else is refused
   when a surface uses it, in one line naming file, line, modifier and parameter.
 - **Luminaires from ies2rad**: a ``light`` modified by a ``brightdata`` of Radiance's
   ``source.cal`` (``flatcorr``, ``corr``, ``boxcorr``, ``cylcorr`` over ``src_theta``,
   ``src_phi``, ``src_phi2``, ``src_phi4``) becomes one luminaire with a luminous intensity
   distribution (:class:`~lsadphoto.solver.PointLuminaire` with an
-  :class:`~lsadphoto.solver.IntensityTable`): its intensity is Radiance's emitted radiance
+  :class:`~lsadphoto.solver.Photometry`): its intensity is Radiance's emitted radiance
   times the emitting surfaces' projected area, I(ω) = 179·Y(rgb)·b(ω)·A⊥(ω), where b is the
   ``.dat`` table interpolated as Radiance's ``datavalue`` does (linear, one division of linear
   extrapolation, then a harmonic taper to zero), so for ies2rad's geometry I(ω) is the IES
@@ -36,9 +38,10 @@ What is read, as Radiance reads it:
   errors; transforms ``-t -rx -ry -rz -s -mx -my -mz -a -i``, ``-n``, ``-m``).
 
 A ``mesh`` is read from the OBJ it was compiled from (``name.obj`` beside ``name.rtm``,
-through trimesh; one modifier for all faces). Everything else is refused with one line
+through trimesh; one modifier for all faces), an ``instance`` from the Radiance files its
+octree's header names (its ``oconv`` command). Everything else is refused with one line
 (:class:`~lsadphoto.errors.BadInputError`) naming the file, the line, the primitive or
-modifier: distant ``source``\\ s, ``instance`` (octrees are binary), compiled meshes
+modifier: distant ``source``\\ s, compiled meshes
 without their OBJ (or with per-face ``usemtl``: use ``!obj2rad``), patterns and textures on materials, other functions or ``.cal``
 files. Colour is reduced to luminance with Radiance's own RGB weights (those of its
 primaries, ``color.h``), the weights the photo pipeline uses for Radiance pictures
@@ -62,15 +65,16 @@ import os
 import shlex
 import subprocess
 import time
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ...constants import RADIANCE_RGB_LUMINANCE_WEIGHTS, RADIANCE_WHITE_EFFICACY
-from ...errors import BadInputError
+from ...errors import BadInputError, SolverWarning
 from ...io.hdr import parse_view
-from ..intensity import IntensityTable, luminaire_frame
+from ..photometry import Photometry, luminaire_frame
 from ..scene import AreaLuminaire, PointLuminaire, Scene, as_views, polygon_triangles
 from .shapes import DEFAULT_TESSELLATION_ERROR, annulus_triangles, cone_triangles, sphere_triangles
 from .xform import TRANSFORM_WORDS, Transform, parse_transform
@@ -84,7 +88,6 @@ DEFAULT_COMMAND_TIMEOUT = 60.0
 _SURFACES = {"polygon", "sphere", "bubble", "cone", "cup", "cylinder", "tube", "ring"}
 _REFUSED_SURFACES = {
     "source": "a distant source (sun or sky) is not supported",
-    "instance": "octree instances are binary files; give the geometry as Radiance text",
 }
 _MATERIALS = {"plastic", "metal", "trans", "plastic2", "metal2", "trans2", "glass", "dielectric",
               "interface", "mirror", "light", "glow", "illum", "spotlight", "mist", "prism1", "prism2",
@@ -96,6 +99,9 @@ _PATTERNS = {"brightfunc", "brightdata", "brighttext", "colorfunc", "colordata",
 #: Number of real arguments of the materials read here.
 _REALS = {"plastic": 5, "metal": 5, "trans": 7, "light": 3, "glow": 4, "spotlight": 7, "mirror": 3,
           "glass": (3, 4), "illum": 3}
+#: Focal length [m] of a ``spotlight`` (its aim vector's length) up to which the solver emits
+#: from the surface itself: Radiance's falloff (d/(d + f))² then stays above 0.99 beyond 0.2 m.
+SPOT_FOCUS_NEGLIGIBLE = 1e-3
 _SOURCE_COORDINATES = ("src_theta", "src_phi", "src_phi2", "src_phi4")
 _SOURCE_CORRECTIONS = {"flatcorr": (0, 1), "corr": (0, 1), "boxcorr": (4, 4), "cylcorr": (3, 3)}
 _MAX_DEPTH = 16
@@ -320,7 +326,7 @@ class _Reader:
         self.triangles, self.material, self.emitter = [], [], []
         self.count = 0  # triangles so far
         self.names, self.rho, self.index = [], [], {}
-        self.area_luminaires, self.luminaire_parts = [], {}
+        self.area_luminaires, self.luminaire_parts, self.spot_parts = [], {}, {}
         self.folder_of = {}  # definition -> folder of the file that defined it
 
     # the scene's materials (reflectance) by record
@@ -386,6 +392,9 @@ class _Reader:
                 raise BadInputError(f"{where}: {ptype} {ident!r}: real arguments must be finite")
             if ptype == "mesh":
                 self.mesh(override or modifier, prefix + ident, args[0], where, transform, folder)
+            elif ptype == "instance":
+                self.instance(override or modifier, prefix + ident, args[0], where, transform, folder,
+                              depth)
             elif ptype in _SURFACES or ptype in _REFUSED_SURFACES:
                 self.surface(override or modifier, ptype, prefix + ident, reals, where, transform)
             elif ptype in _MATERIALS or ptype in _PATTERNS:
@@ -436,6 +445,18 @@ class _Reader:
         """Add a surface's triangles with the material (or emission) its modifier gives."""
         what = f"{ptype} {ident!r}"
         material, patterns = self.material_of(self.resolve(modifier, where, what), where, what)
+        if material.kind == "illum":
+            self.place_illum(material, ident, ptype, reals, tris, where, transform)
+            return
+        if material.kind == "spotlight":
+            if patterns:
+                raise BadInputError(f"{where}: {what}: {material.describe()} is modified by "
+                                    f"{patterns[0].describe()}: patterns on a spotlight are not supported")
+            if len(material.reals) != 7:
+                raise BadInputError(f"{where}: {what}: {material.describe()} needs 7 real arguments "
+                                    f"(r g b angle xdir ydir zdir), got {len(material.reals)}")
+            self.spot_parts.setdefault(material, []).append((tris, ident))
+            return
         if material.kind in ("light", "glow"):
             luminance = material.emitted_luminance()
             if material.kind == "glow" and material.reals[3] != 0:
@@ -504,6 +525,36 @@ class _Reader:
             tris = tris[:, ::-1]
         self.place(modifier, ident, "mesh", None, tris, where, transform)
 
+    def instance(self, modifier, ident, strings, where, transform, folder, depth):
+        """An ``instance`` of an octree, read from the Radiance files it was compiled from.
+
+        An octree is binary, but its header records the ``oconv`` command that made it: the
+        files named there (relative to the octree's folder; ``-i`` octrees in turn) are read
+        with the instance's transform words, their own modifiers kept, as Radiance shows an
+        instance whose modifier is ``void``. Refused in one line: a source file that is missing
+        or newer than the octree (the octree would no longer be what Radiance renders), input
+        from the standard input, and a modifier other than ``void``."""
+        what = f"instance {ident!r}"
+        if not strings:
+            raise BadInputError(f"{where}: {what} names no octree")
+        if modifier != "void":
+            raise BadInputError(f"{where}: {what} has modifier {modifier!r}; only instances with the "
+                                "octree's own materials (modifier void) are supported")
+        octree = next((f / strings[0] for f in (folder, self.base) if (f / strings[0]).is_file()), None)
+        if octree is None:
+            raise BadInputError(f"{where}: {what}: octree {strings[0]} not found")
+        inner = transform
+        if len(strings) > 1:
+            inner = transform @ parse_transform(strings[1:], f"{where}: {what}")[0][1]
+        # an octree is compiled on its own: its definitions neither see the scene's nor leak into it
+        outer, self.defs = self.defs, {}
+        try:
+            for path in _octree_sources(octree, f"{where}: {what}"):
+                self.read(path.read_text(encoding="utf-8", errors="replace"), str(path), inner,
+                          folder=path.parent, prefix=f"{ident}.", depth=depth + 1)
+        finally:
+            self.defs = outer
+
     @staticmethod
     def material_of(record, where, what):
         """The material a surface uses and the patterns applied to it, as Radiance's shading
@@ -558,6 +609,25 @@ class _Reader:
                                   inward=ptype in ("cup", "tube"), tessellation_error=eps)
         except BadInputError as exc:
             raise BadInputError(f"{name}: {exc}") from None
+
+    def place_illum(self, illum, ident, ptype, reals, tris, where, transform):
+        """An ``illum`` surface (mkillum's secondary light source) as the solver needs it.
+
+        Radiance uses an illum as a light source for shadow rays only; every other ray sees its
+        alternate material (its first string argument), or nothing when that is absent or
+        ``void`` (refman, "illum"). The solver traces the light that an illum stands for through
+        the scene itself (full interreflection), so it takes the surface as its alternate
+        material — or leaves it out — and not the illum's precomputed distribution, which would
+        count that light twice.
+        """
+        alternate = illum.strings[0] if illum.strings else "void"
+        if alternate == "void":
+            return
+        record = self.resolve(alternate, where, f"alternate material of illum {illum.name!r}")
+        if record is not None and record.kind == "illum":
+            raise BadInputError(f"{where}: illum {illum.name!r} ({illum.where}) has another illum "
+                                f"({alternate!r}) as its alternate material")
+        self.place(alternate, ident, ptype, reals, tris, where, transform)
 
     def patterned_emitter(self, light, patterns, tris, disc, ident, where, what):
         pattern = patterns[0]
@@ -674,7 +744,7 @@ class _Reader:
 
     def scene(self, name, views):
         """The :class:`Scene` of everything read."""
-        points = self.luminaires()
+        points = self.luminaires() + self.spotlights()
         if not self.triangles:
             raise BadInputError(f"{name}: the scene has no surfaces")
         if not self.area_luminaires and not points:
@@ -756,31 +826,139 @@ class _Reader:
                 out[k:k + 2048] = weights @ luminance + spheres
             return out.reshape(world.shape[:-1])
 
-        gamma = np.radians(_angle_grid(180.0, 1.0, [table.axes[k] for k, n in enumerate(coords)
-                                                    if n == "src_theta"], (90.0,)))
+        gamma = _angle_grid(180.0, 1.0, [table.axes[k] for k, n in enumerate(coords)
+                                         if n == "src_theta"], (90.0,))
         phi_axes = [_phi_nodes(table.axes[k], n) for k, n in enumerate(coords) if n != "src_theta"]
         if xf.mirrored:
             phi_axes = [np.mod(360.0 - p, 360.0) for p in phi_axes]
-        c = np.radians(_angle_grid(360.0, 5.0, phi_axes, ()))
-        cc, gg = np.meshgrid(c, gamma, indexing="ij")
-        values = intensity(cc, gg)
-        values[-1] = values[0]
-        try:
-            itable = IntensityTable(c, gamma, values)
-        except BadInputError as exc:
-            raise BadInputError(f"{where}: {exc}") from None
-        centroid = (tris.mean(axis=1) * _areas(tris)[:, None]).sum(axis=0) / _areas(tris).sum()
-        pts = tris.reshape(-1, 3) - centroid
-        u, v = pts @ frame[0], pts @ frame[1]
-        length, width = float(np.ptp(u)), float(np.ptp(v))
-        # projected area towards the nadir
-        down = float(np.maximum(0.0, normals @ frame[2]).sum() * 0.5) + sum(
-            disc for _, _, disc, _ in parts if disc is not None)
-        if down > 0 and length * width > 0:  # a rectangle of the projected area towards the nadir
-            scale = math.sqrt(down / (length * width))
-            length, width = length * scale, width * scale
+        c = _angle_grid(360.0, 5.0, phi_axes, ())
         name = parts[0][3].rsplit(".", 1)[0] if len(parts) > 1 else parts[0][3]
-        return PointLuminaire(name, centroid, itable, frame, (length, width), 1.0)
+        discs = sum(disc for _, _, disc, _ in parts if disc is not None)
+        return _tabulated_luminaire(name, tris, normals, discs, frame, intensity, c, gamma, where,
+                                    "Radiance brightdata")
+
+    def spotlights(self):
+        """One luminaire per ``spotlight`` material: its surfaces' emission inside its cone."""
+        return [self.spotlight(record, parts) for record, parts in self.spot_parts.items()]
+
+    def spotlight(self, record, parts):
+        """A ``spotlight``'s surfaces as one luminaire (refman, "spotlight"; Radiance
+        ``srcsupp.c`` ``makespot``, ``source.c`` ``spotout`` and ``srcray``).
+
+        Radiance: the radiance of a ``light`` (179 lm/W × Y of its RGB, front side only) in the
+        directions within half the cone angle of the aim vector, none outside; the aim vector
+        turns with the surfaces (xform), and its length f is the distance of the "effective
+        focus" behind the source: Radiance's direct calculation scales each source sample's
+        solid angle by (d/(d + f))², as if the light came from a point f further away. The
+        solver emits I(ω) = L·Σ A_t·max(0, n_t·ω) inside the cone — from the surfaces
+        themselves (a visible opening) when f ≤ :data:`SPOT_FOCUS_NEGLIGIBLE`, otherwise from the
+        focus point, which reproduces that falloff (exactly on the axis; off the axis
+        Radiance's d + f is the distance along the ray, ours the distance from the focus) and
+        does not appear in renders (a :class:`SolverWarning` says so)."""
+        where = f"{record.where}: spotlight {record.name!r}"
+        angle = float(record.reals[3])
+        if not 0 < angle <= 360:
+            raise BadInputError(f"{where}: cone angle {angle:g}° must be in (0, 360]")
+        aim = record.transform.vector(np.asarray(record.reals[4:7], float))
+        focus = float(np.linalg.norm(aim))
+        if not focus > 0:
+            raise BadInputError(f"{where}: zero aim (focus) vector")
+        aim = aim / focus
+        tris = np.concatenate([t for t, _ in parts])
+        normals = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])  # 2·area·n
+        luminance = record.emitted_luminance()
+        cos_half = math.cos(math.radians(angle / 2))
+        helper = np.eye(3)[int(np.argmin(np.abs(aim)))]
+        frame = luminaire_frame(aim, helper - (helper @ aim) * aim)
+
+        def intensity(c, gamma):
+            local = np.stack([np.sin(gamma) * np.cos(c), np.sin(gamma) * np.sin(c), np.cos(gamma)], axis=-1)
+            world = (local @ frame).reshape(-1, 3)
+            projected = np.maximum(world @ normals.T * 0.5, 0.0).sum(axis=1)
+            inside = world @ aim >= cos_half - 1e-12
+            return (luminance * projected * inside).reshape(np.shape(c))
+
+        gamma = _angle_grid(180.0, 1.0, (), (angle / 2,) if angle < 360 else ())
+        c = _angle_grid(360.0, 5.0, (), ())
+        name = parts[0][1].rsplit(".", 1)[0] if len(parts) > 1 else parts[0][1]
+        lum = _tabulated_luminaire(name, tris, normals, 0.0, frame, intensity, c, gamma, where,
+                                   "Radiance spotlight")
+        if focus <= SPOT_FOCUS_NEGLIGIBLE:
+            return lum
+        warnings.warn(f"{where}: its aim vector's length puts Radiance's effective focus {focus:g} m "
+                      "behind the surface; the solver emits from that point, which does not appear in "
+                      f"renders (an aim vector shorter than {SPOT_FOCUS_NEGLIGIBLE:g} m emits from the "
+                      "surface itself)", SolverWarning, stacklevel=2)
+        return PointLuminaire(lum.name, lum.position - focus * aim, lum.photometry, frame, (0.0, 0.0), 1.0)
+
+
+def _tabulated_luminaire(name, tris, normals, discs, frame, intensity, c, gamma, where, fmt):
+    """A :class:`PointLuminaire` of emitting surfaces ``tris`` (n, 3, 3) [m] with the luminous
+    intensity ``intensity(c, gamma)`` [cd] (angles [rad] in ``frame``) tabulated on the grid
+    ``c``, ``gamma`` [deg], emitting from a rectangle of the surfaces' projected area towards
+    the frame's nadir (``normals``: 2·area·n of the flat ones; ``discs``: the projected area
+    [m²] of spheres, the same from everywhere)."""
+    cc, gg = np.meshgrid(np.radians(c), np.radians(gamma), indexing="ij")
+    values = intensity(cc, gg)
+    values[-1] = values[0]
+    try:
+        photometry = Photometry(c, gamma, values, source=where, format=fmt)
+        if not photometry.luminous_flux > 0:
+            raise BadInputError("its intensity distribution emits no flux")
+    except BadInputError as exc:
+        raise BadInputError(f"{where}: {exc}") from None
+    centroid = (tris.mean(axis=1) * _areas(tris)[:, None]).sum(axis=0) / _areas(tris).sum()
+    pts = tris.reshape(-1, 3) - centroid
+    u, v = pts @ frame[0], pts @ frame[1]
+    length, width = float(np.ptp(u)), float(np.ptp(v))
+    down = float(np.maximum(0.0, normals @ frame[2]).sum() * 0.5) + discs
+    if down > 0 and length * width > 0:  # a rectangle of the projected area towards the nadir
+        scale = math.sqrt(down / (length * width))
+        length, width = length * scale, width * scale
+    return PointLuminaire(name, centroid, photometry, frame, (length, width), 1.0)
+
+
+def _octree_sources(octree, where, seen=()):
+    """The Radiance files an octree was compiled from, in order, as its header's ``oconv``
+    command names them (``-i`` octrees expanded), each checked to exist and to be no newer than
+    the octree."""
+    octree = Path(octree).resolve()
+    if octree in seen:
+        raise BadInputError(f"{where}: octree {octree.name} includes itself (oconv -i)")
+    with open(octree, "rb") as fh:
+        head = fh.read(1 << 16)
+    if not head.startswith(b"#?RADIANCE"):
+        raise BadInputError(f"{where}: {octree.name} is not a Radiance octree (no #?RADIANCE header)")
+    lines = head.split(b"\n\n", 1)[0].decode("latin-1").splitlines()
+    command = next((line.split() for line in lines if line.split()[:1] == ["oconv"]), None)
+    if command is None:
+        raise BadInputError(f"{where}: the header of {octree.name} names no oconv command to read its "
+                            "sources from")
+    takes = {"-b": 4, "-n": 1, "-r": 1, "-i": 1}
+    files, k = [], 1
+    while k < len(command):
+        word = command[k]
+        if word == "-i":
+            files += _octree_sources(octree.parent / command[k + 1], where, seen + (octree,))
+            k += 2
+        elif word in takes:
+            k += 1 + takes[word]
+        elif word in ("-f", "-w"):
+            k += 1
+        elif word.startswith("-"):
+            raise BadInputError(f"{where}: {octree.name} was made from {'standard input' if word == '-' else word} "
+                                f"(oconv {' '.join(command[1:])}); give its Radiance files instead")
+        else:
+            path = octree.parent / word
+            if not path.is_file():
+                raise BadInputError(f"{where}: {octree.name} was compiled from {word}, which is not "
+                                    f"beside it; give the Radiance files instead of the octree")
+            if path.stat().st_mtime > octree.stat().st_mtime + 1:
+                raise BadInputError(f"{where}: {word} is newer than {octree.name}, so the octree may no "
+                                    "longer hold it; run oconv again or give the Radiance files")
+            files.append(path)
+            k += 1
+    return files
 
 
 def _is_number(word):

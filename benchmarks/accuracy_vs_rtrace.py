@@ -1,0 +1,205 @@
+"""Per-pixel accuracy of the solver's maps against unbiased Radiance references (issue 13).
+
+One Radiance scene file goes to both programs: our :func:`lsadphoto.solver.read_scene` and
+Radiance's ``oconv``. The reference is ``rtrace -aa 0`` (pure Monte Carlo ambient sampling:
+no irradiance cache, so no interpolation bias; rpict's cache has its own errors) through the
+rays that ``vwrays`` makes of the same 180° fisheye view, on a random subset of the pixels
+inside the image circle, **run twice** with the pixels in opposite order: the two runs' noise
+is independent (PITFALLS.md), their mean is the reference and half their difference its
+standard error.
+
+Scenes:
+
+* ``canonical``: the canonical room of FORMULAS.md Part A (:func:`canonical_room_rad`);
+* ``hall``: a station-like hall made by :func:`lsadphoto.datasets.hall.make_station_hall`
+  (reduced by ``--hall-scale``: floor, luminaires and tessellation), written as Radiance
+  polygons with its luminaires as Radiance's own ``ies2rad`` output of the hall's IES file,
+  placed by ``!xform`` — exactly what a user brings from Radiance.
+
+For each of our estimators (``cache``: direct light per pixel, indirect from the surface
+cache; ``local``: the per-pixel double local estimate) the table gives, over the subset:
+the field-mean ratio, the mean absolute relative per-pixel error (MARE) raw and with the
+reference's own noise removed in quadrature, our self-reported per-pixel error, and the share
+of pixels with |z| ≤ 3, z = (ours − reference)/√(σ_ours² + σ_ref²). Pixels brighter than
+``--max-luminance`` (the luminaires' openings, whose edges one ray per pixel resolves
+differently in the two programs) are left out.
+
+Run (2-core machine)::
+
+    python benchmarks/accuracy_vs_rtrace.py --scene canonical --size 128
+    python benchmarks/accuracy_vs_rtrace.py --scene hall --size 128 --hall-scale 0.5
+
+Writes a Markdown fragment with the command to ``--output``.
+"""
+
+import argparse
+import math
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from _clock import Clock
+
+from lsadphoto.constants import RADIANCE_RGB_LUMINANCE_WEIGHTS
+from lsadphoto.solver import read_scene, render, simulate
+from lsadphoto.solver.examples import canonical_room_rad
+from lsadphoto.solver.integrators.surface_cache import render_cached
+
+
+def _radiance():
+    import pyradiance
+
+    binpath = os.path.join(os.path.dirname(pyradiance.__file__), "bin")
+    env = dict(os.environ, RAYPATH=os.pathsep.join([".", os.path.join(binpath, "..", "lib")]),
+               PATH=os.pathsep.join([binpath, os.environ.get("PATH", "")]))
+    return binpath, env, pyradiance.__version__
+
+
+def _hall_rad(folder, scale):
+    """Write the reduced station hall as a Radiance scene; returns its path."""
+    from lsadphoto.datasets.hall import make_station_hall
+
+    toml = make_station_hall(folder, length=60.0 * scale, width=20.0 * max(scale, 0.5),
+                             luminaires=max(8, round(120 * scale)), detail=scale)
+    scene = read_scene(toml)
+    binpath, env, _ = _radiance()
+    subprocess.run([os.path.join(binpath, "ies2rad"), "-t", "default", "-m", "1", "-dm", "-o", "luminaire",
+                    "luminaire.ies"], cwd=folder, env=env, check=True)
+    lines = [f"# {scene.name}: {len(scene.triangles)} triangles, written by {Path(__file__).name}"]
+    for k, (name, rho) in enumerate(zip(scene.material_names, scene.reflectance)):
+        lines.append(f"void plastic m{k}\n0\n0\n5 {rho:.6g} {rho:.6g} {rho:.6g} 0 0\n")
+    for t, (tri, mat) in enumerate(zip(scene.triangles, scene.material)):
+        coords = " ".join(f"{v:.6f}" for v in tri.ravel())
+        lines.append(f"m{mat} polygon t{t}\n0\n0\n9 {coords}")
+    for lum in scene.point_luminaires:
+        if not np.allclose(lum.frame[2], [0, 0, -1]) or not np.allclose(lum.frame[0], [1, 0, 0]):
+            raise SystemExit(f"luminaire {lum.name}: only downward luminaires along +x are written")
+        x, y, z = lum.position
+        lines.append(f"!xform -n {lum.name} -t {x:.6f} {y:.6f} {z:.6f} luminaire.rad")
+    path = Path(folder) / "hall.rad"
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path, [(v.name, v.position, v.rotation) for v in scene.views]
+
+
+def _reference(rad, view_options, size, pixels, rtrace_options, seed):
+    """Flat pixel indices, reference luminance [cd·m⁻²] and its standard error, rtrace CPU [s]."""
+    binpath, env, _ = _radiance()
+    folder = rad.parent
+    octree = folder / "scene.oct"
+    with open(octree, "wb") as fh:
+        subprocess.run([os.path.join(binpath, "oconv"), "-f", rad.name], stdout=fh, cwd=folder, env=env,
+                       check=True)
+    raw = subprocess.run([os.path.join(binpath, "vwrays"), *view_options, "-x", str(size), "-y", str(size),
+                          "-ff"], capture_output=True, cwd=folder, env=env, check=True).stdout
+    rays = np.frombuffer(raw, np.float32).reshape(-1, 6)
+    # inside the 180° image circle: within 90° of the view direction (vwrays also gives the
+    # corners' rays, beyond 90°, which our fisheye leaves undefined)
+    forward = np.asarray(view_options[view_options.index("-vd") + 1:][:3], float)
+    inside = np.flatnonzero(rays[:, 3:] @ (forward / np.linalg.norm(forward)) > 1e-6)
+    pick = np.sort(np.random.default_rng(seed).choice(inside, min(pixels, inside.size), replace=False))
+    runs = []
+    with Clock() as clock:
+        for order in (slice(None), slice(None, None, -1)):
+            subset = np.ascontiguousarray(rays[pick][order])
+            out = subprocess.run([os.path.join(binpath, "rtrace"), "-h", "-ff", *rtrace_options.split(),
+                                  str(octree)], input=subset.tobytes(), capture_output=True, cwd=folder,
+                                 env=env, check=True).stdout
+            rgb = np.frombuffer(out, np.float32).reshape(-1, 3).astype(float)
+            runs.append((179.0 * rgb @ RADIANCE_RGB_LUMINANCE_WEIGHTS)[order])
+    return pick, (runs[0] + runs[1]) / 2, np.abs(runs[0] - runs[1]) / 2, clock.cpu
+
+
+def _row(label, setting, lmap, pick, ref, ref_sigma, keep, cpu):
+    ours = lmap.luminance.ravel()[pick][keep]
+    sigma = lmap.uncertainty.ravel()[pick][keep]
+    r, rs = ref[keep], ref_sigma[keep]
+    rel = np.abs(ours / r - 1)
+    raw = float(np.mean(rel))
+    ref_mae = 0.798 * float(np.mean(rs / r))  # E|z| of a unit Gaussian: MAEs add in quadrature
+    corrected = math.sqrt(max(raw * raw - ref_mae * ref_mae, 0.0))
+    z = (ours - r) / np.sqrt(sigma ** 2 + rs ** 2)
+    return (f"| {label} | {setting} | {cpu:.0f} | {ours.mean() / r.mean():.4f} | {np.median(ours / r):.4f} | "
+            f"{100 * raw:.2f} % | {100 * corrected:.2f} % | {100 * float(np.median(sigma / ours)):.2f} % | "
+            f"{100 * float(np.mean(np.abs(z) <= 3)):.1f} % |")
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scene", choices=("canonical", "hall"), default="canonical")
+    parser.add_argument("--size", type=int, default=128)
+    parser.add_argument("--pixels", type=int, default=256, help="reference pixels (random subset)")
+    parser.add_argument("--chains", type=int, default=65536)
+    parser.add_argument("--local-chains", type=int, default=262144)
+    parser.add_argument("--hall-scale", type=float, default=0.5)
+    parser.add_argument("--rtrace", default="-aa 0 -ab 8 -ad 512 -lw 1e-5 -dj 0 -ds 0.02")
+    parser.add_argument("--max-luminance", type=float, default=1000.0)
+    parser.add_argument("--estimators", default="cache,local")
+    parser.add_argument("--output", default="/tmp/frag_accuracy_rtrace.md")
+    args = parser.parse_args(argv)
+    folder = Path(tempfile.mkdtemp(prefix="acc_rtrace_"))
+    if args.scene == "canonical":
+        rad = folder / "room.rad"
+        rad.write_text(canonical_room_rad(), encoding="ascii")
+        views = [("observer", np.array([1.0, 2.0, 1.2]), None)]
+        view_options = ["-vta", "-vp", "1", "2", "1.2", "-vd", "1", "0", "0", "-vu", "0", "0", "1",
+                        "-vh", "180", "-vv", "180"]
+    else:
+        rad, views = _hall_rad(folder, args.hall_scale)
+        name, position, rotation = views[0]
+        d, u = rotation[:, 2], -rotation[:, 1]
+        view_options = ["-vta", "-vp", *map(str, position), "-vd", *map(str, d), "-vu", *map(str, u),
+                        "-vh", "180", "-vv", "180"]
+    scene = read_scene(rad, views=[{"name": "reference view", "position": list(map(float, view_options[2:5])),
+                                     "line_of_sight": list(map(float, view_options[6:9])),
+                                     "up": list(map(float, view_options[10:13])),
+                                     "projection": {"model": "fisheye-ideal", "kind": "equidistant",
+                                                    "fov_deg": 180, "width": args.size,
+                                                    "height": args.size}}])
+    view = scene.views[0]
+    pose = {"position": view.position, "rotation": view.rotation}
+    pick, ref, ref_sigma, rtrace_cpu = _reference(rad, view_options, args.size, args.pixels, args.rtrace, seed=5)
+    rows = []
+    keep = None
+    workers = os.cpu_count() or 1
+    estimators = args.estimators.split(",")
+    if "cache" in estimators:
+        with Clock() as clock:
+            store = simulate(scene, samples=args.chains, seed=1)
+            lmap = render_cached(store, view.projection, seed=1, workers=workers, **pose)
+        keep = np.isfinite(lmap.luminance.ravel()[pick]) & (ref < args.max_luminance) & (
+            lmap.luminance.ravel()[pick] < args.max_luminance)
+        rows.append(("ours, surface cache", f"{args.chains} chains, defaults", lmap, clock.cpu))
+    if "local" in estimators:
+        with Clock() as clock:
+            store = simulate(scene, samples=args.local_chains, seed=2)
+            lmap = render(store, view.projection, seed=2, workers=workers, **pose)
+        if keep is None:
+            keep = np.isfinite(lmap.luminance.ravel()[pick]) & (ref < args.max_luminance)
+        rows.append(("ours, double local estimate", f"{args.local_chains} chains, nodes per pixel auto",
+                     lmap, clock.cpu))
+    _, _, version = _radiance()
+    lines = [f"Command: `{' '.join([os.path.basename(sys.executable), *sys.argv])}`  ",
+             f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
+             f"Radiance binaries of pyradiance {version}; load average {os.getloadavg()[0]:.1f} at the end.  ",
+             f"Scene: {scene.name} ({len(scene.triangles)} triangles, {len(scene.point_luminaires)} point and "
+             f"{len(scene.area_luminaires)} area luminaires); view `{' '.join(view_options)}` at {args.size}².  ",
+             f"Reference: `rtrace {args.rtrace}` on {int(keep.sum())} random pixels inside the image circle "
+             f"(of {pick.size}; {int(np.sum(ref >= args.max_luminance))} luminaire pixels above "
+             f"{args.max_luminance:g} cd/m² left out), two runs, {rtrace_cpu:.0f} s CPU; its own mean "
+             f"relative standard error "
+             f"{100 * float(np.mean(ref_sigma[keep] / ref[keep])):.2f} %.", "",
+             "| solver | setting | CPU [s] | field-mean ratio | median pixel ratio | MARE | MARE, reference "
+             "noise removed | self-reported per-pixel error (median) | pixels with |z| ≤ 3 |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    lines += [_row(label, setting, lmap, pick, ref, ref_sigma, keep, cpu) for label, setting, lmap, cpu in rows]
+    text = "\n".join(lines) + "\n"
+    print(text)
+    Path(args.output).write_text(text, encoding="utf-8")
+
+
+if __name__ == "__main__":
+    main()
