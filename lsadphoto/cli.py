@@ -786,7 +786,8 @@ def _size(text):
 def cmd_render(args):
     from ._progress import progress_callback
     from .io import write_exr, write_hdr
-    from .solver import LsadStore, load_store, render
+    from .solver import load_store, render
+    from .solver.rendering import DEFAULT_TARGET_ERROR, choose_estimator
 
     if Path(args.output).suffix.lower() != ".exr":
         raise BadInputError(f"output {args.output} must end in .exr")
@@ -795,10 +796,6 @@ def cmd_render(args):
     source = Path(args.source)
     cache_options = [o for o, v in (("--cache-spacing", args.cache_spacing),
                                     ("--cache-nodes", args.cache_nodes)) if v is not None]
-    if cache_options and args.estimator != "cache":
-        raise BadInputError(f"{', '.join(cache_options)} apply to --estimator cache only")
-    if args.target_error is not None and args.estimator != "local":
-        raise BadInputError("--target-error applies to --estimator local (the per-pixel estimate)")
     if source.suffix.lower() == ".npz":
         store_or_scene = load_store(source)
         scene = store_or_scene.scene
@@ -810,33 +807,33 @@ def cmd_render(args):
             raise BadInputError(f"{', '.join(cache_options)} cannot apply: the store {source} already holds "
                                 f"a surface cache (spacing {store_or_scene.surface_cache.spacing:.3g} m); "
                                 "build another with simulate --surface-cache")
+        target = None
     else:
         store_or_scene = scene = _load_any_scene(source)
+        target = args.target_error
+        if target is None and args.samples is None:
+            target = DEFAULT_TARGET_ERROR
+    estimator = args.estimator
+    if estimator == "auto":
+        estimator = choose_estimator(store_or_scene, samples=args.samples, target_error=target)[0]
+    if cache_options and estimator != "cache":
+        raise BadInputError(f"{', '.join(cache_options)} apply to the surface cache (--estimator cache)")
     projection, position, rotation = _render_pose(args, scene)
     nodes = args.nodes_per_pixel
     if nodes not in ("auto", "all"):
+        if estimator == "cache":
+            raise BadInputError("--nodes-per-pixel applies to --estimator local")
         try:
             nodes = int(nodes)
         except ValueError:
             raise BadInputError(f"--nodes-per-pixel must be a positive integer, 'all' or 'auto', got {nodes!r}") from None
-    if args.estimator == "cache":
-        from .solver import simulate
-        from .solver.integrators.surface_cache import render_cached
-
-        store = store_or_scene
-        if not isinstance(store, LsadStore):
-            store = simulate(scene, samples=args.samples or 65536, seed=args.seed)
-        if store.surface_cache is None:
-            store.surface_cache = _build_cache(store, args)
+    options = ({"cache_spacing": args.cache_spacing, "cache_nodes": args.cache_nodes}
+               if estimator == "cache" else {"nodes_per_pixel": None if nodes == "all" else nodes})
     callback, close = progress_callback("rendering", enabled=False if args.quiet else None)
     try:
-        if args.estimator == "cache":
-            lmap = render_cached(store, projection, position=position, rotation=rotation,
-                                 seed=args.seed, workers=os.cpu_count() or 1, progress=callback)
-        else:
-            lmap = render(store_or_scene, projection, position=position, rotation=rotation,
-                          samples=args.samples, target_error=args.target_error, seed=args.seed,
-                          nodes_per_pixel=None if nodes == "all" else nodes, progress=callback)
+        lmap = render(store_or_scene, projection, position=position, rotation=rotation, estimator=args.estimator,
+                      samples=args.samples, target_error=target, seed=args.seed, workers=os.cpu_count() or 1,
+                      progress=callback, **options)
     finally:
         close()
     writers = {"exr": write_exr, "hdr": write_hdr}
@@ -855,6 +852,8 @@ def cmd_render(args):
               f"{_percent(p.get('pixel_relative_error_p95'))}"
               f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}"
               f"{' — plus the cache interpolation bias' if p.get('interpolation_bias') else ''}")
+        if p.get("estimator_choice"):
+            print(f"estimator {p['estimator_choice']}")
         if p.get("target_error") is not None:
             chains = " → ".join(str(r["chains"]) for r in p["rounds"])
             print(f"target per-pixel error {_percent(p['target_error'])} "
@@ -1142,12 +1141,14 @@ def _build_parser():
     ren.add_argument("--up", metavar="X,Y,Z", help="up in the scene (with --profile; default 0,0,1)")
     ren.add_argument("--samples", type=int, help="light chains when rendering a scene directly")
     ren.add_argument("--target-error", type=float, metavar="E",
-                     help="rendering a scene: simulate in rounds until the median per-pixel relative "
-                          "error is at most E (e.g. 0.02; the local estimator)")
-    ren.add_argument("--estimator", choices=_Choices("lsadphoto.solver.rendering", "ESTIMATORS"), default="local",
+                     help="rendering a scene: simulate and render in rounds until the median per-pixel "
+                          "relative error is at most E (default 0.02 when no --samples are given)")
+    ren.add_argument("--estimator", choices=_Choices("lsadphoto.solver.rendering", "ESTIMATORS"), default="auto",
                      help="local: the double local estimate per pixel (unbiased reference); cache: direct "
-                          "light per pixel, indirect interpolated from the store's surface cache (built if "
-                          "missing) — far faster, with a small interpolation bias (docs/accuracy.md)")
+                          "light per pixel, indirect interpolated from a surface cache (the store's, or built) "
+                          "— far faster per pixel, with a small interpolation bias (docs/accuracy.md); auto "
+                          "(default): the store's cache if it has one, else local; for a scene, local with "
+                          "--samples alone, else cache — and says what it chose")
     ren.add_argument("--nodes-per-pixel", default="auto", help="nodes connected per pixel and batch: a number, 'all' or 'auto'")
     _add_cache_options(ren)
     ren.add_argument("--seed", type=int, default=0)

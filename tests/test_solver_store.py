@@ -153,6 +153,30 @@ def test_render_to_a_per_pixel_target_error(room):
     np.testing.assert_array_equal(lmap.uncertainty, once.uncertainty)
 
 
+@pytest.mark.slow
+def test_surface_cache_render_to_a_per_pixel_target(room):
+    # The cache's rounds grow chains, node draws and shadow rays by one factor, so the reported
+    # per-pixel error (the map's own: the honesty of these errors is tested above and in
+    # test_solver_cache.py) falls round by round until it reaches the target.
+    proj, pose = view_args(room)
+    lmap = render(room, proj, **pose, estimator="cache", samples=1024, cache_nodes=256,
+                  direct_samples=1, target_error=0.004)
+    p = lmap.provenance
+    assert p["target_reached"] is True and p["pixel_relative_error_median"] <= 0.004
+    rounds = p["rounds"]
+    assert len(rounds) >= 2 and rounds[0] == {**rounds[0], "chains": 1024, "cache_nodes": 256,
+                                              "direct_samples": 1}
+    for a, b in zip(rounds, rounds[1:]):
+        growth = b["chains"] / a["chains"]
+        assert 2 <= growth <= 16
+        assert b["cache_nodes"] == pytest.approx(a["cache_nodes"] * growth, rel=0.01)
+        assert b["pixel_relative_error_median"] < a["pixel_relative_error_median"]
+    with pytest.raises(BadInputError, match="apply to the double local estimate"):
+        render(room, proj, **pose, estimator="cache", nodes_per_pixel=4)
+    with pytest.raises(BadInputError, match="apply to the surface cache"):
+        render(room, proj, **pose, estimator="local", cache_nodes=64)
+
+
 def test_render_target_error_says_when_it_stalls_or_applies_not(room, store):
     proj, pose = view_args(room)
     # One node per pixel and batch: more chains do not lower a pixel's error.
