@@ -586,7 +586,6 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         refined_offset = len(points) + len(ab) * np.arange(keys.size, dtype=np.int64)
         values = np.concatenate([values, fine_values.reshape(-1, est.groups)])
         points = np.concatenate([points, fine_points.reshape(-1, 3)])
-        normals = np.concatenate([normals, np.repeat(normals[corners[:, 0]], len(ab), axis=0)])
     # Patches that differ strongly from a neighbour are split at half their size (their
     # points stay in the cache but no side refers to them any more).
     leaf = np.ones(len(p_point), dtype=bool)
@@ -608,7 +607,6 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         new_values = evaluate(finer.point, finer.normal, next_block())
         p_row = np.concatenate([p_row, len(points) + np.arange(len(finer.point))])
         points = np.concatenate([points, finer.point])
-        normals = np.concatenate([normals, finer.normal])
         values = np.concatenate([values, new_values])
         p_point = np.concatenate([p_point, finer.point])
         p_normal = np.concatenate([p_normal, finer.normal])
