@@ -259,7 +259,7 @@ def test_bad_input():
     room = canonical_room(size=8)
     store = simulate(room, samples=256, seed=1)
     for kwargs in ({"spacing": 0}, {"spacing": float("nan")}, {"nodes": 0}, {"refine": 0},
-                   {"contrast": 0}, {"workers": 0}):
+                   {"contrast": 0}, {"workers": 0}, {"patch_refine": -1}, {"patch_refine": 0.5}):
         with pytest.raises(BadInputError):
             build_surface_cache(store, **kwargs)
     with pytest.raises(BadInputError):

@@ -523,6 +523,8 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     check_positive_int(refine, "refine")
     if not contrast > 0:
         raise BadInputError(f"contrast must be positive, got {contrast!r}")
+    if not (isinstance(patch_refine, int) and patch_refine >= 0):
+        raise BadInputError(f"patch_refine must be a whole number ≥ 0, got {patch_refine!r}")
     check_positive_int(nodes, "nodes")
     eps = RELATIVE_CACHE_NEAR_DISTANCE * scene.size if near_distance is None else float(near_distance)
     t0 = time.perf_counter()
