@@ -53,9 +53,12 @@ def radiance_tool(name):
     return path
 
 
-def raw_samples():
-    """Real camera RAW files: ../shared/realdata/raw and the folders in LSADPHOTO_RAW_SAMPLES
-    (``os.pathsep``-separated; files of other people, never part of the repository)."""
+#: Folder name, anywhere under a sample folder, of real RAW-named files that must be refused
+#: (metadata-only copies, codings LibRaw cannot unpack); :func:`raw_samples` leaves them out.
+REFUSED_FOLDER = "refused"
+
+
+def _sample_files():
     folders = [REALDATA / "raw"]
     folders += [Path(p) for p in __import__("os").environ.get("LSADPHOTO_RAW_SAMPLES", "").split(
         __import__("os").pathsep) if p]
@@ -64,6 +67,19 @@ def raw_samples():
         if folder.is_dir():
             found += sorted(p for p in folder.rglob("*") if p.suffix.lower() in RAW_SUFFIXES)
     return found
+
+
+def raw_samples():
+    """Real camera RAW files: ../shared/realdata/raw and the folders in LSADPHOTO_RAW_SAMPLES
+    (``os.pathsep``-separated; files of other people, never part of the repository), except
+    those under a folder named ``refused`` (see :func:`refused_raw_samples`)."""
+    return [p for p in _sample_files() if REFUSED_FOLDER not in p.parts]
+
+
+def refused_raw_samples():
+    """Real RAW-named files under a ``refused`` folder of the sample folders: files that must
+    be refused in one line (e.g. ExifTool's test images, whose image data is stripped)."""
+    return [p for p in _sample_files() if REFUSED_FOLDER in p.parts]
 
 
 @pytest.fixture
@@ -120,7 +136,7 @@ def smooth_mask(truth, radius=4, tolerance=0.01):
     return maximum_filter(truth, size) <= (1 + tolerance) * minimum_filter(truth, size)
 
 
-__all__ = ["raw_samples", "realdata", "binned_truth", "smooth_mask", "interior_scene"]
+__all__ = ["raw_samples", "refused_raw_samples", "realdata", "binned_truth", "smooth_mask", "interior_scene"]
 
 
 def pytest_terminal_summary(terminalreporter):

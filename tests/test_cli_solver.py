@@ -201,3 +201,22 @@ def test_render_a_scene_to_a_per_pixel_target_error(tmp_path):
     assert "cache" in lmap.provenance["estimator"] and lmap.provenance["rounds"][0]["cache_nodes"] > 0
     code, _, err = cli("render", scene, "--estimator", "cache", "--nodes-per-pixel", "4", "-o", out)
     assert code == 2 and "--nodes-per-pixel applies to --estimator local" in err
+
+
+@pytest.mark.slow
+def test_a_glossy_scene_renders_by_default_and_says_how(tmp_path):
+    # A glossy floor (Radiance plastic, specularity 0.05): the surface cache is Lambertian, so
+    # "auto" renders by the double local estimate with materials, without a per-pixel target
+    # (which that estimator does not take), and says so. The floor under the panel must be lit
+    # and darker than the panel's 1790 cd/m² (ρ ≤ 0.25).
+    rad = tmp_path / "glossy.rad"
+    rad.write_text("void plastic floor 0 0 5 .2 .2 .2 .05 .05\nvoid light lamp 0 0 3 10 10 10\n"
+                   "floor polygon f 0 0 12 -3 -3 0  3 -3 0  3 3 0  -3 3 0\n"
+                   "lamp polygon panel 0 0 12 -.5 -.5 3  -.5 .5 3  .5 .5 3  .5 -.5 3\n")
+    out = tmp_path / "g.exr"
+    code, stdout, err = cli("render", rad, "--view=-vtv -vp 0 0 1.5 -vd 0 0 -1 -vu 0 1 0 -vh 60 -vv 60",
+                            "--size", "8x8", "--quiet", "-o", out)
+    assert code == 0, err
+    assert "estimator auto: local (non-Lambertian materials" in stdout, stdout
+    L = read_exr(out).luminance
+    assert 0 < np.nanmedian(L) < 1790

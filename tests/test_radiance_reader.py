@@ -215,13 +215,13 @@ def test_radiance_fixture_intensity_equals_rtrace(tmp_path):
 
 REFUSALS = [
     ("grey polgon p 0 0 9 0 0 0 1 0 0 0 1 0\n", r"scene.rad:3: unknown primitive type 'polgon'"),
-    ("void plastic shiny 0 0 5 .3 .3 .3 .05 .05\nshiny polygon f 0 0 9 0 0 0 1 0 0 0 1 0\n",
-     r"scene.rad:4: polygon 'f' uses .*scene.rad:3: plastic 'shiny': specularity 0.05 \(roughness 0.05\)"),
-    ("void metal m 0 0 5 .8 .8 .8 .9 0\nm sphere s 0 0 4 0 0 0 1\n", r"scene.rad:3: metal 'm': specularity 0.9"),
-    ("void trans t 0 0 7 .5 .5 .5 0 0 .4 0\nt sphere s 0 0 4 0 0 0 1\n", r"trans 't': transmissivity 0.4"),
+    ("void plastic shiny 0 0 5 .3 .3 .3 1.5 .05\nshiny polygon f 0 0 9 0 0 0 1 0 0 0 1 0\n",
+     r"scene.rad:4: polygon 'f' uses .*scene.rad:3: plastic 'shiny': specularity must be in \[0, 1\], got 1.5"),
+    ("void metal m 0 0 5 .8 .8 .8 .9 -.1\nm sphere s 0 0 4 0 0 0 1\n", r"scene.rad:3: metal 'm': roughness must be ≥ 0"),
+    ("void trans t 0 0 7 .5 .5 .5 0 0 1.4 0\nt sphere s 0 0 4 0 0 0 1\n", r"trans 't': transmissivity must be in \[0, 1\]"),
     ("void plastic w 0 0 5 1 1 1 0 0\nw sphere s 0 0 4 0 0 0 1\n", r"plastic 'w': reflectance 1 .* not in \[0, 1\)"),
-    ("void glass g 0 0 3 .9 .9 .9\ng polygon p 0 0 9 0 0 0 1 0 0 0 1 0\n", r"scene.rad:4: polygon 'p': glass 'g' \(.*scene.rad:3\) is not supported"),
-    ("void mirror m 0 0 3 .9 .9 .9\nm polygon p 0 0 9 0 0 0 1 0 0 0 1 0\n", r"mirror 'm' .* is not supported"),
+    ("void glass g 0 0 4 .9 .9 .9 0.8\ng polygon p 0 0 9 0 0 0 1 0 0 0 1 0\n", r"scene.rad:4: polygon 'p' uses .*glass 'g': refractive index must exceed 1"),
+    ("void mirror m 1 other 0 3 .9 .9 .9\nm polygon p 0 0 9 0 0 0 1 0 0 0 1 0\n", r"mirror 'm': a mirror with an alternate material"),
     ("void brightfunc b 2 f x.cal 0 0\nb spotlight s 0 0 7 9 9 9 30 0 0 -1\ns ring r 0 0 8 0 0 2 0 0 -1 0 .1\n", r"patterns on a spotlight are not supported"),
     ("void glow g 0 0 4 5 5 5 1.5\ng sphere b 0 0 4 0 0 1 .1\n", r"glow 'g' .* has radius of influence 1.5"),
     ("void brightfunc f 2 ring . 0 0\nf light l 0 0 3 1 1 1\nl sphere b 0 0 4 0 0 1 .1\n",
@@ -270,12 +270,12 @@ def test_cornell_box_is_refused_for_its_dielectric_sphere():
 
 
 def test_cli_refuses_a_bad_radiance_scene_in_one_line_with_exit_2(tmp_path):
-    (tmp_path / "scene.rad").write_text(GREY + "void plastic shiny 0 0 5 .3 .3 .3 .05 .05\n"
+    (tmp_path / "scene.rad").write_text(GREY + "void plastic shiny 0 0 5 .3 .3 .3 1.05 .05\n"
                                         "shiny polygon f 0 0 9 0 0 0 1 0 0 0 1 0\n" + PANEL)
     proc = subprocess.run([sys.executable, "-m", "lsadphoto.cli", "simulate", str(tmp_path / "scene.rad"),
                            "-o", str(tmp_path / "s.npz")], capture_output=True, text=True)
     assert proc.returncode == 2
-    assert len(proc.stderr.strip().splitlines()) == 1 and "specularity 0.05" in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and "specularity must be in [0, 1]" in proc.stderr
     assert not (tmp_path / "s.npz").exists()
 
 

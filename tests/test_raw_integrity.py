@@ -12,9 +12,10 @@ from lsadphoto.errors import UnsupportedFileError
 from lsadphoto.raw import decode_raw
 from lsadphoto.raw.integrity import declared_extent
 
-from .conftest import interior_scene, raw_samples, realdata
+from .conftest import interior_scene, raw_samples, realdata, refused_raw_samples
 
 SAMPLES = raw_samples()
+REFUSED = refused_raw_samples()
 #: The real Canon DNG's exposure fields are empty; the decoder says so with a MetadataWarning
 #: (tested in test_decode.py). Here only its levels and its integrity matter.
 EMPTY_EXPOSURE = pytest.mark.filterwarnings("ignore::lsadphoto.errors.MetadataWarning")
@@ -86,6 +87,65 @@ def test_libraw_report_refuses_a_file_whose_tags_lie(tmp_path):
         decode_raw(path)
 
 
+def _rewrite_raw_ifd(tmp_path, name, tag, value):
+    """The real Canon DNG with one SHORT/LONG entry of its raw IFD (IFD 0) rewritten in place."""
+    import tifffile
+
+    source = realdata("raw/tinydng_colorchart.dng")
+    data = bytearray(source.read_bytes())
+    with tifffile.TiffFile(source) as tif:
+        entry = tif.pages[0].tags[tag]
+        assert entry.count == 1 and tif.pages[0].photometric == 32803  # one value, stored in the entry
+        data[entry.valueoffset:entry.valueoffset + (2 if entry.dtype == 3 else 4)] = struct.pack(
+            tif.byteorder + ("H" if entry.dtype == 3 else "I"), value)
+    path = tmp_path / name
+    path.write_bytes(bytes(data))
+    return path
+
+
+def test_metadata_only_copy_refused_in_one_line(tmp_path):
+    """The real Canon DNG with its raw strip declared 22 bytes long, as ExifTool's test copy of
+    a Canon DNG declares its raw tiles (the file keeps its full length, so no declared extent
+    is short): LibRaw would decode it, the raw data check refuses it (exit 2, one line, nothing
+    written). 1888 × 1182 samples need at least 278 952 bytes at one bit each."""
+    path = _rewrite_raw_ifd(tmp_path, "stripped.dng", 279, 22)
+    out = tmp_path / "map.exr"
+    run = subprocess.run([sys.executable, "-m", "lsadphoto.cli", "luminance", str(path), "--spot",
+                          "100,100,50", "-o", str(out)], capture_output=True, text=True)
+    assert run.returncode == 2
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and "no image data" in lines[0] and "declares 22 bytes" in lines[0], run.stderr
+    assert "(278952 bytes)" in lines[0] and not out.exists()
+
+
+@EMPTY_EXPOSURE
+def test_coding_libraw_cannot_unpack_is_named():
+    """A raw IFD coded with JPEG XL (DNG 1.7, compression 52546; the real Canon DNG relabelled)
+    is refused naming the coding and LibRaw's version, not as 'corrupt or truncated'."""
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = _rewrite_raw_ifd(Path(folder), "jxl.dng", 259, 52546)
+        with pytest.raises(UnsupportedFileError, match=r"LibRaw [0-9.]+ cannot unpack its raw data \(JPEG XL \(DNG 1\.7\)\)"):
+            decode_raw(path)
+
+
+@pytest.mark.skipif(not REFUSED, reason="no refused real RAW samples (a 'refused' folder in LSADPHOTO_RAW_SAMPLES)")
+@pytest.mark.parametrize("source", REFUSED, ids=[p.name for p in REFUSED])
+def test_refused_real_samples_refused_in_one_line(tmp_path, source):
+    """Real RAW-named files that hold no usable image (ExifTool's, exiv2's and hachoir's test
+    copies with the data stripped; a JPEG XL DNG of Adobe's DNG SDK) are refused by the CLI:
+    exit 2, one line naming the file, nothing written."""
+    out = tmp_path / "map.exr"
+    run = subprocess.run([sys.executable, "-m", "lsadphoto.cli", "luminance", str(source), "--spot",
+                          "10,10,50", "-o", str(out)], capture_output=True, text=True)
+    assert run.returncode == 2, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and str(source) in lines[0], run.stderr
+    assert not out.exists()
+
+
 def test_repeated_bottom_rows_refused(camera, shoot, tmp_path):
     """Rows filled with copies of the last good one (what LibRaw leaves in a cut compressed
     file) are refused; the same scene with its real bottom rows decodes."""
@@ -148,3 +208,33 @@ def test_real_samples_exposure_metadata_match_exifread(source):
         if exif > 0:
             assert getattr(meta, field) == pytest.approx(exif, rel=0.01), field
     assert np.all(image.white_level > image.black_level)
+
+
+#: Side of the square blocks, per CFA channel, whose mean estimates a dark region's level [px].
+DARK_BLOCK = 32
+
+
+@pytest.mark.skipif(not SAMPLES, reason="no real RAW samples (../shared/realdata/raw, LSADPHOTO_RAW_SAMPLES)")
+@pytest.mark.parametrize("source", SAMPLES, ids=_sample_ids())
+@EMPTY_EXPOSURE
+def test_real_samples_black_level_not_above_their_darkest_pixels(source):
+    """The decoder's black level of each CFA channel is not above the mean of that channel's
+    darkest 32 × 32 block of the file's own pixels (read by LibRaw, the independent
+    reference): an unlit region averages the black level, so a higher one would clip real
+    shadows. Tolerance: 4 standard errors of that block's mean (its pixel noise / 32). The
+    Sony ARW's darkest red block averages 511.85 ± 0.35 ADU against its black level 512."""
+    import rawpy
+
+    image = decode_raw(source)
+    with rawpy.imread(str(source)) as raw:
+        values = raw.raw_image_visible.astype(np.float64)
+        colours = raw.raw_colors_visible
+    for dr in (0, 1):
+        for dc in (0, 1):
+            plane = values[dr::2, dc::2]
+            rows, cols = (plane.shape[0] // DARK_BLOCK) * DARK_BLOCK, (plane.shape[1] // DARK_BLOCK) * DARK_BLOCK
+            blocks = plane[:rows, :cols].reshape(rows // DARK_BLOCK, DARK_BLOCK, cols // DARK_BLOCK, DARK_BLOCK)
+            blocks = blocks.transpose(0, 2, 1, 3).reshape(-1, DARK_BLOCK * DARK_BLOCK)
+            darkest = blocks[blocks.mean(axis=1).argmin()]
+            black = image.black_level[colours[dr, dc]]
+            assert black <= darkest.mean() + 4 * darkest.std() / DARK_BLOCK, (dr, dc, black, darkest.mean())

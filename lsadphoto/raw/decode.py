@@ -22,7 +22,8 @@ from .._validation import check_choice, check_file, check_positive
 from ..constants import SATURATION_FRACTION
 from ..errors import BadInputError, UnsupportedFileError
 from ._dngtags import dng_black_map, read_dng_tags
-from .integrity import check_declared_extent, check_repeated_rows, libraw_reports
+from .integrity import (check_declared_extent, check_raw_data_present, check_repeated_rows, libraw_reports,
+                        raw_compression)
 from .metadata import ExposureMetadata, read_exposure_metadata
 from .methods import DEMOSAIC_METHODS
 
@@ -106,6 +107,7 @@ def _reading(path):
     report (LibRaw writes it to the C standard error stream; it is captured, not shown).
     """
     check_declared_extent(path)
+    check_raw_data_present(path)
     failure = None
     with libraw_reports() as reports:
         raw = _open(path)
@@ -122,6 +124,11 @@ def _reading(path):
                 yield raw
         except rawpy.LibRawError as exc:
             failure = type(exc).__name__
+        if failure == "LibRawFileUnsupportedError":
+            coding = raw_compression(path)
+            raise UnsupportedFileError(
+                f"{path}: LibRaw {'.'.join(map(str, rawpy.libraw_version))} cannot unpack its raw data"
+                + (f" ({coding})" if coding else "") + f" ({failure})")
         if failure:
             raise UnsupportedFileError(f"{path}: RAW data is corrupt or truncated ({failure})")
 

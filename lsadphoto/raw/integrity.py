@@ -13,14 +13,22 @@ is computed:
 2. **LibRaw's own reports**: LibRaw calls its data-error handler ("Unexpected end of file",
    "Corrupt data near …") on the C-level standard error stream while it unpacks; that stream
    is captured during decoding and any report refuses the file.
-3. **Repeated rows**: a block of identical, non-constant rows at the bottom of the raw image
+3. **Raw data present** (:func:`check_raw_data_present`): a raw image IFD (CFA or LinearRaw)
+   whose strips or tiles hold fewer bytes than one bit per sample is a metadata-only copy
+   (ExifTool's and exiv2's test files strip the image data this way, and LibRaw then
+   "decodes" an all-zero frame). Every lossless coding of a camera's raw data — uncompressed,
+   lossless JPEG and the makers' Huffman codings — spends at least one bit on each sample,
+   since a Huffman code word is at least one bit long; lossy and Deflate codings are left
+   out of this check.
+4. **Repeated rows**: a block of identical, non-constant rows at the bottom of the raw image
    is what LibRaw leaves where data ran out; a real exposure has photon noise in every row.
 
 References
 ----------
 Adobe, *TIFF Revision 6.0* (1992), section 2 (IFD structure) and 3 (StripOffsets,
 StripByteCounts); *DNG Specification* 1.6, chapter 3 (SubIFDs). ISO/IEC 14496-12:2022
-(ISO base media file format), 4.2 (box structure). LibRaw API notes, "Data error
+(ISO base media file format), 4.2 (box structure). ITU-T T.81 (1992), annex C (Huffman
+code lengths 1–16 bits) and annex H (lossless processes). LibRaw API notes, "Data error
 callback" (libraw.org/docs/API-notes.html).
 """
 
@@ -33,19 +41,32 @@ import numpy as np
 from .._native import native_output
 from ..errors import UnsupportedFileError
 
-__all__ = ["declared_extent", "check_declared_extent", "libraw_reports", "check_repeated_rows"]
+__all__ = ["declared_extent", "check_declared_extent", "check_raw_data_present", "raw_compression",
+           "libraw_reports", "check_repeated_rows"]
 
 _STRIPS = ((273, 279), (324, 325), (513, 514))  # offsets tag, byte-count tag
 _SUB_IFDS = (330, 34665)  # SubIFDs, Exif IFD
 _TYPE_SIZE = {1: 1, 2: 1, 3: 2, 4: 4, 5: 8, 6: 1, 7: 1, 8: 2, 9: 4, 10: 8, 11: 4, 12: 8, 13: 4, 16: 8, 18: 8}
 _MAX_IFDS = 64
+#: Photometric interpretations of raw image IFDs: CFA (TIFF/EP, DNG) and LinearRaw (DNG).
+_RAW_PHOTOMETRIC = (32803, 34892)
+#: Compressions that may spend less than one bit on a sample: Deflate (a noise-free synthetic
+#: frame), lossy JPEG (DNG 1.4) and JPEG XL (DNG 1.7).
+_SUB_BIT_COMPRESSIONS = (8, 34892, 52546)
+#: Names of the compressions in raw IFDs that messages mention (TIFF 6.0, DNG 1.4 and 1.7).
+COMPRESSION_NAMES = {1: "uncompressed", 7: "lossless JPEG", 8: "Deflate", 34892: "lossy JPEG (DNG 1.4)",
+                     52546: "JPEG XL (DNG 1.7)"}
 #: Rows repeated at the bottom of the raw image that count as filled-in data [rows]. A real
 #: frame has photon noise: two identical non-constant rows of thousands of pixels do not occur.
 REPEATED_ROWS_LIMIT = 4
 
 
-def _tiff_ranges(data, size):
-    """(offset, length, what) byte ranges declared by a TIFF-structured file (any magic)."""
+def _tiff_ranges(data, size, raws=None):
+    """(offset, length, what) byte ranges declared by a TIFF-structured file (any magic).
+
+    ``raws``, a list, receives one dict per raw image IFD (CFA or LinearRaw): its size,
+    samples per pixel, compression and the bytes its strips or tiles declare.
+    """
     order = {b"II": "<", b"MM": ">"}[data[:2]]
     first = struct.unpack(order + "I", data[4:8])[0]
     ranges, seen, todo = [], set(), [first]
@@ -76,10 +97,15 @@ def _tiff_ranges(data, size):
                 pointer = struct.unpack(order + "I", entries[12 * k + 8:12 * k + 12])[0]
                 raw = read(pointer, n * width)
             tags[tag] = struct.unpack(order + letter * n, raw)
+        declared = 0
         for offsets_tag, counts_tag in _STRIPS:
             if offsets_tag in tags and counts_tag in tags:
                 for offset, length in zip(tags[offsets_tag], tags[counts_tag]):
                     ranges.append((offset, length, "its image data"))
+                    declared += length
+        if raws is not None and tags.get(262, (None,))[0] in _RAW_PHOTOMETRIC and 256 in tags and 257 in tags:
+            raws.append({"width": tags[256][0], "height": tags[257][0], "samples": tags.get(277, (1,))[0],
+                         "compression": tags.get(259, (1,))[0], "bytes": declared})
         for tag in _SUB_IFDS:
             todo.extend(tags.get(tag, ()))
         todo.append(struct.unpack(order + "I", read(ifd + 2 + 12 * count, 4))[0])
@@ -158,6 +184,57 @@ def declared_extent(path):
         return None, None
     offset, length, what = max(ranges, key=lambda r: r[0] + r[1])
     return offset + length, what
+
+
+def _raw_ifds(path):
+    """The raw image IFDs of a TIFF-structured file (see :func:`_tiff_ranges`); [] otherwise."""
+    with open(path, "rb") as fh:
+        data = fh.read()
+    raws = []
+    if data[:2] in (b"II", b"MM") and len(data) >= 8:
+        try:
+            _tiff_ranges(data, len(data), raws)
+        except (_Short, struct.error, KeyError):
+            return []
+    return raws
+
+
+def raw_compression(path):
+    """Name of the compression of the file's first raw image IFD, or None where unknown.
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    str or None
+        e.g. ``"JPEG XL (DNG 1.7)"``, or ``"compression 34713"`` for a code not named here.
+    """
+    raws = _raw_ifds(path)
+    if not raws:
+        return None
+    code = raws[0]["compression"]
+    return COMPRESSION_NAMES.get(code, f"compression {code}")
+
+
+def check_raw_data_present(path):
+    """Raise :class:`UnsupportedFileError` when a raw image IFD declares less than one bit of
+    data per sample (a metadata-only copy of a RAW file), for lossless codings.
+
+    Parameters
+    ----------
+    path : path-like
+    """
+    for ifd in _raw_ifds(path):
+        if ifd["compression"] in _SUB_BIT_COMPRESSIONS:
+            continue
+        needed = ifd["width"] * ifd["height"] * ifd["samples"] // 8
+        if ifd["bytes"] < needed:
+            raise UnsupportedFileError(
+                f"{path}: no image data: its {ifd['width']}×{ifd['height']} px raw image declares "
+                f"{ifd['bytes']} bytes, less than one bit per sample ({needed} bytes); a metadata-only copy"
+            )
 
 
 def check_declared_extent(path):

@@ -254,3 +254,74 @@ def trace_chains(scene, engine, *, seed, first_block, blocks, batches, max_depth
             progress(k + 1)
     nodes = {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
     return LsadStore(scene, **nodes, chains=blocks * CHAIN_BLOCK, batches=batches, seed=seed)
+
+
+def trace_material_chains(scene, engine, *, seed, blocks, batches, max_depth=None, sampler=None):
+    """Light-chain nodes of a scene with non-Lambertian materials (``scene.bsdf``).
+
+    As :func:`trace_chains` with ``absorption="weight"``, but at every hit the chain samples
+    the material's BSDF (:meth:`~lsadphoto.solver.materials.MaterialTable.sample`: the weight
+    W is multiplied by f·|μ_i|/p, or R, T through a delta), and the node it leaves is
+    recorded with coefficient W (not W·ρ/π), its incoming direction and whether it was hit on
+    the front side, so that the local estimate evaluates W·f(ω_in, ω_out)·|cos θ_out| towards
+    any point. Hits on purely specular surfaces (mirror, glass) leave no node. Returns a dict
+    of node arrays (those of :class:`~lsadphoto.solver.store.LsadStore` plus ``incoming``
+    and ``front``), ``chains`` and ``batches``.
+    """
+    sampler = sampler or EmissionSampler(scene)
+    bsdf = scene.bsdf
+    floor = WEIGHT_FLOOR * sampler.total_flux
+    limit = MAX_BOUNCES if max_depth is None else int(max_depth)
+    parts = []
+    for block in range(blocks):
+        rng = stream(seed, "chains", block)
+        n = CHAIN_BLOCK
+        src = sampler.sample(rng, n)
+        batch = ((block * CHAIN_BLOCK + np.arange(n)) % batches).astype(np.int16)
+        out = {"position": [src["position"]], "normal": [src["normal"]],
+               "coefficient": [src["coefficient"]], "kind": [src["kind"]],
+               "luminaire": [np.where(src["kind"] == KIND_POINT, src["luminaire"], -1).astype(np.int32)],
+               "batch": [batch], "depth": [np.zeros(n, np.int16)], "triangle": [src["triangle"]],
+               "incoming": [np.zeros((n, 3))], "front": [np.ones(n, bool)]}
+        direction, factor = sampler.first_directions(rng, src)
+        weight = sampler.total_flux * factor
+        origin = src["position"] + engine.epsilon * np.where(
+            (src["kind"] == KIND_COSINE)[:, None], src["normal"], 0.0)
+        alive = np.arange(n)
+        depth = 0
+        while alive.size and depth < limit:
+            depth += 1
+            prim, dist = engine.closest_hit(origin, direction)
+            u = rng.random((alive.size, 3))
+            hit = prim >= 0
+            alive, origin, direction, weight, prim, dist, u = (
+                alive[hit], origin[hit], direction[hit], weight[hit], prim[hit], dist[hit], u[hit])
+            if not alive.size:
+                break
+            point = origin + dist[:, None] * direction
+            nrm, front = scene.facing_normals(prim, direction)
+            mat = scene.material[prim]
+            p = bsdf.parts(mat, -np.einsum("ij,ij->i", direction, nrm), front)
+            keep = (p["kd"] + p["td"] + p["rs"] + p["ts"]) > 0
+            for key, value in (("position", point), ("normal", nrm), ("coefficient", weight),
+                               ("incoming", -direction), ("front", front), ("triangle", prim)):
+                out[key].append(value[keep])
+            k = int(keep.sum())
+            out["kind"].append(np.zeros(k, np.int8))
+            out["luminaire"].append(np.full(k, -1, np.int32))
+            out["batch"].append(batch[alive[keep]])
+            out["depth"].append(np.full(k, depth, np.int16))
+            wi, w, _, _ = bsdf.sample(mat, nrm, -direction, u, front)
+            weight = weight * w
+            low = weight < floor
+            q = np.where(low, weight / floor, 1.0)
+            survive = (w > 0) & (u[:, 2] < q)
+            weight = np.where(low, floor, weight)
+            side = np.sign(np.einsum("ij,ij->i", wi, nrm))
+            alive, point, nrm, wi, weight, side = (alive[survive], point[survive], nrm[survive],
+                                                   wi[survive], weight[survive], side[survive])
+            direction = wi
+            origin = point + engine.epsilon * side[:, None] * nrm
+        parts.append({key: np.concatenate(v) for key, v in out.items()})
+    nodes = {key: np.concatenate([q[key] for q in parts]) for key in parts[0]}
+    return {**nodes, "chains": blocks * CHAIN_BLOCK, "batches": batches}

@@ -17,7 +17,8 @@ import warnings
 from .._validation import check_choice
 from ..errors import BadInputError, SolverWarning
 from .direct import DIRECT_SAMPLES
-from .integrators.local_estimate import render_local_estimate
+from .integrators.local_estimate import (AUTO_NODES_PER_PIXEL, render_local_estimate,
+                                         render_local_estimate_materials)
 from .integrators.path_tracer import render_path_traced
 from .integrators.surface_cache import CACHE_NODES, build_surface_cache, render_cached
 from .scene import Scene
@@ -52,7 +53,9 @@ def choose_estimator(store_or_scene, *, samples=None, target_error=None):
     """The estimator ``"auto"`` renders with, and why (one line).
 
     A store renders from its surface cache if it holds one, else by the double local estimate
-    (building a cache is a choice for ``simulate --surface-cache``). A scene with a fixed number
+    (building a cache is a choice for ``simulate --surface-cache``). A scene with glossy,
+    specular or transmitting materials renders by the double local estimate (the cache is
+    Lambertian). A Lambertian scene with a fixed number
     of chains and no target renders by the double local estimate, the unbiased reference; a
     scene with a per-pixel target (or neither) by the surface cache, which reaches a per-pixel
     error at a small fraction of the per-pixel estimate's cost (docs/accuracy.md: 0.63 % mean
@@ -63,6 +66,8 @@ def choose_estimator(store_or_scene, *, samples=None, target_error=None):
         if store_or_scene.surface_cache is not None:
             return "cache", "the store holds a surface cache"
         return "local", "the store holds no surface cache (simulate --surface-cache builds one)"
+    if not store_or_scene.lambertian:
+        return "local", "non-Lambertian materials: the surface cache models Lambertian surfaces only"
     if samples is not None and target_error is None:
         return "local", "a fixed number of chains: the unbiased double local estimate"
     return "cache", ("a per-pixel target: the surface cache reaches it at a fraction of the double "
@@ -217,6 +222,18 @@ def _render_local(store_or_scene, projection, *, samples, target_error, max_samp
             raise BadInputError("samples and target_error apply when rendering a scene; a store's "
                                 f"{store_or_scene.chains} chains are fixed (simulate again for more)")
         return render_local_estimate(store_or_scene, projection, progress=progress, **options)
+    if not store_or_scene.lambertian:
+        # glossy, specular, transmitting materials: chains and view in one go (no store)
+        if target_error is not None or near_field == "clamp":
+            raise BadInputError("scenes with non-Lambertian materials render with samples and the "
+                                "unbiased near field only (no target_error, no near_field='clamp')")
+        k = rest["nodes_per_pixel"]
+        return render_local_estimate_materials(
+            store_or_scene, projection, position=rest["position"], rotation=rest["rotation"],
+            samples=DEFAULT_CHAINS if samples is None else samples, seed=seed,
+            nodes_per_pixel=AUTO_NODES_PER_PIXEL if k in ("auto", None) else k,
+            near_distance=rest["near_distance"], chunk_pixels=rest["chunk_pixels"],
+            workers=rest["workers"], progress=progress)
     if target_error is None:
         store = simulate(store_or_scene, samples=samples, seed=seed,
                          near_field=near_field or "unbiased")

@@ -1,7 +1,8 @@
-"""Scene model of the solver: Lambertian surfaces, luminaires and views, and its TOML structure.
+"""Scene model of the solver: surfaces, luminaires and views, and its TOML structure.
 
 A scene is a set of triangles (every shape is triangulated when it is read), each with a
-Lambertian reflectance and possibly a Lambertian emission, plus point-like luminaires with
+material — a Lambertian reflectance, or one of Radiance's plastic, metal, trans, glass and
+mirror (:mod:`lsadphoto.solver.materials`) — and possibly a Lambertian emission, plus point-like luminaires with
 a luminous intensity distribution, plus named views. Lengths are in metres, flux in lumens,
 intensity in candelas, luminance in cd·m⁻². The TOML schema is declared in
 :data:`SCENE_SCHEMA` and documented in ``docs/user-guide-solver.md``;
@@ -30,6 +31,7 @@ from .._schema import ArrayOf, Key, MapOf, Table, Variants, validate
 from ..errors import BadInputError, SolverWarning
 from ..geometry.base import Projection, projection_from_dict
 from ..geometry.observer import orthonormal_pair
+from .materials import GLASS_INDEX, KINDS, Material, MaterialTable, glass_transmissivity
 from .photometry import Photometry, luminaire_frame, read_photometry
 
 __all__ = [
@@ -322,9 +324,16 @@ class Scene:
     material : ndarray of int, shape (n,)
         Index into ``material_names``/``reflectance`` per triangle.
     reflectance : ndarray, shape (m,)
-        Lambertian reflectance ρ of each material [–], 0 ≤ ρ < 1.
+        Lambertian reflectance ρ of each material [–], 0 ≤ ρ < 1 (for a material that is not
+        Lambertian: its diffuse reflectance at normal incidence).
     emitter : ndarray of int, shape (n,)
         Index into ``area_luminaires`` per triangle, −1 where the triangle does not emit.
+    surface_materials : list of Material, optional
+        The :class:`~lsadphoto.solver.materials.Material` of each material index, when some
+        are not Lambertian (glossy, specular, transmitting); ``None``: all are Lambertian of
+        ``reflectance``. ``bsdf`` is then their
+        :class:`~lsadphoto.solver.materials.MaterialTable` (``None`` for Lambertian scenes,
+        whose estimators are unchanged).
     """
 
     triangles: np.ndarray
@@ -337,6 +346,7 @@ class Scene:
     views: list = field(default_factory=list)
     name: str = "scene"
     source: dict = field(default_factory=dict)
+    surface_materials: list = None
 
     def __post_init__(self):
         self.triangles = np.ascontiguousarray(self.triangles, dtype=float).reshape(-1, 3, 3)
@@ -366,6 +376,25 @@ class Scene:
         #: Characteristic size of the scene: diagonal of its bounding box [m].
         self.size = float(np.linalg.norm(hi - lo))
         self.triangle_reflectance = self.reflectance[self.material]
+        self.bsdf = None
+        if self.surface_materials is not None:
+            if len(self.surface_materials) != len(self.reflectance):
+                raise BadInputError("surface_materials must give one material per reflectance")
+            if not all(m.is_lambertian for m in self.surface_materials):
+                self.bsdf = MaterialTable(self.surface_materials)
+
+    @property
+    def lambertian(self):
+        """Whether every surface is Lambertian (no glossy, specular or transmitting material)."""
+        return self.bsdf is None
+
+    def require_lambertian(self, estimator, instead="render_path_traced"):
+        """Raise :class:`BadInputError` (one line) when the scene is not Lambertian and
+        ``estimator`` models Lambertian surfaces only, naming the estimator to use."""
+        if self.bsdf is not None:
+            kinds = sorted({m.kind for m in self.surface_materials if not m.is_lambertian})
+            raise BadInputError(f"{self.name}: {estimator} models Lambertian surfaces only and this "
+                                f"scene has {', '.join(kinds)} materials; use {instead}")
 
     def _winding_number(self, point):
         """Generalised winding number of the scene's triangles at ``point`` [m]: 1 inside a
@@ -477,7 +506,17 @@ _POSITIVE = {"minimum": 0, "exclusive": True}
 #: axes, one of flux/luminance) is checked while the scene is built.
 SCENE_SCHEMA = Table({
     "scene": Table({"name": Key(str, default="scene")}),
-    "materials": MapOf(Table({"reflectance": Key(float, required=True, doc="Lambertian ρ, 0 ≤ ρ < 1")})),
+    "materials": MapOf(Table({
+        "type": Key(str, default="lambertian", choices=KINDS, doc="Radiance's material types"),
+        "reflectance": Key(float, doc="grey colour: Lambertian ρ, 0 ≤ ρ < 1 (or give colour)"),
+        "colour": Key(list, items=float, length=3, doc="RGB as Radiance's first three reals"),
+        "color": Key(list, items=float, length=3, doc="colour (US spelling)"),
+        "specularity": Key(float, default=0.0, doc="plastic, metal, trans: s, 0 ≤ s ≤ 1"),
+        "roughness": Key(float, default=0.0, doc="plastic, metal, trans: α ≥ 0"),
+        "transmissivity": Key(float, default=0.0, doc="trans: τ, 0 ≤ τ ≤ 1"),
+        "transmitted_specularity": Key(float, default=0.0, doc="trans: τ_s, 0 ≤ τ_s ≤ 1"),
+        "refractive_index": Key(float, default=GLASS_INDEX, doc="glass: n > 1"),
+        "transmittance": Key(float, doc="glass: normal transmittance T_n (instead of colour)")})),
     "surfaces": ArrayOf(Variants("type", {kind: Table({**keys, "material": Key(str), "name": Key(str)})
                                           for kind, keys in _SHAPES.items()})),
     "luminaires": ArrayOf(Variants("type", {
@@ -606,13 +645,12 @@ def build_scene(data, *, base, photometry_reader, source):
 
 def _build_checked(data, base, photometry_reader):
     name = data.get("scene", {}).get("name", "scene")
-    names, rho = [], []
+    names, rho, surface = [], [], []
     for mname, m in data.get("materials", {}).items():
-        r = m["reflectance"]
-        if not 0 <= r < 1:
-            raise BadInputError(f"materials.{mname}: reflectance must be in [0, 1), got {r!r}")
+        material = _material(m, f"materials.{mname}")
         names.append(mname)
-        rho.append(r)
+        rho.append(m["reflectance"] if material.kind == "lambertian" else material.diffuse_reflectance)
+        surface.append(material)
 
     def material_of(spec, ctx):
         m = spec.get("material")
@@ -622,6 +660,7 @@ def _build_checked(data, base, photometry_reader):
             if m == "black":  # built-in ρ = 0
                 names.append("black")
                 rho.append(0.0)
+                surface.append(Material.lambertian(0.0))
             else:
                 valid = ", ".join(repr(n) for n in names) or "none defined"
                 raise BadInputError(f"{ctx}: unknown material {m!r}; defined: {valid}")
@@ -680,7 +719,39 @@ def _build_checked(data, base, photometry_reader):
         raise BadInputError("scene has no luminaires")
     return Scene(np.concatenate(tri_list), np.concatenate(mat_list), names, np.asarray(rho),
                  np.concatenate(emit_list), area_lums, point_lums, views, name=name,
-                 source=data)
+                 source=data,
+                 surface_materials=None if all(m.is_lambertian for m in surface) else surface)
+
+
+def _material(spec, ctx):
+    """The :class:`Material` of one checked ``[materials.NAME]`` table."""
+    kind = spec["type"]
+    given = [key for key in ("reflectance", "colour", "color", "transmittance") if key in spec]
+    if kind == "lambertian":
+        if given != ["reflectance"]:
+            raise BadInputError(f"{ctx}: a lambertian material takes 'reflectance' (ρ, 0 ≤ ρ < 1) only")
+        r = spec["reflectance"]
+        if not 0 <= r < 1:
+            raise BadInputError(f"{ctx}: reflectance must be in [0, 1), got {r!r}")
+        return Material.lambertian(r)
+    if len(given) != 1:
+        extra = " or 'transmittance'" if kind == "glass" else ""
+        raise BadInputError(f"{ctx}: give exactly one of 'reflectance' (grey) or 'colour' (RGB){extra}")
+    if given[0] == "reflectance":
+        colour = (spec["reflectance"],) * 3
+    elif given[0] == "transmittance":
+        if kind != "glass":
+            raise BadInputError(f"{ctx}: 'transmittance' is for glass only")
+        try:
+            colour = (glass_transmissivity(spec["transmittance"]),) * 3
+        except BadInputError as exc:
+            raise BadInputError(f"{ctx}: {exc}") from None
+    else:
+        colour = spec[given[0]]
+    return Material.checked(kind, colour, specularity=spec["specularity"], roughness=spec["roughness"],
+                            transmissivity=spec["transmissivity"],
+                            transmitted_specularity=spec["transmitted_specularity"],
+                            refractive_index=spec["refractive_index"], where=ctx)
 
 
 def _views(specs):

@@ -182,6 +182,9 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
     """
     check_simulation_options(scene, near_field=near_field, absorption=absorption, batches=batches,
                              max_depth=max_depth, samples=samples)
+    scene.require_lambertian("a stored simulation (simulate, and the surface cache through it)",
+                             "render with the scene itself (lsadphoto render SCENE --estimator local; "
+                             "lsadphoto.solver.render or render_path_traced)")
     batches = int(batches)
     if target_error is not None and not (MIN_TARGET_ERROR <= float(target_error) < 1):
         raise BadInputError(f"target_error must be a relative error from {MIN_TARGET_ERROR:g} to below 1, "

@@ -10,10 +10,11 @@ What is read, as Radiance reads it:
   modifier unless that is ``void``), ``xform -m`` replaces the surfaces' modifiers.
 - **Materials** are read into :class:`RadianceMaterial` records (``plastic``, ``metal``,
   ``trans``, ``glass``, ``dielectric``, ``mirror``, ``light``, ``glow``, ``illum``,
-  ``spotlight`` and the rest by name). The solver's estimators are Lambertian, so a surface
-  may use only what is exactly Lambertian: ``plastic`` or ``metal`` of specularity 0
-  (reflectance ρ = 0.265074 R + 0.670115 G + 0.064811 B, :func:`radiance_luminance`), ``trans``
-  of specularity 0 and transmissivity 0, ``light`` (a Lambertian emitter of luminance
+  ``spotlight`` and the rest by name). Surfaces take ``plastic``, ``metal`` and ``trans`` (any
+  specularity, roughness and transmission), ``glass`` and ``mirror``, modelled as Radiance
+  defines them (:mod:`lsadphoto.solver.materials`; colour reduced to luminance,
+  0.265074 R + 0.670115 G + 0.064811 B, :func:`radiance_luminance`; those of specularity and
+  transmissivity 0 are Lambertian, exactly as before), ``light`` (a Lambertian emitter of luminance
   179 lm/W × the same weights, front side only, not reflecting), ``glow`` whose radius of
   influence is 0 (it then lights everything, like a ``light``), ``illum`` as its alternate
   material (or left out without one: see :meth:`_Reader.place_illum`), ``spotlight`` as a
@@ -74,6 +75,7 @@ import numpy as np
 from ...constants import RADIANCE_RGB_LUMINANCE_WEIGHTS, RADIANCE_WHITE_EFFICACY
 from ...errors import BadInputError, SolverWarning
 from ...io.hdr import parse_view
+from ..materials import Material
 from ..photometry import Photometry, luminaire_frame
 from ..scene import AreaLuminaire, PointLuminaire, Scene, as_views, polygon_triangles
 from .shapes import DEFAULT_TESSELLATION_ERROR, annulus_triangles, cone_triangles, sphere_triangles
@@ -97,6 +99,8 @@ _MATERIALS = {"plastic", "metal", "trans", "plastic2", "metal2", "trans2", "glas
 _PATTERNS = {"brightfunc", "brightdata", "brighttext", "colorfunc", "colordata", "colorpict",
              "colortext", "texfunc", "texdata", "specfunc", "specdata", "specpict", "spectrum"}
 #: Number of real arguments of the materials read here.
+#: Radiance materials the solver's surfaces take (besides the emitters light and glow).
+SURFACE_MATERIALS = ("plastic", "metal", "trans", "glass", "mirror")
 _REALS = {"plastic": 5, "metal": 5, "trans": 7, "light": 3, "glow": 4, "spotlight": 7, "mirror": 3,
           "glass": (3, 4), "illum": 3}
 #: Focal length [m] of a ``spotlight`` (its aim vector's length) up to which the solver emits
@@ -161,28 +165,36 @@ class RadianceMaterial:
         """``kind 'name' (file:line)`` for messages."""
         return f"{self.kind} {self.name!r} ({self.where})"
 
-    def lambertian_reflectance(self):
-        """Lambertian reflectance ρ [–] of a ``plastic``/``metal``/``trans`` that is exactly
-        Lambertian; otherwise :class:`BadInputError` naming the parameter that is not."""
+    def surface_material(self):
+        """The solver :class:`~lsadphoto.solver.materials.Material` of a ``plastic``, ``metal``,
+        ``trans``, ``glass`` or ``mirror``, and its reflectance ρ [–] (Lambertian ρ, or the
+        diffuse reflectance at normal incidence); :class:`BadInputError` naming the parameter
+        that is out of range."""
         where = f"{self.where}: {self.kind} {self.name!r}"
-        if self.kind not in ("plastic", "metal", "trans"):
-            raise BadInputError(f"{where} is not a Lambertian material; the solver's estimators model "
-                                "only plastic/metal of specularity 0, trans of specularity and "
-                                "transmissivity 0, light and glow")
+        if self.kind not in SURFACE_MATERIALS:
+            raise BadInputError(f"{where} is not a surface material; the solver models "
+                                f"{', '.join(SURFACE_MATERIALS)}, light, glow, illum and spotlight")
         self._check_reals()
-        r, g, b, spec, rough = self.reals[:5]
-        if spec != 0:
-            raise BadInputError(f"{where}: specularity {spec:g} (roughness {rough:g}) is not Lambertian; "
-                                "the solver's estimators model only specularity 0")
-        if self.kind == "trans" and self.reals[5] != 0:
-            raise BadInputError(f"{where}: transmissivity {self.reals[5]:g} is not supported "
-                                "(only opaque Lambertian surfaces, transmissivity 0)")
+        if self.kind == "mirror" and self.strings:
+            raise BadInputError(f"{where}: a mirror with an alternate material ({self.strings[0]!r}) "
+                                "is not supported")
+        r, g, b = self.reals[:3]
         if min(r, g, b) < 0:
             raise BadInputError(f"{where}: negative colour ({r:g} {g:g} {b:g})")
-        rho = radiance_luminance(r, g, b)
-        if not rho < 1:
-            raise BadInputError(f"{where}: reflectance {rho:g} (of {r:g} {g:g} {b:g}) not in [0, 1)")
-        return rho
+        options = {}
+        if self.kind in ("plastic", "metal", "trans"):
+            options = {"specularity": self.reals[3], "roughness": self.reals[4]}
+            if self.kind == "trans":
+                options.update(transmissivity=self.reals[5], transmitted_specularity=self.reals[6])
+        elif self.kind == "glass" and len(self.reals) == 4:
+            options = {"refractive_index": self.reals[3]}
+        material = Material.checked(self.kind, (r, g, b), where=where, **options)
+        if material.is_lambertian:
+            rho = radiance_luminance(r, g, b)
+            if not rho < 1:
+                raise BadInputError(f"{where}: reflectance {rho:g} (of {r:g} {g:g} {b:g}) not in [0, 1)")
+            return material, rho
+        return material, material.diffuse_reflectance
 
     def _check_reals(self):
         want = _REALS.get(self.kind)
@@ -325,7 +337,7 @@ class _Reader:
         self.defs = {}
         self.triangles, self.material, self.emitter = [], [], []
         self.count = 0  # triangles so far
-        self.names, self.rho, self.index = [], [], {}
+        self.names, self.rho, self.index, self.models = [], [], {}, []
         self.area_luminaires, self.luminaire_parts, self.spot_parts = [], {}, {}
         self.folder_of = {}  # definition -> folder of the file that defined it
 
@@ -334,14 +346,16 @@ class _Reader:
         key = record if record is not None else "black"
         if key not in self.index:
             if record is None:
-                name, rho = "black", 0.0
+                name, material, rho = "black", Material.lambertian(0.0), 0.0
             else:
-                name, rho = record.name, record.lambertian_reflectance()
+                name = record.name
+                material, rho = record.surface_material()
                 while name in self.names:
                     name += "'"
             self.index[key] = len(self.names)
             self.names.append(name)
             self.rho.append(rho)
+            self.models.append(material)
         return self.index[key]
 
     def read(self, text, source, transform, *, folder, override=None, prefix="", depth=0):
@@ -479,10 +493,9 @@ class _Reader:
             self.area_luminaires.append(AreaLuminaire(ident, math.pi * area * luminance,
                                                       np.arange(first, first + len(tris))))
             return
-        if material.kind not in ("plastic", "metal", "trans"):
+        if material.kind not in SURFACE_MATERIALS:
             raise BadInputError(f"{where}: {what}: {material.describe()} is not supported: "
-                                "the solver's estimators model only Lambertian plastic/metal/trans "
-                                "(specularity 0), light and glow")
+                                f"the solver models {', '.join(SURFACE_MATERIALS)}, light, glow, illum and spotlight")
         if patterns:
             raise BadInputError(f"{where}: {what}: {material.describe()} is modified by "
                                 f"{patterns[0].describe()}: patterns and textures are not supported")
@@ -751,7 +764,8 @@ class _Reader:
             raise BadInputError(f"{name}: the scene has no light sources (light, glow or ies2rad luminaires)")
         return Scene(np.concatenate(self.triangles), np.concatenate(self.material), self.names,
                      np.asarray(self.rho), np.concatenate(self.emitter), self.area_luminaires, points,
-                     views, name=Path(name).stem, source={"radiance": name})
+                     views, name=Path(name).stem, source={"radiance": name},
+                     surface_materials=None if all(m.is_lambertian for m in self.models) else self.models)
 
     # brightdata luminaires
     def luminaires(self):

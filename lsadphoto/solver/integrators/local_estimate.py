@@ -53,13 +53,15 @@ from ..._validation import check_choice
 from ...errors import BadInputError
 from .._sampling import stream
 from ..engine import engine_for
+from ..materials import shadow_transmittance
+from ..scene import Scene
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance,
                   luminance_map_from_batches, luminous_openings, near_step, primary_rays,
                   run_chunks, warn_odd_view)
 
 __all__ = ["AUTO_NODES_PER_PIXEL", "FULL_GATHER_PAIRS", "NEAR_FIELD_TREATMENTS",
-           "RELATIVE_NEAR_DISTANCE", "render_local_estimate"]
+           "RELATIVE_NEAR_DISTANCE", "render_local_estimate", "render_local_estimate_materials"]
 
 NEAR_FIELD_TREATMENTS = ("unbiased", "clamp")
 
@@ -360,3 +362,283 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
 
 
+
+
+# --- scenes with glossy, specular and transmitting materials ---------------------------------
+
+#: Delta (mirror or straight-through) bounces an eye path follows at most.
+MAX_DELTA_BOUNCES = 16
+
+
+class _MaterialGatherer:
+    """Node terms W·f_n(ω_in, ω_out)|cos θ_n|·f_p(ω_{p→n}, ω_o)|cos θ_p|/r²·T at points.
+
+    ``nodes`` is :func:`~lsadphoto.solver.chains.trace_material_chains`' dict. Each point
+    draws K nodes of its batch uniformly with replacement, K/2 from the source nodes (direct
+    light) and K/2 from the surface nodes, each stratum scaled by its size over its draws
+    (unbiased). T is the shadow transmittance (glass passes light straight through).
+
+    What the connections estimate is a part of the reflection integral only: at the point
+    they evaluate the full non-delta BSDF f_p towards point-luminaire nodes (which no ray can
+    hit), its diffuse part towards surface nodes, the diffuse part plus the glossy part times
+    the balance-heuristic weight w_L = K_s p_L/(K_s p_L + p_B) towards emitter nodes (p_L:
+    solid-angle density of emission points, K_s source draws, p_B the BSDF sampler's
+    density; Veach 1997, §9.2), and nothing closer than ε; the rest — the glossy part over
+    surfaces, w_B = 1 − w_L of it over emitters, and the near field — is left to
+    BSDF-sampled rays (:func:`_scattered`), whose weights carry exactly that complement, so
+    the sum is unbiased while narrow lobes are sampled by rays and small luminaires by nodes.
+    """
+
+    def __init__(self, scene, engine, sampler, nodes, *, per_pixel, near_distance):
+        self.scene, self.engine, self.sampler, self.nodes = scene, engine, sampler, nodes
+        self.k = int(per_pixel)
+        self.eps2 = near_distance ** 2
+        self.n_b = nodes["chains"] / nodes["batches"]
+        order = np.argsort(nodes["batch"], kind="stable")
+        bounds = np.searchsorted(nodes["batch"][order], np.arange(nodes["batches"] + 1))
+        # emission-point density per unit area [m⁻²] of each area luminaire: (Φ_l/Φ)/A_l
+        self.area_density = np.array([lum.flux / (sampler.total_flux * scene.areas[lum.triangles].sum())
+                                      for lum in scene.area_luminaires])
+        self.strata = []
+        for b in range(nodes["batches"]):
+            idx = order[bounds[b]:bounds[b + 1]]
+            self.strata.append([s for s in (idx[nodes["depth"][idx] == 0], idx[nodes["depth"][idx] > 0])
+                                if s.size])
+
+    def source_draws(self, batch):
+        """Source-node draws per point of ``batch`` (0 when it has no source nodes)."""
+        st = self.strata[batch]
+        if not st or self.nodes["depth"][st[0][0]] != 0:
+            return 0
+        return max(1, self.k // len(st))
+
+    def light_weight(self, batch, triangles, r2, cos_y, p_bsdf):
+        """Balance-heuristic weight w_L = K_s p_L/(K_s p_L + p_B) of emission points on
+        ``triangles`` at squared distance ``r2`` seen at cos θ_y, against the BSDF density."""
+        p_l = (self.source_draws(batch) * self.area_density[self.scene.emitter[triangles]] * r2
+               / np.maximum(cos_y, 1e-12))
+        return p_l / np.maximum(p_l + p_bsdf, 1e-300)
+
+    def gather(self, rng, x, n, wo, mat, batch, front):
+        """The connections' share of the luminance at points ``x`` towards ``wo`` [cd·m⁻²]."""
+        P = len(x)
+        total = np.zeros(P)
+        strata = self.strata[batch]
+        if not P or not strata:
+            return total
+        k_each = max(1, self.k // len(strata))
+        nd = self.nodes
+        bsdf = self.scene.bsdf
+        eps = self.engine.epsilon
+        for stratum in strata:
+            pick = stratum[rng.integers(0, stratum.size, size=(P, k_each))].ravel()
+            owner = np.repeat(np.arange(P), k_each)
+            y, ny = nd["position"][pick], nd["normal"][pick]
+            v = y - x[owner]
+            r2 = np.einsum("ij,ij->i", v, v)
+            w = v / np.sqrt(np.maximum(r2, 1e-300))[:, None]
+            np_ = n[owner]
+            cos_p = np.einsum("ij,ij->i", w, np_)
+            f_d, f_g = bsdf.evaluate(mat[owner], np_, wo[owner], w, split=True)
+            kind = nd["kind"][pick]
+            surface = nd["depth"][pick] > 0
+            cos_n = -np.einsum("ij,ij->i", w, ny)
+            f_p = np.where(kind == KIND_COSINE, f_d, f_d + f_g)
+            emitter = np.flatnonzero((kind == KIND_COSINE) & ~surface & (f_g > 0))
+            if emitter.size:
+                p_b = bsdf.pdf(mat[owner[emitter]], np_[emitter], wo[owner[emitter]], w[emitter],
+                               np.asarray(front)[owner[emitter]])
+                f_p[emitter] += f_g[emitter] * self.light_weight(
+                    batch, nd["triangle"][pick[emitter]], r2[emitter], np.maximum(cos_n[emitter], 0.0), p_b)
+            intensity = np.where(kind == KIND_COSINE, nd["coefficient"][pick] * np.maximum(cos_n, 0.0), 0.0)
+            if surface.any():
+                s = np.flatnonzero(surface)
+                m_n = self.scene.material[nd["triangle"][pick[s]]]
+                f_n = bsdf.evaluate(m_n, ny[s], nd["incoming"][pick[s]], -w[s])
+                intensity[s] = nd["coefficient"][pick[s]] * f_n * np.abs(cos_n[s])
+            point = np.flatnonzero(kind != KIND_COSINE)
+            if point.size:
+                intensity[point] = nd["coefficient"][pick[point]] * self.sampler.point_intensity(
+                    nd["luminaire"][pick[point]], -w[point])
+            near = (kind == KIND_COSINE) & (r2 < self.eps2)
+            val = np.where(near | (r2 <= 0), 0.0, f_p * np.abs(cos_p) * intensity / np.maximum(r2, 1e-300))
+            ok = np.flatnonzero(val > 0)
+            if ok.size:
+                side_p = np.sign(cos_p[ok])[:, None]
+                side_n = np.where(surface[ok], np.sign(cos_n[ok]), 1.0)[:, None]
+                target = y[ok] + eps * side_n * ny[ok] * (kind[ok] == KIND_COSINE)[:, None]
+                val[ok] *= shadow_transmittance(self.scene, self.engine, x[owner[ok]] + eps * side_p * np_[ok],
+                                                target)
+            total += np.bincount(owner, weights=val, minlength=P) * (stratum.size / k_each)
+        return total / self.n_b
+
+
+def _material_paths(scene, engine, gatherer, rng, x, n, front, tri, wo, batch, near_distance):
+    """Per-path luminance [cd·m⁻²] towards ``wo`` at the primary points (emission excluded):
+    the eye path followed through delta surfaces, and at each vertex the connections plus
+    the BSDF-sampled rays of the rest (:func:`_scattered`)."""
+    bsdf = scene.bsdf
+    eps = engine.epsilon
+    total = np.zeros(len(x))
+    idx = np.arange(len(x))
+    for _ in range(MAX_DELTA_BOUNCES + 1):
+        if not idx.size:
+            break
+        mat = scene.material[tri]
+        total[idx] += gatherer.gather(rng, x, n, wo, mat, batch, front)
+        total[idx] += _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_distance)
+        # continue through the delta parts: survive with R + T, choose one in proportion
+        r, t = bsdf.delta(mat, np.einsum("ij,ij->i", n, wo), front)
+        u = rng.random((len(idx), 2))
+        go = u[:, 0] < r + t
+        refl = u[:, 1] * (r + t) < r
+        d = np.where(refl[:, None], 2 * np.einsum("ij,ij->i", n, wo)[:, None] * n - wo, -wo)
+        side = np.where(refl, 1.0, -1.0)[:, None]
+        idx, x, n, d, side = idx[go], x[go], n[go], d[go], side[go]
+        if not idx.size:
+            break
+        prim, dist = engine.closest_hit(x + eps * side * n, d)
+        hit = prim >= 0
+        idx, x, n, d, side, prim, dist = idx[hit], x[hit], n[hit], d[hit], side[hit], prim[hit], dist[hit]
+        x = x + eps * side * n + dist[:, None] * d
+        n, front = scene.facing_normals(prim, d)
+        wo, tri = -d, prim
+        total[idx] += emitted_luminance(scene, prim, wo)
+    return total
+
+
+def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_distance):
+    """What the connections leave out, by BSDF-sampled rays.
+
+    At each vertex one ray is drawn from the BSDF mixture (weight w = f·|μ_i|/p, or R/P_R,
+    T/P_T for a delta; at the first vertex the eye path follows the deltas itself). A path
+    carries two weights: β for the radiance that the previous vertex's connections did not
+    cover (h = f_glossy + f_diffuse·[hit closer than ε], and for emission the
+    balance-heuristic complement), and β_f for radiance reflected by a delta at the hit,
+    which no connection reaches (the full w). A delta reflection turns β_f into the weight
+    of everything beyond it; a straight-through transmission keeps both (connections pass
+    it). Russian roulette min(1, w) after the first ray.
+    """
+    bsdf = scene.bsdf
+    eps = engine.epsilon
+    total = np.zeros(len(x))
+    idx = np.arange(len(x))
+    beta = np.ones(len(x))
+    beta_f = np.ones(len(x))
+    first = True
+    while idx.size:
+        u = rng.random((idx.size, 4))
+        wi, w, delta, _ = bsdf.sample(mat, n, wo, u[:, :3], front)
+        keep = (w > 0) & ~(delta & first)
+        idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u = (
+            idx[keep], beta[keep], beta_f[keep], x[keep], n[keep], wi[keep], w[keep], delta[keep], wo[keep],
+            mat[keep], u[keep])
+        front = np.asarray(front)[keep]
+        if not idx.size:
+            break
+        side = np.sign(np.einsum("ij,ij->i", wi, n))[:, None]
+        prim, dist = engine.closest_hit(x + eps * side * n, wi)
+        reflected = delta & (side[:, 0] > 0)
+        # weights of the hit's reflected radiance (b), delta radiance (bf) and emission (be)
+        b = np.where(reflected, beta_f, beta) * w
+        bf = np.where(delta, beta_f, beta) * w
+        be = b.copy()
+        nd = np.flatnonzero(~delta & (prim >= 0))
+        if nd.size:
+            f_d, f_g = bsdf.evaluate(mat[nd], n[nd], wo[nd], wi[nd], split=True)
+            pdf = bsdf.pdf(mat[nd], n[nd], wo[nd], wi[nd], front[nd])
+            mu = np.abs(np.einsum("ij,ij->i", n[nd], wi[nd]))
+            near = dist[nd] < near_distance
+            scale = np.where(pdf > 0, mu / np.maximum(pdf, 1e-300), 0.0)
+            b[nd] = beta[nd] * (f_g + f_d * near) * scale
+            lit = scene.emitter[prim[nd]] >= 0
+            w_b = np.ones(nd.size)
+            if lit.any():
+                cos_y = np.abs(np.einsum("ij,ij->i", scene.normals[prim[nd][lit]], wi[nd][lit]))
+                w_b[lit] = 1 - gatherer.light_weight(batch, prim[nd][lit], dist[nd][lit] ** 2, cos_y, pdf[lit])
+            be[nd] = beta[nd] * np.where(near, f_d + f_g, f_g * w_b) * scale
+        hit = prim >= 0
+        if hit.any():
+            total[idx[hit]] += be[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
+        q = np.ones(idx.size) if first else np.minimum(w, 1.0)
+        go = hit & ((b > 0) | (bf > 0)) & (u[:, 3] < q)
+        idx, beta, beta_f, x, n, wi, side, prim, dist = (
+            idx[go], b[go] / q[go], bf[go] / q[go], x[go], n[go], wi[go], side[go], prim[go], dist[go])
+        if not idx.size:
+            break
+        x = x + eps * side * n + dist[:, None] * wi
+        n, front = scene.facing_normals(prim, wi)
+        wo, mat = -wi, scene.material[prim]
+        total[idx] += beta * gatherer.gather(rng, x, n, wo, mat, batch, front)
+        first = False
+    return total
+
+
+def render_local_estimate_materials(scene, projection, *, position, rotation, samples=65536, seed=0,
+                                    batches=16, nodes_per_pixel=AUTO_NODES_PER_PIXEL, near_distance=None,
+                                    max_depth=None, chunk_pixels=2048, workers=1, progress=None):
+    """Luminance map [cd·m⁻²] of a scene with glossy, specular or transmitting materials by the
+    double local estimate.
+
+    ``samples`` light chains (:func:`~lsadphoto.solver.chains.trace_material_chains`, each
+    sampling the BSDFs) in ``batches`` batches; for each pixel and batch the eye path is
+    followed through perfectly specular surfaces (mirror, glass, smooth plastic's mirror part:
+    one delta chosen in proportion to R and T, survival R + T) and at every vertex the
+    non-delta BSDF is evaluated towards the eye and connected to ``nodes_per_pixel`` chain
+    nodes (:class:`_MaterialGatherer`), with the near field (nodes closer than
+    ``near_distance``, default 1 % of the scene size) replaced by BSDF-sampled rays.
+    Connections pass straight-through transmitters (glass) with their transmittance; light
+    that reaches a non-specular point after a delta reflection (a floor lit by a mirror, by
+    the reflection of a luminaire in glass) comes from the sampled rays (:func:`_scattered`).
+
+    References
+    ----------
+    Marchuk et al. (1980), §3.3 (local estimates). Veach (1997), §10 (connections and
+    specular vertices).
+    """
+    from ..chains import CHAIN_BLOCK as _BLOCK
+    from ..chains import EmissionSampler, trace_material_chains
+
+    if not isinstance(scene, Scene) or scene.bsdf is None:
+        raise BadInputError("render_local_estimate_materials needs a Scene with non-Lambertian materials")
+    position, rotation = check_pose(position, rotation)
+    samples, batches = int(samples), int(batches)
+    if batches < 2 or _BLOCK % batches or samples < _BLOCK:
+        raise BadInputError(f"samples ({samples}) must be ≥ {_BLOCK} and batches ({batches} ≥ 2) divide {_BLOCK}")
+    near_distance = float(RELATIVE_NEAR_DISTANCE * scene.size if near_distance is None else near_distance)
+    if not near_distance > 0:
+        raise BadInputError(f"near_distance must be positive, got {near_distance!r}")
+    t0 = time.perf_counter()
+    engine = engine_for(scene)
+    sampler = EmissionSampler(scene)
+    nodes = trace_material_chains(scene, engine, seed=seed, blocks=-(-samples // _BLOCK), batches=batches,
+                                  max_depth=max_depth, sampler=sampler)
+    gatherer = _MaterialGatherer(scene, engine, sampler, nodes, per_pixel=nodes_per_pixel,
+                                 near_distance=near_distance)
+    valid, prim, dist, d = primary_rays(scene, engine, projection, position, rotation)
+    hit = np.flatnonzero(prim >= 0)
+    lum_b = np.zeros((valid.size, batches))
+    chunk = chunk_size(chunk_pixels)
+
+    def work(start):
+        c = chunk_hits(scene, position, hit, prim, dist, d, start, chunk)
+        out = np.repeat(c.emitted[:, None], batches, axis=1)
+        for j in np.unique(c.block):
+            m = np.flatnonzero(c.block == j)
+            for b in range(batches):
+                rng = stream(seed, "near", b, j)
+                out[m, b] += _material_paths(scene, engine, gatherer, rng, c.point[m], c.normal[m], c.front[m],
+                                             c.triangle[m], -d[c.index[m]], b, near_distance)
+        return c.index, out
+
+    run_chunks(work, range(0, hit.size, chunk), lum_b, workers, progress, t0, hit.size)
+    openings = luminous_openings(scene, position, d, dist)
+    return luminance_map_from_batches(
+        projection, valid, lum_b, model=scene, estimator="double local estimate (materials)",
+        openings=openings,
+        extra={"samples": int(nodes["chains"]), "chains": int(nodes["chains"]),
+               "nodes": int(nodes["position"].shape[0]), "near_field": "unbiased",
+               "near_distance_m": near_distance, "near_field_biased": False,
+               "nodes_per_pixel": int(nodes_per_pixel), "seed": int(seed),
+               },
+        elapsed=time.perf_counter() - t0, pose=(position, rotation))

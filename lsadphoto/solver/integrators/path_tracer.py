@@ -19,10 +19,12 @@ from ...errors import BadInputError
 from .._sampling import cosine_directions, stream
 from ..chains import EmissionSampler
 from ..engine import engine_for
+from ..materials import shadow_transmittance
 from ..scene import Scene
 from ..store import KIND_COSINE, KIND_POINT
-from .eye import (PIXEL_BLOCK, check_pose, chunk_hits, chunk_size, luminance_map_from_batches,
-                  luminous_openings, primary_rays, run_chunks, warn_odd_view)
+from .eye import (PIXEL_BLOCK, check_pose, chunk_hits, chunk_size, emitted_luminance,
+                  luminance_map_from_batches, luminous_openings, primary_rays, run_chunks,
+                  warn_odd_view)
 
 __all__ = ["render_path_traced"]
 
@@ -103,6 +105,10 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
         acc = np.zeros(pix.size)
         alive = np.arange(pix.size)
         x, nx, tri = x0[pix], n0[pix], t[pix]
+        if scene.bsdf is not None:
+            _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, c.front[pix], tri,
+                             -d[h][pix], limit)
+            return h, emitted[:, None] + acc.reshape(batches, h.size, per_batch).mean(axis=2).T
         depth = 0
         while alive.size and depth < limit:
             streams.counts = np.bincount(group[alive], minlength=len(streams.gens))
@@ -152,3 +158,69 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
                "near_field": "none (path tracing)", "near_field_biased": False,
                "max_depth": max_depth},
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
+
+
+def _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, front, tri, wo, limit):
+    """Add to ``acc`` the luminance of paths from points ``x`` (normals ``nx`` facing ``wo``,
+    on the triangles' front side where ``front``, triangles ``tri``) in a scene with
+    non-Lambertian materials (``scene.bsdf``).
+
+    At each vertex: next-event estimation with the BSDF's non-delta part f(ω_light, ω_o)
+    (on either side of transmitting surfaces), the shadow ray passing straight-through
+    transmitters with their transmittance (:func:`~lsadphoto.solver.materials.shadow_transmittance`);
+    then a direction from :meth:`~lsadphoto.solver.materials.MaterialTable.sample`, survival
+    with q = min(1, albedo) and weight w/q. Emission found by a continuation ray counts only
+    on paths that NEE cannot reach: after a delta reflection (mirror, glass, smooth plastic),
+    possibly followed by straight-through transmissions; the eye counts as such a vertex (a
+    luminaire seen through glass is seen).
+    """
+    bsdf = scene.bsdf
+    eps = engine.epsilon
+    alive = np.arange(len(x))
+    beta = np.ones(len(x))
+    count_emission = np.ones(len(x), dtype=bool)
+    depth = 0
+    while alive.size and depth < limit:
+        streams.counts = np.bincount(group[alive], minlength=len(streams.gens))
+        mat = scene.material[tri]
+        src = sampler.sample(streams, alive.size)
+        v = src["position"] - x
+        r2 = np.einsum("ij,ij->i", v, v)
+        w = v / np.sqrt(r2)[:, None]
+        cos_x = np.einsum("ij,ij->i", w, nx)
+        is_cos = src["kind"] == KIND_COSINE
+        g = np.where(is_cos, -np.einsum("ij,ij->i", w, src["normal"]), 0.0)
+        pt = np.flatnonzero(src["kind"] == KIND_POINT)
+        if pt.size:
+            g[pt] = sampler.point_intensity(src["luminaire"][pt], -w[pt])
+        f = bsdf.evaluate(mat, nx, wo, w)
+        ok = (f > 0) & (g > 0) & (np.abs(cos_x) > 0)
+        if ok.any():
+            side = np.sign(cos_x[ok])[:, None]
+            tgt = src["position"][ok] + eps * src["normal"][ok] * is_cos[ok, None]
+            vis = shadow_transmittance(scene, engine, x[ok] + eps * side * nx[ok], tgt)
+            acc[alive[ok]] += (beta[ok] * f[ok] * src["coefficient"][ok] * g[ok] * np.abs(cos_x[ok])
+                               / r2[ok] * vis)
+        u = streams.random((alive.size, 3))
+        wi, weight, is_delta, albedo = bsdf.sample(mat, nx, wo, u, front)
+        q = np.minimum(albedo, 1.0)
+        go = (u[:, 2] < q) & (weight > 0)
+        depth += 1
+        straight = is_delta & (np.einsum("ij,ij->i", wi, nx) < 0)
+        count_emission = (count_emission & straight) | (is_delta & ~straight)
+        alive, x, nx, wi, count_emission = alive[go], x[go], nx[go], wi[go], count_emission[go]
+        beta = beta[go] * weight[go] / q[go]
+        if not alive.size:
+            break
+        side = np.sign(np.einsum("ij,ij->i", wi, nx))[:, None]
+        p2, d2 = engine.closest_hit(x + eps * side * nx, wi)
+        ok = p2 >= 0
+        alive, x, nx, wi, p2, d2, beta, count_emission, side = (
+            alive[ok], x[ok], nx[ok], wi[ok], p2[ok], d2[ok], beta[ok], count_emission[ok], side[ok])
+        x = x + eps * side * nx + d2[:, None] * wi
+        nx, front = scene.facing_normals(p2, wi)
+        wo = -wi
+        tri = p2
+        if count_emission.any():
+            seen = np.flatnonzero(count_emission)
+            acc[alive[seen]] += beta[seen] * emitted_luminance(scene, p2[seen], wo[seen])
