@@ -2,8 +2,8 @@
 
 The hall of :func:`lsadphoto.datasets.hall.make_station_hall` (60 × 20 m, barrel vault,
 40 columns, 20 benches, 120 IES luminaires, ≈ 64 000 triangles at ``--detail 1``) is
-simulated and one fisheye view rendered by fresh ``lsadphoto`` processes; each step's wall
-time, CPU time and peak memory (``resource.getrusage`` of the child) and the rendered map's
+simulated and one fisheye view rendered by fresh ``lsadphoto`` processes; the cache's
+points, each step's wall time, CPU time and peak memory (``resource.getrusage`` of the child) and the rendered map's
 per-pixel relative errors (median, 95th percentile) are printed as a table row. Variants:
 ``--detail 2`` (4× triangles), ``--luminaires 480`` (4× luminaires).
 
@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 from lsadphoto.datasets.hall import make_station_hall
-from lsadphoto.solver import load_scene
+from lsadphoto.solver import load_scene, load_store
 
 
 def run(args):
@@ -56,15 +56,18 @@ def main():
         if a.estimator == "cache":
             sim.append("--surface-cache")
         s_wall, s_cpu, s_mem, _ = run(sim)
+        cache = load_store(store).surface_cache
+        points = "–" if cache is None else (f"{cache.size} ({cache.provenance['grid_points']} grid, "
+                                            f"{cache.provenance['leaf_patches']} patches)")
         out = Path(tmp) / "view.exr"
         r_wall, r_cpu, r_mem, r_out = run(["render", store, "--view-name", "along", "--estimator",
                                            a.estimator, "--nodes-per-pixel", a.nodes_per_pixel,
                                            "--quiet", "--json", "-o", out])
         p = json.loads(r_out)["provenance"]
-    print("| triangles | luminaires | chains | view | estimator | simulate: wall / CPU [s] | "
+    print("| triangles | luminaires | chains | view | estimator | cache points | simulate: wall / CPU [s] | "
           "render: wall / CPU [s] | peak memory [GB] | per-pixel error median / p95 |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    print(f"| {triangles} | {a.luminaires} | {a.samples} | {a.size}² | {a.estimator} | "
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    print(f"| {triangles} | {a.luminaires} | {a.samples} | {a.size}² | {a.estimator} | {points} | "
           f"{s_wall:.0f} / {s_cpu:.0f} | {r_wall:.0f} / {r_cpu:.0f} | {max(s_mem, r_mem):.1f} | "
           f"{100 * p['pixel_relative_error_median']:.2g} % / {100 * p['pixel_relative_error_p95']:.2g} % |")
 

@@ -11,7 +11,8 @@ import pytest
 
 from lsadphoto.errors import BadInputError
 from lsadphoto.solver import scene_from_dict
-from lsadphoto.solver.direct import (ALL_LUMINAIRES_UP_TO, direct_illuminance, projected_solid_angle,
+from lsadphoto.solver.direct import (ALL_LUMINAIRES_UP_TO, LuminaireTable, direct_illuminance,
+                                     projected_solid_angle, sampled_direct_illuminance,
                                      unoccluded_illuminance)
 from lsadphoto.solver.engine import engine_for
 
@@ -124,3 +125,33 @@ def test_luminaire_draws_are_checked():
     pts, nrm = floor_points(2)
     with pytest.raises(BadInputError, match="luminaire draws"):
         direct_illuminance(scene, engine_for(scene), pts, nrm, luminaires=0)
+
+
+def test_one_luminaire_drawn_from_a_region_table_is_unbiased():
+    # The surface cache's near field draws one luminaire per hit from a per-region table
+    # (LuminaireTable): unbiased against the every-luminaire estimate (exact per point for
+    # point luminaires), in the columns' shadows and on a column's side (the luminaires
+    # behind its tangent plane have only the floor probability), with a table of cells far
+    # coarser than the luminaire spacing. 1000 draws per point: |z| < 4.5 at each of ≤ 40
+    # points (a false alarm has p ≈ 3e-4 over all).
+    scene = hall(columns=True)
+    engine = engine_for(scene)
+    pts, nrm = floor_points(30, seed=2)
+    side = np.column_stack([4.0 * np.arange(10) % 36 + 2.5, np.full(10, 5.0),
+                            np.linspace(0.5, 3.0, 10)])
+    pts = np.vstack([pts, side - [1e-3, 0, 0]])
+    nrm = np.vstack([nrm, np.tile([-1.0, 0, 0], (10, 1))])
+    exact, _ = direct_illuminance(scene, engine, pts, nrm, luminaires="all")
+    table = LuminaireTable(scene, 6.0)
+    runs = 1000
+    x = np.repeat(pts, runs, axis=0)
+    n = np.repeat(nrm, runs, axis=0)
+    e = sampled_direct_illuminance(scene, engine, x, n, table=table, seed=5,
+                                   block_ids=np.tile(np.arange(runs), len(pts))).reshape(len(pts), runs)
+    assert np.all(e >= 0)
+    lit = exact > 0
+    z = (e.mean(axis=1) - exact)[lit] / (e.std(axis=1, ddof=1)[lit] / math.sqrt(runs))
+    assert np.all(np.abs(z) < 4.5), z
+    assert np.all(e[~lit] == 0)
+    # each region's row is built once, for all luminaires: far fewer rows than points
+    assert 0 < len(table.rows) < len(pts)

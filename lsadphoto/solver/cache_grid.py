@@ -1,19 +1,57 @@
-"""The surface cache's data: indirect illuminance on a subdivision of every triangle.
+"""The surface cache's data: indirect illuminance on the scene's surfaces, and its look-ups.
 
 A :class:`SurfaceCache` is what :func:`~lsadphoto.solver.integrators.surface_cache.build_surface_cache`
-estimates and an :class:`~lsadphoto.solver.store.LsadStore` saves: values at the vertices of a
-regular level-m subdivision of each reflecting triangle (one set per side), further
-subdivided cells where the values vary strongly, and the linear interpolation that gives a
-point's value from its cell's three vertices. It holds data and look-ups only, no estimator.
+estimates and an :class:`~lsadphoto.solver.store.LsadStore` saves. Its points follow the
+surface *area*, not the triangle count:
+
+* a triangle larger than the spacing carries the vertices of a regular level-m subdivision
+  (one set per side), further subdivided cells where the values vary strongly, and a point's
+  value is the linear interpolation of its cell's three vertices;
+* the sides of the triangles smaller than the spacing (the tessellation of a vault, a
+  column, a bench) share points: they are grouped into *patches* by position (a grid of
+  cubes of the spacing), orientation (24 cube-map cells of the side's normal, ≈ 45° each)
+  and offset along the normal (slices of spacing/8, which keep apart parallel sheets such
+  as the two sides of a column seen through it), one point per patch on its member triangle
+  nearest the patch's area centroid (:func:`patch_sides`); patches whose values differ
+  strongly from their neighbours' are split again at half the spacing. A point's value is a
+  normalised kernel average of the patch points within 1.5 patch sizes whose normal agrees
+  with its own, which lie near its tangent plane and which its own patch's point sees (a
+  visibility ray per pair of neighbouring patches, cast when the cache is built) (:meth:`SurfaceCache.interpolate`;
+  Shepard 1968, with Wendland's compact weight and Ward et al.'s normal criterion).
+
+So a mesh of many small triangles costs as many points as its area needs. The cache holds
+data and look-ups only, no estimator.
+
+References
+----------
+Shepard, D. (1968). A two-dimensional interpolation function for irregularly-spaced data.
+*Proc. 23rd ACM National Conference*, 517–524. Wendland, H. (1995). Piecewise polynomial,
+positive definite and compactly supported radial functions of minimal degree. *Advances in
+Computational Mathematics* 4, 389–396. Ward, G. J., Rubinstein, F. M., Clear, R. D. (1988).
+A ray tracing solution for diffuse interreflection. *SIGGRAPH '88*, 85–92. Rossignac, J.,
+Borrel, P. (1993). Multi-resolution 3D approximations for rendering complex scenes.
+*Modeling in Computer Graphics*, 455–465 (grouping a mesh's elements by a spatial grid).
 """
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from ..errors import BadInputError
 
-__all__ = ["SurfaceCache", "grid_index"]
+__all__ = ["PATCH_KERNEL", "Patches", "SurfaceCache", "grid_index", "patch_neighbours", "patch_sides"]
+
+#: Kernel radius of the patch interpolation, in patch sizes (the grid's cube edge).
+PATCH_KERNEL = 1.5
+#: Normal agreement below which a patch point does not count (cos 60°), and the largest
+#: |sine| of the angle between a patch point's offset and the tangent plane (30°).
+_PATCH_COS, _PATCH_PLANE = 0.5, 0.5
+#: Offset slices per patch size along the normal.
+_PATCH_SLICES = 8
+
+_NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
 
 
 def grid_index(m, i, j):
@@ -59,23 +97,150 @@ def _barycentric(tri, x):
     return b1 / total, b2 / total
 
 
+def _normal_cell(n):
+    """Cube-map cell (0…23) of unit vectors n: the dominant axis and its sign, then 2 × 2
+    quadrants of the other two components over it."""
+    axis = np.abs(n).argmax(axis=1)
+    rows = np.arange(len(n))
+    major = n[rows, axis]
+    u = n[rows, (axis + 1) % 3] / np.abs(major)
+    v = n[rows, (axis + 2) % 3] / np.abs(major)
+    return ((2 * axis + (major < 0)) * 4 + 2 * (u >= 0) + (v >= 0)).astype(np.int64)
+
+
+@dataclass
+class Patches:
+    """Sides of small triangles grouped into patches (:func:`patch_sides`).
+
+    ``patch`` (S,): the patch of each given side; ``point``, ``normal`` (C, 3): each patch's
+    point [m] (the centroid of its member side nearest the patch's area centroid) and that
+    side's normal; ``reach`` (C,): the largest distance from the point to a vertex of a
+    member [m]; ``size``: the patch size [m].
+    """
+
+    patch: np.ndarray
+    point: np.ndarray
+    normal: np.ndarray
+    reach: np.ndarray
+    size: float
+
+
+def patch_sides(triangles, normals, areas, size, *, origin):
+    """Group triangle sides into patches of about ``size`` [m] (module docstring).
+
+    Parameters
+    ----------
+    triangles : ndarray, shape (S, 3, 3)
+        Vertices [m] of each side's triangle.
+    normals : ndarray, shape (S, 3)
+        Unit normal of each side (the triangle's normal or its opposite).
+    areas : ndarray, shape (S,)
+        Triangle areas [m²].
+    size : float
+        Edge of the grid's cubes [m].
+    origin : array_like, shape (3,)
+        Corner of the grid [m].
+
+    Returns
+    -------
+    Patches
+    """
+    S = len(triangles)
+    if S == 0:
+        return Patches(np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), size)
+    centroid = triangles.mean(axis=1)
+    cube = np.floor((centroid - origin) / size).astype(np.int64)
+    middle = np.asarray(origin) + (cube + 0.5) * size
+    offset = np.floor(np.einsum("ij,ij->i", normals, centroid - middle) * _PATCH_SLICES / size)
+    key = np.column_stack([cube, _normal_cell(normals), offset.astype(np.int64)])
+    _, patch = np.unique(key, axis=0, return_inverse=True)
+    patch = patch.ravel()
+    C = int(patch.max()) + 1
+    mass = np.bincount(patch, weights=areas, minlength=C)
+    mean = np.stack([np.bincount(patch, weights=areas * centroid[:, k], minlength=C)
+                     for k in range(3)], axis=1) / np.maximum(mass, 1e-300)[:, None]
+    dist = np.linalg.norm(centroid - mean[patch], axis=1)
+    order = np.lexsort((dist, patch))
+    first = order[np.r_[0, np.flatnonzero(np.diff(patch[order])) + 1]]
+    point = centroid[first]
+    reach = np.zeros(C)
+    np.maximum.at(reach, patch, np.linalg.norm(triangles - point[patch][:, None], axis=2).max(axis=1))
+    return Patches(patch, point, np.ascontiguousarray(normals[first]), reach, float(size))
+
+
+def patch_neighbours(point, radius, reach):
+    """CSR lists (start (C + 1,), index) of the patches within ``radius + reach`` of each
+    patch's point: every patch point within ``radius`` of any point of a patch is in its list."""
+    from scipy.spatial import cKDTree
+
+    C = len(point)
+    if C == 0:
+        return np.zeros(1, np.int64), np.zeros(0, np.int64)
+    lists = cKDTree(point).query_ball_point(point, radius + reach)
+    start = np.zeros(C + 1, np.int64)
+    start[1:] = np.cumsum([len(x) for x in lists])
+    return start, np.concatenate([np.asarray(x, np.int64) for x in lists])
+
+
+@njit(**_NUMBA)
+def _patch_kernel(x, n, own, point, normal, radius, start, index, values, out):
+    """out[i] = the kernel average of ``values`` over the patches near point i (see
+    :meth:`SurfaceCache.interpolate`); its own patch's value where none qualifies."""
+    P = x.shape[0]
+    G = values.shape[1]
+    for i in range(P):
+        c = own[i]
+        r2 = radius[c] * radius[c]
+        total = 0.0
+        for g in range(G):
+            out[i, g] = 0.0
+        for k in range(start[c], start[c + 1]):
+            j = index[k]
+            dx = point[j, 0] - x[i, 0]
+            dy = point[j, 1] - x[i, 1]
+            dz = point[j, 2] - x[i, 2]
+            d2 = dx * dx + dy * dy + dz * dz
+            if d2 >= r2:
+                continue
+            agree = n[i, 0] * normal[j, 0] + n[i, 1] * normal[j, 1] + n[i, 2] * normal[j, 2]
+            if agree <= _PATCH_COS:
+                continue
+            d = math.sqrt(d2)
+            tilt = abs(n[i, 0] * dx + n[i, 1] * dy + n[i, 2] * dz) / d if d > 0 else 0.0
+            if tilt >= _PATCH_PLANE:
+                continue
+            q = 1.0 - d2 / r2
+            w = q * q * (agree - _PATCH_COS) / (1.0 - _PATCH_COS) * (1.0 - tilt / _PATCH_PLANE)
+            total += w
+            for g in range(G):
+                out[i, g] += w * values[j, g]
+        if total > 0:
+            for g in range(G):
+                out[i, g] /= total
+        else:
+            for g in range(G):
+                out[i, g] = values[c, g]
+
+
 @dataclass
 class SurfaceCache:
-    """Indirect illuminance at the vertices of a subdivision of every reflecting triangle.
+    """Indirect illuminance on the scene's surfaces: triangle grids and shared patch points.
 
     Attributes
     ----------
     spacing : float
         Target spacing of the cache points [m].
     level : ndarray of int, shape (T,)
-        Subdivision level m of each triangle (0: one point at the centroid; −1: not cached).
+        Subdivision level m of each triangle (≥ 1: its own grid; 0: a small triangle whose
+        sides take their values from patches; −1: not cached).
     offset : ndarray of int, shape (T, 2)
-        Index of each triangle's first vertex for its front (0) and back (1) side.
+        Index of each grid triangle's first vertex for its front (0) and back (1) side (−1
+        for the others).
     values : ndarray, shape (V, groups)
-        E_ind [lx] at each vertex, per group of node draws.
+        E_ind [lx] at each point, per group of node draws.
     positions : ndarray, shape (V, 3)
         Where each value was estimated [m] (grid vertices, moved a few ray offsets inside
-        their triangle).
+        their triangle; patch points).
     refined_key, refined_offset : ndarray of int, shape (C,)
         Refined cells (sorted keys 2·(global index of the cell's (i, j) vertex) + upper) and
         the index of the first vertex of each one's level-``refine`` grid in ``values``.
@@ -83,6 +248,18 @@ class SurfaceCache:
         Subdivision level of refined cells.
     provenance : dict
         Nodes per point, ε, seed, build time.
+    patch : ndarray of int, shape (T, 2)
+        The (finest) patch of each side of a small triangle (−1 for the others).
+    patch_row : ndarray of int, shape (Q,)
+        Row in ``values`` of each patch's point.
+    patch_normal : ndarray, shape (Q, 3)
+        Unit normal at each patch point.
+    patch_radius : ndarray, shape (Q,)
+        Kernel radius [m] of interpolations on the patch's sides (:data:`PATCH_KERNEL` ×
+        its patch size).
+    patch_start, patch_index : ndarray of int
+        CSR lists of the patches that may lie within the kernel radius of a point of each
+        patch (:func:`patch_neighbours`) and whose point that patch's point sees.
     """
 
     spacing: float
@@ -94,6 +271,21 @@ class SurfaceCache:
     refined_offset: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     refine: int = 4
     provenance: dict = field(default_factory=dict)
+    patch: np.ndarray = None
+    patch_row: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    patch_normal: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    patch_radius: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    patch_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))
+    patch_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+
+    #: The arrays a store saves (besides ``spacing``, ``refine`` and ``provenance``).
+    ARRAYS = ("level", "offset", "values", "positions", "refined_key", "refined_offset",
+              "patch", "patch_row", "patch_normal", "patch_radius", "patch_start",
+              "patch_index")
+
+    def __post_init__(self):
+        if self.patch is None:
+            self.patch = np.full((len(self.level), 2), -1, np.int64)
 
     @property
     def size(self):
@@ -101,24 +293,20 @@ class SurfaceCache:
         return len(self.values)
 
     def corners(self, scene, prim, x, side):
-        """Indices of the three cache points around points ``x`` on triangles ``prim``
-        (side 0 front, 1 back) and their linear-interpolation weights, each (n, 3)."""
+        """Indices of the three grid points around points ``x`` on grid triangles ``prim``
+        (level ≥ 1; side 0 front, 1 back) and their linear-interpolation weights, each (n, 3)."""
         b1, b2 = _barycentric(scene.triangles[prim], x)
         m = self.level[prim]
         base = self.offset[prim, side]
-        if np.any(m < 0) or np.any(base < 0):
+        if np.any(m < 1) or np.any(base < 0):
             raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
-        mi = np.maximum(m, 1)
-        k0, k1, k2, w1, w2, key = _cell(mi, b1, b2)
+        k0, k1, k2, w1, w2, key = _cell(m, b1, b2)
         index = np.stack([base + k0, base + k1, base + k2], axis=1)
         weight = np.stack([1.0 - w1 - w2, w1, w2], axis=1)
-        single = m == 0
-        index[single] = base[single, None]
-        weight[single] = (1.0, 0.0, 0.0)
         if self.refined_key.size:
             global_key = 2 * base + key  # base + index(i, j) doubled, plus upper
             pos = np.minimum(np.searchsorted(self.refined_key, global_key), self.refined_key.size - 1)
-            fine = (self.refined_key[pos] == global_key) & ~single
+            fine = self.refined_key[pos] == global_key
             if fine.any():
                 r = self.refine
                 f0, f1, f2, v1, v2, _ = _cell(r, w1[fine], w2[fine])
@@ -128,6 +316,39 @@ class SurfaceCache:
         return index, weight
 
     def interpolate(self, scene, prim, x, side):
-        """E_ind per group [lx] at points ``x`` on triangles ``prim``, side 0 (front) or 1."""
-        index, weight = self.corners(scene, prim, x, side)
-        return np.einsum("nk,nkg->ng", weight, self.values[index])
+        """E_ind per group [lx] at points ``x`` on triangles ``prim``, side 0 (front) or 1.
+
+        On grid triangles the linear interpolation of the cell's corners; on small
+        triangles the kernel average over patch points q_j within the kernel radius R,
+
+            E(x) = Σ_j w_j E_j / Σ_j w_j,   w_j = (1 − d²/R²)² · (c_j − ½)/½ · (1 − 2 s_j),
+
+        with d = |q_j − x|, c_j = n·n_j > ½ (normals within 60°) and s_j = |n·(q_j − x)|/d
+        < ½ (q_j within 30° of the tangent plane at x, which keeps the far side of a column
+        or a parallel sheet out); the side's own patch where no point qualifies.
+        """
+        prim = np.asarray(prim)
+        side = np.broadcast_to(np.asarray(side), prim.shape)
+        m = self.level[prim]
+        if np.any(m < 0):
+            raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
+        out = np.empty((len(prim), self.values.shape[1]))
+        grid = np.flatnonzero(m >= 1)
+        if grid.size:
+            index, weight = self.corners(scene, prim[grid], x[grid], side[grid])
+            out[grid] = np.einsum("nk,nkg->ng", weight, self.values[index])
+        small = np.flatnonzero(m == 0)
+        if small.size:
+            own = self.patch[prim[small], side[small]]
+            if np.any(own < 0):
+                raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
+            sign = np.where(side[small] == 0, 1.0, -1.0)[:, None]
+            n = np.ascontiguousarray(sign * scene.normals[prim[small]], dtype=np.float64)
+            res = np.empty((small.size, self.values.shape[1]))
+            _patch_kernel(np.ascontiguousarray(x[small], dtype=np.float64), n, own,
+                          np.ascontiguousarray(self.positions[self.patch_row]),
+                          np.ascontiguousarray(self.patch_normal), self.patch_radius,
+                          self.patch_start, self.patch_index,
+                          np.ascontiguousarray(self.values[self.patch_row]), res)
+            out[small] = res
+        return out

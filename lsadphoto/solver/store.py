@@ -138,10 +138,7 @@ class LsadStore:
         cache = self.surface_cache
         if cache is not None:
             meta["surface_cache"] = {"spacing": cache.spacing, "provenance": cache.provenance}
-            arrays.update(cache_level=cache.level, cache_offset=cache.offset,
-                          cache_values=cache.values, cache_positions=cache.positions,
-                          cache_refined_key=cache.refined_key,
-                          cache_refined_offset=cache.refined_offset)
+            arrays.update({f"cache_{name}": getattr(cache, name) for name in SurfaceCache.ARRAYS})
             meta["surface_cache"]["refine"] = cache.refine
         for k, lum in enumerate(scene.point_luminaires):
             p = lum.photometry
@@ -187,10 +184,9 @@ def load_store(path):
         cache = None
         if "surface_cache" in meta:
             c = meta["surface_cache"]
-            cache = SurfaceCache(c["spacing"], arrays["cache_level"], arrays["cache_offset"],
-                                 arrays["cache_values"], arrays["cache_positions"],
-                                 arrays["cache_refined_key"], arrays["cache_refined_offset"],
-                                 c["refine"], c.get("provenance", {}))
+            cache = SurfaceCache(spacing=c["spacing"], refine=c["refine"],
+                                 provenance=c.get("provenance", {}),
+                                 **{name: arrays[f"cache_{name}"] for name in SurfaceCache.ARRAYS})
     except KeyError as exc:
         raise UnsupportedFileError(f"{path}: LSAD store lacks {exc.args[0]!r}") from None
     return LsadStore(scene, **nodes, chains=meta["chains"], batches=meta["batches"],

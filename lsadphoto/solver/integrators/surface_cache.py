@@ -23,18 +23,24 @@ shadows and the near-luminaire gradients. This module splits the two:
   again by far nodes and a further near ray, continued by Russian roulette with
   probability ρ_y) — the near-field split of :mod:`~lsadphoto.solver.integrators.local_estimate`, with
   emission left out because the direct part is counted separately.
-* The cache points are the vertices of a regular subdivision of every reflecting triangle
-  (level m ≈ √(2·area)/spacing; one point at the centroid for triangles smaller than the
-  spacing), one set per side; cells whose corner values differ strongly (shadow edges of
-  indirect light, objects standing close, concave corners) are subdivided further. A
-  pixel's E_ind is the **linear interpolation** of its sub-triangle's three vertices, per
-  group, so per-pixel standard errors still come from independent groups.
+* The cache points follow the surface area (:mod:`~lsadphoto.solver.cache_grid`): the
+  vertices of a regular subdivision of every reflecting triangle larger than the spacing
+  (level m ≈ √(2·area)/spacing), one set per side, and one point per *patch* of the sides
+  of the smaller triangles (grouped by position, orientation and offset: a vault of
+  48 000 facets needs as many points as its area, not two per facet); grid cells whose
+  corner values differ strongly (shadow edges of indirect light, objects standing close,
+  concave corners) are subdivided further, and such patches split at half the size. A
+  pixel's E_ind is the **linear interpolation** of its sub-triangle's three vertices, or
+  the kernel average of the patch points around it, per group, so per-pixel standard
+  errors still come from independent groups.
 
 What this costs and gives: the cache is view-independent (it is saved in the store, and a
 further view needs only its primary rays, its direct shadow rays and the interpolation);
 the estimate of E_ind at every cache point is unbiased, the interpolation adds a bias of
-order spacing² × (curvature of E_ind) — largest next to concave edges — which the reported
-standard errors do not include. It is measured against per-pixel estimates in
+order spacing² × (curvature of E_ind) — largest next to concave edges; on patches, whose
+kernel average reproduces constants but not gradients, of order spacing × |∇E_ind| where the
+points lie on one side (an edge of a mesh) — which the reported standard errors do not
+include. It is measured against per-pixel estimates in
 docs/accuracy.md; halve ``spacing`` to quarter it.
 
 References
@@ -56,8 +62,9 @@ from numba import njit
 from ..._validation import check_positive_int
 from ...errors import BadInputError
 from .._sampling import stream
-from ..cache_grid import SurfaceCache, grid_index
-from ..direct import DIRECT_SAMPLES, direct_illuminance
+from ..cache_grid import PATCH_KERNEL, SurfaceCache, grid_index, patch_neighbours, patch_sides
+from ..direct import (ALL_LUMINAIRES_UP_TO, DIRECT_SAMPLES, LuminaireTable, direct_illuminance,
+                      sampled_direct_illuminance)
 from ..engine import engine_for
 from ..store import LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, luminance_map_from_batches,
@@ -80,6 +87,8 @@ NEAR_RAYS = 4
 RELATIVE_CACHE_NEAR_DISTANCE = 0.04
 #: Subdivision level of refined cells, and the relative contrast that triggers it.
 REFINE, REFINE_CONTRAST = 3, 0.2
+#: Halvings of the patches of small triangles where their values vary strongly.
+PATCH_REFINE = 1
 #: Cache points per random-stream block.
 POINT_BLOCK = 256
 
@@ -192,6 +201,9 @@ class _IndirectEstimator:
         self.near_draws = max(1, self.draws // 8)
         self.pos = np.ascontiguousarray(store.position)
         self.hull = None
+        # Many luminaires: a near hit draws one of them from a per-region table.
+        many = len(self.scene.area_luminaires) + len(self.scene.point_luminaires) > ALL_LUMINAIRES_UP_TO
+        self.luminaire_table = LuminaireTable(self.scene, near_distance) if many else None
 
     def far(self, x, n, group, blocks, level, draws=None):
         """Far-node part of E_ind [lx] at points ``x`` for one group: Σc/k · Σ_draws cos θ_n
@@ -280,10 +292,14 @@ class _IndirectEstimator:
             lit = np.flatnonzero(rho_y > 0)
             if lit.size:
                 paths = active[lit]
-                e_dir, _ = direct_illuminance(scene, engine, y[lit], ny[lit],
-                                              samples=self.direct_samples, seed=self.seed,
-                                              block_ids=blocks[paths] * G + group[paths],
-                                              purpose_key=self._direct_key(level))
+                keys = {"seed": self.seed, "block_ids": blocks[paths] * G + group[paths],
+                        "purpose_key": self._direct_key(level)}
+                if self.luminaire_table is None:
+                    e_dir, _ = direct_illuminance(scene, engine, y[lit], ny[lit],
+                                                  samples=self.direct_samples, **keys)
+                else:
+                    e_dir = sampled_direct_illuminance(scene, engine, y[lit], ny[lit],
+                                                       table=self.luminaire_table, **keys)
                 e_far = np.zeros(lit.size)
                 for g in np.unique(group[paths]):
                     m = group[paths] == g
@@ -340,7 +356,9 @@ def indirect_illuminance(store, points, normals, *, nodes=CACHE_NODES, near_dist
 
 
 def _cache_points(scene, spacing, inset):
-    """Levels, offsets, points and normals of the regular cache grids (both sides)."""
+    """Levels, offsets, points and normals of the regular cache grids (both sides) of the
+    triangles larger than the spacing (level ≥ 1); level 0 marks the smaller ones, which
+    share patch points (:func:`_patches`)."""
     tris = scene.triangles
     T = len(tris)
     longest = np.stack([np.linalg.norm(tris[:, 1] - tris[:, 0], axis=1),
@@ -355,20 +373,17 @@ def _cache_points(scene, spacing, inset):
     offset = np.full((T, 2), -1, dtype=np.int64)
     pts, nrm = [], []
     cursor = 0
-    for t in np.flatnonzero(level >= 0):
+    for t in np.flatnonzero(level >= 1):
         m = level[t]
         a, b, c = tris[t]
         centroid = (a + b + c) / 3.0
-        if m == 0:
-            p = centroid[None, :]
-        else:
-            ij = np.array([(i, j) for i in range(m + 1) for j in range(m + 1 - i)], dtype=float)
-            p = a + (ij[:, :1] / m) * (b - a) + (ij[:, 1:] / m) * (c - a)
-            # A vertex on an edge is moved a few ray offsets inside, so that its rays do not
-            # start in the plane of a neighbouring surface (E_ind is continuous there).
-            to_c = centroid - p
-            length = np.linalg.norm(to_c, axis=1, keepdims=True)
-            p = p + to_c * np.minimum(inset, 0.5 * length) / np.where(length > 0, length, 1.0)
+        ij = np.array([(i, j) for i in range(m + 1) for j in range(m + 1 - i)], dtype=float)
+        p = a + (ij[:, :1] / m) * (b - a) + (ij[:, 1:] / m) * (c - a)
+        # A vertex on an edge is moved a few ray offsets inside, so that its rays do not
+        # start in the plane of a neighbouring surface (E_ind is continuous there).
+        to_c = centroid - p
+        length = np.linalg.norm(to_c, axis=1, keepdims=True)
+        p = p + to_c * np.minimum(inset, 0.5 * length) / np.where(length > 0, length, 1.0)
         for side, sign in ((0, 1.0), (1, -1.0)):
             offset[t, side] = cursor
             pts.append(p)
@@ -377,6 +392,44 @@ def _cache_points(scene, spacing, inset):
     points = np.concatenate(pts) if pts else np.zeros((0, 3))
     normals = np.concatenate(nrm) if nrm else np.zeros((0, 3))
     return level, offset, points, np.ascontiguousarray(normals)
+
+
+def _small_sides(scene, level):
+    """Triangle, side (0 front, 1 back) and oriented normal of both sides of the level-0
+    triangles."""
+    small = np.flatnonzero(level == 0)
+    tri = np.concatenate([small, small])
+    side = np.repeat([0, 1], small.size)
+    normal = np.where((side == 0)[:, None], 1.0, -1.0) * scene.normals[tri]
+    return tri, side, np.ascontiguousarray(normal)
+
+
+def _patches_to_split(values, point, normal, radius, start, index, contrast):
+    """Patches whose value differs from the kernel average of their neighbours' (the
+    interpolation at the patch's own point without it) by more than ``contrast`` × its
+    value and by more than 3 standard errors: where the interpolation would miss a
+    curvature, an edge of the mesh or a shadow of indirect light (a steady gradient
+    passes)."""
+    G = values.shape[1]
+    C = len(point)
+    mean = values.mean(axis=1)
+    se = values.std(axis=1, ddof=1) / math.sqrt(G)
+    owner = np.repeat(np.arange(C), np.diff(start))
+    other = index
+    d = point[other] - point[owner]
+    d2 = np.einsum("ij,ij->i", d, d)
+    dist = np.sqrt(d2)
+    agree = np.einsum("ij,ij->i", normal[owner], normal[other])
+    tilt = np.abs(np.einsum("ij,ij->i", normal[owner], d)) / np.maximum(dist, 1e-300)
+    used = (owner != other) & (dist < radius[owner]) & (agree > 0.5) & (tilt < 0.5)
+    w = np.where(used, (1 - d2 / radius[owner] ** 2) ** 2 * (agree - 0.5) / 0.5
+                 * (1 - tilt / 0.5), 0.0)
+    total = np.bincount(owner, weights=w, minlength=C)
+    pred = np.bincount(owner, weights=w * mean[other], minlength=C) / np.maximum(total, 1e-300)
+    pred_se = np.sqrt(np.bincount(owner, weights=(w * se[other]) ** 2, minlength=C)) / np.maximum(total, 1e-300)
+    gap = np.abs(pred - mean)
+    flag = (total > 0) & (gap > contrast * mean) & (gap > 3.0 * np.hypot(se, pred_se))
+    return np.flatnonzero(flag)
 
 
 def _cells_to_refine(level, offset, values, contrast):
@@ -417,13 +470,17 @@ def _cells_to_refine(level, offset, values, contrast):
 
 def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance=None,
                         direct_samples=DIRECT_SAMPLES, refine=REFINE, contrast=REFINE_CONTRAST,
-                        seed=0, workers=1, progress=None):
+                        patch_refine=PATCH_REFINE, seed=0, workers=1, progress=None):
     """Indirect illuminance on a cache of points over every reflecting surface of a store.
 
-    Two passes: the regular grid of every triangle; then every grid cell whose three corner
-    values differ by more than ``contrast`` (relative to the largest, and significantly:
-    more than 3 standard errors) — a shadow edge of indirect light, an object standing
-    close, a concave corner — is subdivided into a level-``refine`` grid of its own.
+    Two passes: the regular grid of every triangle larger than the spacing and one point
+    per patch of the smaller triangles' sides (:mod:`~lsadphoto.solver.cache_grid`: the
+    points follow the area, not the triangle count); then every grid cell whose three
+    corner values differ by more than ``contrast`` (relative to the largest, and
+    significantly: more than 3 standard errors) — a shadow edge of indirect light, an
+    object standing close, a concave corner — is subdivided into a level-``refine`` grid of
+    its own, and every patch that differs so from a neighbour is split at half its size
+    (``patch_refine`` times at most).
 
     Parameters
     ----------
@@ -441,7 +498,10 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     refine : int
         Subdivision level of refined cells (1: no refinement).
     contrast : float
-        Relative difference of corner values above which a cell is refined.
+        Relative difference of corner values above which a cell (or a patch, against a
+        neighbour) is refined.
+    patch_refine : int
+        Times a patch of small triangles may be split at half its size (0: never).
     seed : int
         Seed of the node draws and near-field rays.
     workers : int
@@ -463,12 +523,27 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     check_positive_int(refine, "refine")
     if not contrast > 0:
         raise BadInputError(f"contrast must be positive, got {contrast!r}")
+    if not (isinstance(patch_refine, int) and patch_refine >= 0):
+        raise BadInputError(f"patch_refine must be a whole number ≥ 0, got {patch_refine!r}")
     check_positive_int(nodes, "nodes")
     eps = RELATIVE_CACHE_NEAR_DISTANCE * scene.size if near_distance is None else float(near_distance)
     t0 = time.perf_counter()
     engine = engine_for(scene)
     inset = 10 * engine.epsilon
     level, offset, points, normals = _cache_points(scene, spacing, inset)
+    # The small triangles' sides share patch points (cache_grid.patch_sides).
+    side_tri, side_of, side_normal = _small_sides(scene, level)
+    origin = scene.triangles.reshape(-1, 3).min(axis=0) if len(scene.triangles) else np.zeros(3)
+    side_tris = scene.triangles[side_tri]
+    side_areas = scene.areas[side_tri]
+    groups = patch_sides(side_tris, side_normal, side_areas, spacing, origin=origin)
+    grid_points = len(points)
+    leaf_of_side = groups.patch.copy()
+    p_point, p_normal, p_reach = groups.point, groups.normal, groups.reach
+    p_size = np.full(len(p_point), spacing)
+    p_row = grid_points + np.arange(len(p_point))
+    points = np.concatenate([points, p_point])
+    normals = np.concatenate([normals, p_normal])
     est = _IndirectEstimator(store, engine, nodes=nodes, near_distance=eps,
                              direct_samples=direct_samples, seed=seed, key=0)
 
@@ -485,8 +560,11 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
                     time.perf_counter(), len(pts))
         return values
 
+    def next_block():
+        return (len(points) + POINT_BLOCK - 1) // POINT_BLOCK
+
     values = evaluate(points, normals, 0)
-    grid_points = len(points)
+    first_points = len(points)
     keys, corners = (_cells_to_refine(level, offset, values, contrast) if refine > 1
                      else (np.zeros(0, np.int64), np.zeros((0, 3), np.int64)))
     refined_offset = np.zeros(0, np.int64)
@@ -503,20 +581,84 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         for slot, k in zip(corner_slots, range(3)):
             fine_values[:, slot] = values[corners[:, k]]
         new = np.setdiff1d(np.arange(len(ab)), corner_slots)
-        first_block = (len(points) + POINT_BLOCK - 1) // POINT_BLOCK
         fresh_points = fine_points[:, new].reshape(-1, 3)
         fresh_normals = np.repeat(normals[corners[:, 0]], new.size, axis=0)
-        fine_values[:, new] = evaluate(fresh_points, fresh_normals, first_block).reshape(
+        fine_values[:, new] = evaluate(fresh_points, fresh_normals, next_block()).reshape(
             keys.size, new.size, est.groups)
         refined_offset = len(points) + len(ab) * np.arange(keys.size, dtype=np.int64)
         values = np.concatenate([values, fine_values.reshape(-1, est.groups)])
         points = np.concatenate([points, fine_points.reshape(-1, 3)])
-    return SurfaceCache(spacing, level, offset, values, points, keys, refined_offset, int(refine), provenance={
+    # Patches that differ strongly from a neighbour are split at half their size (their
+    # points stay in the cache but no side refers to them any more).
+    leaf = np.ones(len(p_point), dtype=bool)
+    split_patches = 0
+    for halving in range(1, int(patch_refine) + 1):
+        radius = PATCH_KERNEL * p_size
+        start, index = patch_neighbours(p_point, radius, p_reach)
+        start, index = _visible_lists(engine, p_point, p_normal, *_leaf_lists(start, index, leaf))
+        split = _patches_to_split(values[p_row], p_point, p_normal, radius, start, index, contrast)
+        if split.size == 0:
+            break
+        sides = np.flatnonzero(np.isin(leaf_of_side, split))
+        finer = patch_sides(side_tris[sides], side_normal[sides], side_areas[sides],
+                            spacing / 2 ** halving, origin=origin)
+        leaf[split] = False
+        split_patches += split.size
+        first = len(p_point)
+        leaf_of_side[sides] = first + finer.patch
+        new_values = evaluate(finer.point, finer.normal, next_block())
+        p_row = np.concatenate([p_row, len(points) + np.arange(len(finer.point))])
+        points = np.concatenate([points, finer.point])
+        values = np.concatenate([values, new_values])
+        p_point = np.concatenate([p_point, finer.point])
+        p_normal = np.concatenate([p_normal, finer.normal])
+        p_reach = np.concatenate([p_reach, finer.reach])
+        p_size = np.concatenate([p_size, np.full(len(finer.point), finer.size)])
+        leaf = np.concatenate([leaf, np.ones(len(finer.point), dtype=bool)])
+    # The cache keeps the leaf patches only, renumbered.
+    keep = np.flatnonzero(leaf)
+    renumber = np.full(len(leaf), -1, np.int64)
+    renumber[keep] = np.arange(keep.size)
+    radius = PATCH_KERNEL * p_size[keep]
+    start, index = _visible_lists(engine, p_point[keep], p_normal[keep],
+                                  *patch_neighbours(p_point[keep], radius, p_reach[keep]))
+    patch = np.full((len(scene.triangles), 2), -1, np.int64)
+    patch[side_tri, side_of] = renumber[leaf_of_side]
+    return SurfaceCache(spacing, level, offset, values, points, keys, refined_offset, int(refine),
+                        provenance={
         "nodes_per_point": int(est.draws * est.groups), "groups": int(est.groups),
         "near_distance_m": eps, "near_rays": est.near_rays, "direct_samples": int(direct_samples),
-        "seed": int(seed), "grid_points": grid_points, "refined_cells": int(keys.size),
-        "points": len(values), "refine_contrast": float(contrast),
-        "build_time_s": time.perf_counter() - t0})
+        "seed": int(seed), "grid_points": grid_points, "patch_points": int(first_points - grid_points),
+        "refined_cells": int(keys.size), "split_patches": int(split_patches),
+        "leaf_patches": int(keep.size), "points": len(values), "refine_contrast": float(contrast),
+        "build_time_s": time.perf_counter() - t0},
+                        patch=patch, patch_row=p_row[keep], patch_normal=p_normal[keep],
+                        patch_radius=radius, patch_start=start, patch_index=index)
+
+
+def _visible_lists(engine, point, normal, start, index):
+    """The CSR neighbour lists ``start``/``index`` of patches restricted to the pairs whose
+    points see each other (both moved a ray offset off their surfaces) and each patch
+    itself: the far side of a thin solid or a sheet behind a wall never enters a kernel."""
+    owner = np.repeat(np.arange(len(start) - 1), np.diff(start))
+    keep = owner == index
+    pair = np.flatnonzero(~keep)
+    if pair.size:
+        a, b = owner[pair], index[pair]
+        keep[pair] = engine.visible(point[a] + engine.epsilon * normal[a],
+                                    point[b] + engine.epsilon * normal[b])
+    new_start = np.zeros_like(start)
+    new_start[1:] = np.cumsum(np.bincount(owner[keep], minlength=len(start) - 1))
+    return new_start, index[keep]
+
+
+def _leaf_lists(start, index, leaf):
+    """The CSR lists ``start``/``index`` restricted to leaf entries (rows kept)."""
+    owner = np.repeat(np.arange(len(start) - 1), np.diff(start))
+    keepers = leaf[index]
+    new_start = np.zeros_like(start)
+    new_start[1:] = np.cumsum(np.bincount(owner[keepers], minlength=len(start) - 1))
+    return new_start, index[keepers]
 
 
 def render_cached(store, projection, *, position, rotation, cache=None,
