@@ -421,6 +421,7 @@ def _percent(fraction):
 
 def cmd_score(args):
     from .io import read_map
+    from .metrics.grouping import DEFAULT_SEARCH_ANGLE
     from .metrics.score import score_map
 
     plan = _plan({"sources": args.sources_png, "contrast": args.contrast_png, "json": args.output_json})
@@ -441,7 +442,8 @@ def cmd_score(args):
         up=_vector(args.up, "--up") if args.up else None, source_method=method,
         source_threshold=args.threshold,
         task_direction=_task(args.task),
-        task_opening_deg=args.task_opening_deg, search_angle=args.search_angle,
+        task_opening_deg=args.task_opening_deg,
+        search_angle=DEFAULT_SEARCH_ANGLE if args.search_angle_deg is None else math.radians(args.search_angle_deg),
         peak_luminance=None if args.no_peak_extraction else args.peak_luminance,
         background_method=args.background, position_index_method=args.position_index,
         source_position=args.source_position, guth_field=args.guth_field,
@@ -997,7 +999,9 @@ def _build_parser():
                          "(default for the task rule: the line of sight)")
     sc.add_argument("--task-opening-deg", type=float, default=20.0,
                     help="task cone full opening angle [deg] (evalglare -t angle × 180/π)")
-    sc.add_argument("--search-angle", type=float, default=0.2, help="evalglare -r grouping opening angle [rad]")
+    sc.add_argument("--search-angle-deg", type=float, metavar="A",
+                    help="grouping opening angle [deg] (evalglare -r angle × 180/π; default evalglare's "
+                         "0.2 rad = 11.46°)")
     sc.add_argument("--peak-luminance", type=float, default=50000.0, help="peak-extraction limit [cd/m²]")
     sc.add_argument("--no-peak-extraction", action="store_true")
     sc.add_argument("--background", choices=_Choices("lsadphoto.metrics.field", "BACKGROUND_METHODS"),

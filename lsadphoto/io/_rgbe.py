@@ -23,7 +23,7 @@ G. Ward, "Real pixels", *Graphics Gems II* (1991) 80–83. Radiance ``src/common
 import math
 
 import numpy as np
-from .._compiled import njit, prange
+from .._compiled import njit
 
 __all__ = ["SCANLINE_ERRORS", "decode_luminance", "decode_scanlines"]
 
