@@ -164,12 +164,13 @@ class EmissionSampler:
         return direction, factor
 
 
-def _block_chains(scene, engine, sampler, seed, block, n, batches, max_depth, absorption):
-    """Nodes of the ``n`` chains of one block (global chain index block·CHAIN_BLOCK + i)."""
+def _chain_starts(engine, sampler, seed, block, n, batches):
+    """The emission of the ``n`` chains of one block (global chain index block·CHAIN_BLOCK + i):
+    its random stream, the source nodes (lists of arrays, as the node records), each chain's
+    batch, first direction, weight [lm] and ray origin."""
     rng = stream(seed, "chains", block)
     src = sampler.sample(rng, n)
-    chain_id = block * CHAIN_BLOCK + np.arange(n)
-    batch = (chain_id % batches).astype(np.int16)
+    batch = ((block * CHAIN_BLOCK + np.arange(n)) % batches).astype(np.int16)
     out = {
         "position": [src["position"]], "normal": [src["normal"]],
         "coefficient": [src["coefficient"]], "kind": [src["kind"]],
@@ -177,9 +178,14 @@ def _block_chains(scene, engine, sampler, seed, block, n, batches, max_depth, ab
         "batch": [batch], "depth": [np.zeros(n, np.int16)], "triangle": [src["triangle"]],
     }
     direction, factor = sampler.first_directions(rng, src)
-    weight = sampler.total_flux * factor
     origin = src["position"] + engine.epsilon * np.where(
         (src["kind"] == KIND_COSINE)[:, None], src["normal"], 0.0)
+    return rng, out, batch, direction, sampler.total_flux * factor, origin
+
+
+def _block_chains(scene, engine, sampler, seed, block, n, batches, max_depth, absorption):
+    """Nodes of the ``n`` chains of one block (global chain index block·CHAIN_BLOCK + i)."""
+    rng, out, batch, direction, weight, origin = _chain_starts(engine, sampler, seed, block, n, batches)
     alive = np.arange(n)
     depth = 0
     limit = MAX_BOUNCES if max_depth is None else int(max_depth)
@@ -274,19 +280,9 @@ def trace_material_chains(scene, engine, *, seed, blocks, batches, max_depth=Non
     limit = MAX_BOUNCES if max_depth is None else int(max_depth)
     parts = []
     for block in range(blocks):
-        rng = stream(seed, "chains", block)
         n = CHAIN_BLOCK
-        src = sampler.sample(rng, n)
-        batch = ((block * CHAIN_BLOCK + np.arange(n)) % batches).astype(np.int16)
-        out = {"position": [src["position"]], "normal": [src["normal"]],
-               "coefficient": [src["coefficient"]], "kind": [src["kind"]],
-               "luminaire": [np.where(src["kind"] == KIND_POINT, src["luminaire"], -1).astype(np.int32)],
-               "batch": [batch], "depth": [np.zeros(n, np.int16)], "triangle": [src["triangle"]],
-               "incoming": [np.zeros((n, 3))], "front": [np.ones(n, bool)]}
-        direction, factor = sampler.first_directions(rng, src)
-        weight = sampler.total_flux * factor
-        origin = src["position"] + engine.epsilon * np.where(
-            (src["kind"] == KIND_COSINE)[:, None], src["normal"], 0.0)
+        rng, out, batch, direction, weight, origin = _chain_starts(engine, sampler, seed, block, n, batches)
+        out.update(incoming=[np.zeros((n, 3))], front=[np.ones(n, bool)])
         alive = np.arange(n)
         depth = 0
         while alive.size and depth < limit:
