@@ -35,7 +35,7 @@ from .scene import AreaLuminaire, PointLuminaire, Scene, View
 __all__ = ["STORE_FORMAT", "LsadStore", "load_store"]
 
 #: Identifier and version of the store file layout.
-STORE_FORMAT = "lsadphoto-lsad-store/2"
+STORE_FORMAT = "lsadphoto-lsad-store/3"
 
 #: Node kinds: 0 = cosine lobe (Lambertian surface or emitter), 1 = intensity distribution
 #: of a point luminaire (index in ``luminaire``).
