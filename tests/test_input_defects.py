@@ -110,12 +110,17 @@ def test_cli_choices_and_defaults_are_the_librarys():
     score = {a.dest: a for a in sub["score"]._actions}
     params = inspect.signature(score_map).parameters
     for dest, param in [("source_method", "source_method"), ("background", "background_method"),
-                        ("position_index", "position_index_method"), ("search_angle", "search_angle"),
+                        ("position_index", "position_index_method"),
                         ("peak_luminance", "peak_luminance"), ("N", "n_thresholds"),
                         ("alpha_arcmin", "size_arcmin"), ("task_opening_deg", "task_opening_deg"),
                         ("q_weight_exponent", "q_weight_exponent")]:
         assert score[dest].default == params[param].default, dest
     assert list(score["source_method"].choices)[0] == params["source_method"].default
+    # the search angle is given in degrees; unset, the command passes the library's own radians
+    from lsadphoto.metrics.grouping import DEFAULT_SEARCH_ANGLE
+
+    assert score["search_angle_deg"].default is None
+    assert params["search_angle"].default == DEFAULT_SEARCH_ANGLE
 
 
 def test_unknown_choice_lists_the_librarys_values(capsys):
