@@ -2,10 +2,13 @@
 
 Lambertian scenes (TOML or Radiance files, :func:`read_scene`) are simulated once by light chains from the
 luminaires (:func:`simulate` → :class:`LsadStore`, saved with :meth:`LsadStore.save`);
-any view is then rendered from the store by the double local estimate (:func:`render`)
-through the same :mod:`lsadphoto.geometry` projections that photographs use. A
-conventional path tracer (:func:`render_path_traced`) is included for cross-checks, and
-:func:`read_radiance_scene` reads Radiance scene files (with ies2rad luminaires).
+any view is then rendered from the store by the double local estimate or its surface cache
+(:func:`render`, ``estimator="auto"`` choosing) through the same :mod:`lsadphoto.geometry`
+projections that photographs use. Scenes with Radiance's glossy, specular and transmitting
+materials (:mod:`~lsadphoto.solver.materials`) render directly from the scene. A conventional
+path tracer (:func:`render_path_traced`) is included for cross-checks, and
+:func:`read_radiance_scene` reads Radiance scene files (with ies2rad luminaires). Luminaires'
+intensity distributions are :class:`Photometry` objects.
 
 References
 ----------
