@@ -114,17 +114,7 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
             streams.counts = np.bincount(group[alive], minlength=len(streams.gens))
             rho = scene.triangle_reflectance[tri]
             # next-event estimation
-            src = sampler.sample(streams, alive.size)
-            v = src["position"] - x
-            r2 = np.einsum("ij,ij->i", v, v)
-            r = np.sqrt(r2)
-            w = v / r[:, None]
-            cos_x = np.einsum("ij,ij->i", w, nx)
-            is_cos = src["kind"] == KIND_COSINE
-            g = np.where(is_cos, -np.einsum("ij,ij->i", w, src["normal"]), 0.0)
-            pt = np.flatnonzero(src["kind"] == KIND_POINT)
-            if pt.size:
-                g[pt] = sampler.point_intensity(src["luminaire"][pt], -w[pt])
+            src, w, r2, cos_x, is_cos, g = _light_sample(sampler, streams, x, nx)
             ok = (cos_x > 0) & (g > 0) & (rho > 0)
             if ok.any():
                 tgt = src["position"][ok] + eps * src["normal"][ok] * is_cos[ok, None]
@@ -160,6 +150,25 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
 
 
+def _light_sample(sampler, streams, x, nx):
+    """One emission point per path vertex ``x`` (normals ``nx``) for next-event estimation:
+    the source nodes, the unit direction w towards them, the squared distance r2 [m²],
+    cos θ at the vertex (n·w), whether each is a cosine (Lambertian) emitter, and the
+    emitter's factor g — cos θ at a Lambertian emitter, the intensity [cd] of a point
+    luminaire towards the vertex."""
+    src = sampler.sample(streams, len(x))
+    v = src["position"] - x
+    r2 = np.einsum("ij,ij->i", v, v)
+    w = v / np.sqrt(r2)[:, None]
+    cos_x = np.einsum("ij,ij->i", w, nx)
+    is_cos = src["kind"] == KIND_COSINE
+    g = np.where(is_cos, -np.einsum("ij,ij->i", w, src["normal"]), 0.0)
+    pt = np.flatnonzero(src["kind"] == KIND_POINT)
+    if pt.size:
+        g[pt] = sampler.point_intensity(src["luminaire"][pt], -w[pt])
+    return src, w, r2, cos_x, is_cos, g
+
+
 def _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, front, tri, wo, limit):
     """Add to ``acc`` the luminance of paths from points ``x`` (normals ``nx`` facing ``wo``,
     on the triangles' front side where ``front``, triangles ``tri``) in a scene with
@@ -183,16 +192,7 @@ def _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, front, 
     while alive.size and depth < limit:
         streams.counts = np.bincount(group[alive], minlength=len(streams.gens))
         mat = scene.material[tri]
-        src = sampler.sample(streams, alive.size)
-        v = src["position"] - x
-        r2 = np.einsum("ij,ij->i", v, v)
-        w = v / np.sqrt(r2)[:, None]
-        cos_x = np.einsum("ij,ij->i", w, nx)
-        is_cos = src["kind"] == KIND_COSINE
-        g = np.where(is_cos, -np.einsum("ij,ij->i", w, src["normal"]), 0.0)
-        pt = np.flatnonzero(src["kind"] == KIND_POINT)
-        if pt.size:
-            g[pt] = sampler.point_intensity(src["luminaire"][pt], -w[pt])
+        src, w, r2, cos_x, is_cos, g = _light_sample(sampler, streams, x, nx)
         f = bsdf.evaluate(mat, nx, wo, w)
         ok = (f > 0) & (g > 0) & (np.abs(cos_x) > 0)
         if ok.any():
