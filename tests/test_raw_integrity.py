@@ -33,6 +33,18 @@ def _cut(source, tmp_path, cut):
     return path
 
 
+def _refusal(path, tmp_path, spot="100,100,50"):
+    """The one stderr line of ``lsadphoto luminance PATH`` run as a user runs it, after checking
+    that it exited with 2 and wrote no map."""
+    out = tmp_path / "map.exr"
+    run = subprocess.run([sys.executable, "-m", "lsadphoto.cli", "luminance", str(path), "--spot",
+                          spot, "-o", str(out)], capture_output=True, text=True)
+    assert run.returncode == 2, run.stderr
+    lines = run.stderr.strip().splitlines()
+    assert len(lines) == 1 and not out.exists(), run.stderr
+    return lines[0]
+
+
 def _sample_ids():
     return [p.name for p in SAMPLES]
 
@@ -46,14 +58,8 @@ def test_truncated_dng_refused_in_one_line(tmp_path, source, cut):
 
     full = (realdata("raw/tinydng_colorchart.dng") if source == "realdata"
             else Path(__file__).parents[1] / "data_samples" / "office" / "office_1.dng")
-    path = _cut(full, tmp_path, cut)
-    out = tmp_path / "map.exr"
-    run = subprocess.run([sys.executable, "-m", "lsadphoto.cli", "luminance", str(path), "--spot",
-                          "100,100,50", "-o", str(out)], capture_output=True, text=True)
-    assert run.returncode == 2
-    lines = run.stderr.strip().splitlines()
-    assert len(lines) == 1 and "truncated" in lines[0] and "bytes missing" in lines[0], run.stderr
-    assert not out.exists()
+    line = _refusal(_cut(full, tmp_path, cut), tmp_path)
+    assert "truncated" in line and "bytes missing" in line, line
 
 
 @pytest.mark.skipif(not SAMPLES, reason="no real RAW samples (../shared/realdata/raw, LSADPHOTO_RAW_SAMPLES)")
@@ -108,14 +114,8 @@ def test_metadata_only_copy_refused_in_one_line(tmp_path):
     a Canon DNG declares its raw tiles (the file keeps its full length, so no declared extent
     is short): LibRaw would decode it, the raw data check refuses it (exit 2, one line, nothing
     written). 1888 × 1182 samples need at least 278 952 bytes at one bit each."""
-    path = _rewrite_raw_ifd(tmp_path, "stripped.dng", 279, 22)
-    out = tmp_path / "map.exr"
-    run = subprocess.run([sys.executable, "-m", "lsadphoto.cli", "luminance", str(path), "--spot",
-                          "100,100,50", "-o", str(out)], capture_output=True, text=True)
-    assert run.returncode == 2
-    lines = run.stderr.strip().splitlines()
-    assert len(lines) == 1 and "no image data" in lines[0] and "declares 22 bytes" in lines[0], run.stderr
-    assert "(278952 bytes)" in lines[0] and not out.exists()
+    line = _refusal(_rewrite_raw_ifd(tmp_path, "stripped.dng", 279, 22), tmp_path)
+    assert "no image data" in line and "declares 22 bytes" in line and "(278952 bytes)" in line, line
 
 
 @EMPTY_EXPOSURE
@@ -137,13 +137,8 @@ def test_refused_real_samples_refused_in_one_line(tmp_path, source):
     """Real RAW-named files that hold no usable image (ExifTool's, exiv2's and hachoir's test
     copies with the data stripped; a JPEG XL DNG of Adobe's DNG SDK) are refused by the CLI:
     exit 2, one line naming the file, nothing written."""
-    out = tmp_path / "map.exr"
-    run = subprocess.run([sys.executable, "-m", "lsadphoto.cli", "luminance", str(source), "--spot",
-                          "10,10,50", "-o", str(out)], capture_output=True, text=True)
-    assert run.returncode == 2, run.stderr
-    lines = run.stderr.strip().splitlines()
-    assert len(lines) == 1 and str(source) in lines[0], run.stderr
-    assert not out.exists()
+    line = _refusal(source, tmp_path, spot="10,10,50")
+    assert str(source) in line, line
 
 
 def test_repeated_bottom_rows_refused(camera, shoot, tmp_path):
