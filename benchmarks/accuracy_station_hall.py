@@ -22,39 +22,28 @@ import time
 from pathlib import Path
 
 import numpy as np
+from _reference import pixel_reference
 
 from lsadphoto.datasets.hall import make_station_hall
 from lsadphoto.solver import load_scene, simulate
-from lsadphoto.solver.direct import direct_illuminance
-from lsadphoto.solver.engine import engine_for
-from lsadphoto.solver.integrators.eye import emitted_luminance, luminous_openings, primary_rays
+from lsadphoto.solver.integrators.eye import luminous_openings
 from lsadphoto.solver.integrators.surface_cache import (
     build_surface_cache,
-    indirect_illuminance,
     render_cached,
 )
 
 
 def reference(scene, view, pixels, *, chains, nodes, seed=1000):
-    """Flat pixel indices, L_ref [cd·m⁻²] and σ_ref of ``pixels`` random lit pixels."""
-    engine = engine_for(scene)
-    valid, prim, dist, d = primary_rays(scene, engine, view.projection, view.position, view.rotation)
-    rng = np.random.default_rng(seed)
-    # pixels that see a surface, not a luminaire's luminous opening in front of it
-    seen = ~np.isfinite(luminous_openings(scene, view.position, d, dist))
-    hit = np.flatnonzero((prim >= 0) & (scene.triangle_reflectance[np.maximum(prim, 0)] > 0) & seen)
-    sel = np.sort(rng.choice(hit, min(pixels, hit.size), replace=False))
-    t = prim[sel]
-    x = view.position + dist[sel, None] * d[sel]
-    n, _ = scene.facing_normals(t, d[sel])
-    rho = scene.triangle_reflectance[t]
-    store = simulate(scene, samples=chains, seed=seed)
-    e_dir, v_dir = direct_illuminance(scene, engine, x, n, samples=16, seed=seed,
-                                      luminaires="all")
-    e_ind = indirect_illuminance(store, x, n, nodes=nodes, seed=seed, key=7)
-    lum = emitted_luminance(scene, t, -d[sel]) + rho / math.pi * (e_dir + e_ind.mean(axis=1))
-    sigma = rho / math.pi * np.sqrt(v_dir + e_ind.var(axis=1, ddof=1) / e_ind.shape[1])
-    return valid[sel], lum, sigma
+    """Flat pixel indices, L_ref [cd·m⁻²] and σ_ref of ``pixels`` random lit pixels
+    (:func:`_reference.pixel_reference`, direct light from every luminaire)."""
+    def random_lit(valid, prim, dist, d):
+        # pixels that see a reflecting surface, not a luminaire's luminous opening in front of it
+        seen = ~np.isfinite(luminous_openings(scene, view.position, d, dist))
+        hit = np.flatnonzero((prim >= 0) & (scene.triangle_reflectance[np.maximum(prim, 0)] > 0) & seen)
+        return np.sort(np.random.default_rng(seed).choice(hit, min(pixels, hit.size), replace=False))
+
+    return pixel_reference(scene, view, random_lit, chains=chains, nodes=nodes, direct_samples=16,
+                           luminaires="all", seed=seed)
 
 
 def main():

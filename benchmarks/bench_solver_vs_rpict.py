@@ -37,6 +37,7 @@ import tempfile
 
 import numpy as np
 from _clock import Clock
+from _reference import pixel_reference
 
 from lsadphoto.io.hdr import read_hdr
 from lsadphoto.solver import (
@@ -46,13 +47,9 @@ from lsadphoto.solver import (
     render,
     simulate,
 )
-from lsadphoto.solver.direct import direct_illuminance
 from lsadphoto.solver.examples import canonical_room_rad
-from lsadphoto.solver.engine import engine_for
-from lsadphoto.solver.integrators.eye import emitted_luminance, primary_rays
 from lsadphoto.solver.integrators.surface_cache import (
     build_surface_cache,
-    indirect_illuminance,
     render_cached,
 )
 
@@ -88,28 +85,15 @@ def errors(lum, ref, ref_sigma, mask, sigma=None):
 
 
 def reference(scene, view, *, step, chains, nodes, direct_samples):
-    """Per-pixel reference on every ``step``-th pixel: L_e + ρ/π·(E_dir + E_ind) at the pixel's
-    hit point, E_dir by the closed form with ``direct_samples`` occlusion samples, E_ind by
-    the double local estimate with ``nodes`` node draws at that very point (no cache, no
-    interpolation), from its own simulation. Returns flat pixel indices, L_ref, σ_ref."""
-    engine = engine_for(scene)
-    projection = view.projection
-    valid, prim, dist, d = primary_rays(scene, engine, projection, view.position, view.rotation)
-    r, c = np.unravel_index(valid, projection.shape)
-    off = step // 2
-    sel = np.flatnonzero((r % step == off) & (c % step == off) & (prim >= 0))
-    t = prim[sel]
-    x = view.position + dist[sel, None] * d[sel]
-    n, _ = scene.facing_normals(t, d[sel])
-    rho = scene.triangle_reflectance[t]
-    store = simulate(scene, samples=chains, seed=1000)
-    e_dir, v_dir = direct_illuminance(scene, engine, x, n, samples=direct_samples, seed=1000)
-    lit = rho > 0
-    e_ind = np.zeros((len(sel), 16))
-    e_ind[lit] = indirect_illuminance(store, x[lit], n[lit], nodes=nodes, seed=1000, key=7)
-    lum = emitted_luminance(scene, t, -d[sel]) + rho / math.pi * (e_dir + e_ind.mean(axis=1))
-    sigma = rho / math.pi * np.sqrt(v_dir + e_ind.var(axis=1, ddof=1) / e_ind.shape[1])
-    return valid[sel], lum, sigma
+    """Per-pixel reference (:func:`_reference.pixel_reference`) on every ``step``-th pixel that
+    sees a surface. Returns flat pixel indices, L_ref, σ_ref."""
+    def every_step(valid, prim, dist, d):
+        r, c = np.unravel_index(valid, view.projection.shape)
+        off = step // 2
+        return np.flatnonzero((r % step == off) & (c % step == off) & (prim >= 0))
+
+    return pixel_reference(scene, view, every_step, chains=chains, nodes=nodes,
+                           direct_samples=direct_samples)
 
 
 def main(argv=None):
