@@ -141,6 +141,7 @@ def test_rendered_hdr_view_is_the_rendered_view(store_path, tmp_path, view):
     line = next(t for t in hdr.read_bytes().split(b"\n\n", 1)[0].decode().splitlines()
                 if t.startswith("VIEW="))
     written = parse_view(line[5:])
+    assert " -0 " not in line + " ", line  # a negative zero means nothing to a reader of the header
     given = parse_view(view)
     for key in ("vp", "vd", "vu"):
         direction = np.asarray(given[key], float)

@@ -332,7 +332,8 @@ def _placed(view, pose):
     """Radiance view options with ``-vp``/``-vd``/``-vu`` taken from ``pose`` (when given)."""
     if not pose:
         return view
-    vectors = " ".join(f"-{k} " + " ".join(f"{float(c):.17g}" for c in pose[k]) for k in ("vp", "vd", "vu"))
+    # exact values (17 digits round-trip); + 0.0 writes a negative zero as 0
+    vectors = " ".join(f"-{k} " + " ".join(f"{float(c) + 0.0:.17g}" for c in pose[k]) for k in ("vp", "vd", "vu"))
     return re.sub(r"-vp \S+ \S+ \S+ -vd \S+ \S+ \S+ -vu \S+ \S+ \S+", vectors, view, count=1)
 
 
