@@ -56,9 +56,18 @@ def test_ideal_fisheye_maps_equal_the_projection_methods_exactly(kind, circle):
     geometry = pixel_geometry(cam)
     rows, cols = cam.pixel_grid()
     # Same elementwise arithmetic on the same inputs (corner offsets (c ± ½) − cx are exact
-    # in both paths and both use quad_solid_angle_components): equal bit for bit.
-    np.testing.assert_array_equal(geometry.directions, cam.directions(rows, cols))
-    np.testing.assert_array_equal(geometry.solid_angle, cam.solid_angles(rows, cols))
+    # in both paths and both use quad_solid_angle_components). The compiled kernel calls the C
+    # library's tan and atan2, numpy its own SIMD versions where the CPU has them (AVX-512:
+    # measured 1 ulp apart), so the equidistant maps agree to a few ulp and the others bit for
+    # bit: directions (unit vectors) within 4 eps, solid angles, differences of corner
+    # terms, within 128 eps relative (measured at most 53).
+    eps = np.finfo(np.float64).eps
+    directions = cam.directions(rows, cols)
+    assert np.array_equal(np.isnan(geometry.directions), np.isnan(directions))
+    np.testing.assert_allclose(geometry.directions, directions, rtol=0, atol=4 * eps)
+    np.testing.assert_allclose(geometry.solid_angle, cam.solid_angles(rows, cols), rtol=128 * eps, atol=0)
+    if kind != "equidistant":
+        np.testing.assert_array_equal(geometry.directions, directions)
     np.testing.assert_array_equal(geometry.valid, cam.valid(rows, cols))
     assert geometry.directions.dtype == geometry.solid_angle.dtype == np.float64
     assert geometry.directions.shape == (149, 203, 3) and geometry.valid.dtype == bool
