@@ -27,7 +27,7 @@ import pytest
 
 from lsadphoto.errors import BadInputError
 from lsadphoto.solver import read_radiance_scene, render, render_path_traced, simulate
-from lsadphoto.solver.examples import canonical_room_rad
+from lsadphoto.solver.examples import canonical_room_rad, material_room_rad
 from lsadphoto.solver.materials import (Material, MaterialTable, glass_transmissivity,
                                         luminance_of)
 from lsadphoto.solver.scene import camera_to_world, scene_from_dict
@@ -241,27 +241,6 @@ def test_mirror_and_glass_deltas_match_rtrace(tmp_path):
 
 # --- the path tracer against pure Monte Carlo rtrace --------------------------------------------
 
-def _room(variant):
-    room = canonical_room_rad()
-    if variant == "glossy floor":
-        return room.replace("void plastic floor 0 0 5 0.2 0.2 0.2 0 0",
-                            "void plastic floor 0 0 5 0.2 0.2 0.2 0.05 0.05"), (1.0, 2.0, 1.5), (1.2, -0.3, -1.5)
-    if variant == "metal and mirror":
-        return (room + "void metal alu 0 0 5 0.8 0.8 0.8 0.9 0.1\n"
-                "alu polygon m1 0 0 12 3 0.01 0.3  3 0.01 2.5  1 0.01 2.5  1 0.01 0.3\n"
-                "void mirror mir 0 0 3 0.9 0.9 0.9\n"
-                "mir polygon m2 0 0 12 3.2 0.01 0.3  3.2 0.01 2.5  5 0.01 2.5  5 0.01 0.3\n"), \
-            (3.0, 3.5, 1.4), (0.0, -1.0, -0.1)
-    # Radiance's ambient rays ignore light sources and glass relays none (only mirrors have
-    # virtual sources), so the luminaires' reflections in the pane would be missing from its
-    # reference: the room is lit by a luminous ceiling of glow (radius 0), which Radiance's
-    # rays see like any surface, with no source sampling to skip
-    room = "\n".join(line for line in room.splitlines() if "panel" not in line and "ceiling polygon" not in line)
-    return (room + "\nvoid glow lum 0 0 4 1 1 1 0\nlum polygon c 0 0 12 0 0 3  0 4 3  6 4 3  6 0 3\n"
-            "void glass gl 0 0 3 0.96 0.96 0.96\n"
-            "gl polygon g1 0 0 12 3 0 0  3 4 0  3 4 3  3 0 3\n"), (1.0, 2.0, 1.5), (1.0, 0.3, -0.3)
-
-
 # The local estimate finds the light a mirror relays to the floor only by its one sampled
 # ray per pixel and batch (as a path tracer would, with 16 instead of 1024 rays): unbiased but
 # far too noisy for a per-pixel test at this size, so it is compared in the other two rooms.
@@ -276,7 +255,7 @@ def _room_reference(variant, folder):
 
     if variant not in _REFERENCES:
         binpath = _radiance_bin()
-        rad, eye, sight = _room(variant)
+        rad, eye, sight = material_room_rad(variant)
         scene = read_radiance_scene(rad)
         size = 16
         focal = size / (2 * math.tan(math.radians(35)))
