@@ -45,12 +45,12 @@ class GroupStreams:
         rest = shape[1:]
         return np.concatenate([g.random((int(c), *rest)) for g, c in zip(self.gens, self.counts)])
 
-    def integers(self, high, size):
-        """Integers in [0, high[g]) for the rows of each group g (``high`` per group)."""
-        shape = (size,) if np.isscalar(size) else tuple(size)
-        rest = shape[1:]
-        return np.concatenate([g.integers(0, max(int(h), 1), size=(int(c), *rest))
-                               for g, h, c in zip(self.gens, high, self.counts)])
+    def integers(self, high, per_row):
+        """Flat integers: for each group g, ``counts[g]`` rows of ``per_row[g]`` integers in
+        [0, ``high[g]``), row by row (groups with no rows or no integers draw nothing)."""
+        parts = [g.integers(0, int(h), size=(int(c), int(k))).ravel()
+                 for g, h, k, c in zip(self.gens, high, per_row, self.counts) if c > 0 and k > 0]
+        return np.concatenate(parts) if parts else np.zeros(0, np.int64)
 
 
 def orthonormal_basis(n):

@@ -51,7 +51,7 @@ import numpy as np
 
 from ..._validation import check_choice
 from ...errors import BadInputError
-from .._sampling import stream
+from .._sampling import GroupStreams, stream
 from ..engine import engine_for
 from ..materials import shadow_transmittance
 from ..scene import Scene
@@ -369,6 +369,10 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
 #: Delta (mirror or straight-through) bounces an eye path follows at most.
 MAX_DELTA_BOUNCES = 16
 
+#: Point–node pairs evaluated at once by the material gather (bounds temporary memory:
+#: about 40 arrays of this many float64 triples).
+GATHER_PAIRS = 1 << 17
+
 
 class _MaterialGatherer:
     """Node terms W·f_n(ω_in, ω_out)|cos θ_n|·f_p(ω_{p→n}, ω_o)|cos θ_p|/r²·T at points.
@@ -394,89 +398,128 @@ class _MaterialGatherer:
         self.k = int(per_pixel)
         self.eps2 = near_distance ** 2
         self.n_b = nodes["chains"] / nodes["batches"]
+        B = nodes["batches"]
         order = np.argsort(nodes["batch"], kind="stable")
-        bounds = np.searchsorted(nodes["batch"][order], np.arange(nodes["batches"] + 1))
+        bounds = np.searchsorted(nodes["batch"][order], np.arange(B + 1))
         # emission-point density per unit area [m⁻²] of each area luminaire: (Φ_l/Φ)/A_l
         self.area_density = np.array([lum.flux / (sampler.total_flux * scene.areas[lum.triangles].sum())
                                       for lum in scene.area_luminaires])
-        self.strata = []
-        for b in range(nodes["batches"]):
-            idx = order[bounds[b]:bounds[b + 1]]
-            self.strata.append([s for s in (idx[nodes["depth"][idx] == 0], idx[nodes["depth"][idx] > 0])
-                                if s.size])
-
-    def source_draws(self, batch):
-        """Source-node draws per point of ``batch`` (0 when it has no source nodes)."""
-        st = self.strata[batch]
-        if not st or self.nodes["depth"][st[0][0]] != 0:
-            return 0
-        return max(1, self.k // len(st))
+        # the strata (0: source nodes, 1: surface nodes) of every batch, each as one array of
+        # node indices in batch order with each batch's offset and size
+        per_batch = [(idx[nodes["depth"][idx] == 0], idx[nodes["depth"][idx] > 0])
+                     for idx in (order[bounds[b]:bounds[b + 1]] for b in range(B))]
+        self.stratum_nodes = [np.concatenate([st[j] for st in per_batch]) for j in (0, 1)]
+        self.stratum_size = np.array([[st[j].size for j in (0, 1)] for st in per_batch], np.int64)   # (B, 2)
+        self.stratum_offset = np.cumsum(self.stratum_size, axis=0) - self.stratum_size
+        strata = (self.stratum_size > 0).sum(axis=1)
+        #: draws per point and stratum of each batch: K split over its non-empty strata
+        self.draws = np.where(strata > 0, np.maximum(1, self.k // np.maximum(strata, 1)), 0)
+        # each surface node's BSDF components towards its incoming direction (fixed per node)
+        surface = np.flatnonzero(nodes["depth"] > 0)
+        mu = np.clip(np.einsum("ij,ij->i", nodes["normal"][surface], nodes["incoming"][surface]), 1e-3, 1.0)
+        self.node_parts = scene.bsdf.parts(self.scene.material[nodes["triangle"][surface]], mu)
+        self.node_row = np.full(len(nodes["depth"]), -1, np.int64)
+        self.node_row[surface] = np.arange(surface.size)
 
     def light_weight(self, batch, triangles, r2, cos_y, p_bsdf):
         """Balance-heuristic weight w_L = K_s p_L/(K_s p_L + p_B) of emission points on
-        ``triangles`` at squared distance ``r2`` seen at cos θ_y, against the BSDF density."""
-        p_l = (self.source_draws(batch) * self.area_density[self.scene.emitter[triangles]] * r2
-               / np.maximum(cos_y, 1e-12))
+        ``triangles`` at squared distance ``r2`` seen at cos θ_y, against the BSDF density
+        (``batch``: the batch of each point; K_s its source draws)."""
+        k_s = np.where(self.stratum_size[batch, 0] > 0, self.draws[batch], 0)
+        p_l = k_s * self.area_density[self.scene.emitter[triangles]] * r2 / np.maximum(cos_y, 1e-12)
         return p_l / np.maximum(p_l + p_bsdf, 1e-300)
 
     def gather(self, rng, x, n, wo, mat, batch, front):
-        """The connections' share of the luminance at points ``x`` towards ``wo`` [cd·m⁻²]."""
+        """The connections' share of the luminance at points ``x`` towards ``wo`` [cd·m⁻²].
+
+        ``batch``: the batch of each point, in non-decreasing order; ``rng`` the batches'
+        :class:`~lsadphoto.solver._sampling.GroupStreams` (the node draws of each batch come
+        from its own stream, as if the batches were gathered one at a time).
+        """
         P = len(x)
         total = np.zeros(P)
-        strata = self.strata[batch]
-        if not P or not strata:
+        if not P:
             return total
-        k_each = max(1, self.k // len(strata))
+        B = len(self.draws)
+        counts = np.bincount(batch, minlength=B)
+        # the points' BSDF components towards wo, once per point (not per pair)
+        parts = self.scene.bsdf.parts(mat, np.clip(np.einsum("ij,ij->i", n, wo), 1e-3, 1.0), front)
+        for j in (0, 1):
+            size = self.stratum_size[:, j]
+            k_b = np.where(size > 0, self.draws, 0)
+            rng.counts = np.where(size > 0, counts, 0)
+            local = rng.integers(size, k_b)
+            k_row = np.where(rng.counts[batch] > 0, k_b[batch], 0)
+            owner = np.repeat(np.arange(P), k_row)
+            pick = self.stratum_nodes[j][self.stratum_offset[batch[owner], j] + local]
+            val = np.zeros(pick.size)
+            for lo in range(0, pick.size, GATHER_PAIRS):
+                sl = slice(lo, lo + GATHER_PAIRS)
+                val[sl] = self._terms(pick[sl], owner[sl], x, n, wo, mat, batch, parts)
+            total += np.bincount(owner, weights=val, minlength=P) * np.where(k_row > 0, size[batch] / np.maximum(k_row, 1), 0.0)
+        return total / self.n_b
+
+    def _terms(self, pick, owner, x, n, wo, mat, batch, parts):
+        """Connection terms f_p·|cos θ_p|·I_n/r²·T of the pairs (point ``owner``, node ``pick``);
+        ``parts``: the points' :meth:`~lsadphoto.solver.materials.MaterialTable.parts`."""
         nd = self.nodes
         bsdf = self.scene.bsdf
         eps = self.engine.epsilon
-        for stratum in strata:
-            pick = stratum[rng.integers(0, stratum.size, size=(P, k_each))].ravel()
-            owner = np.repeat(np.arange(P), k_each)
-            y, ny = nd["position"][pick], nd["normal"][pick]
-            v = y - x[owner]
-            r2 = np.einsum("ij,ij->i", v, v)
-            w = v / np.sqrt(np.maximum(r2, 1e-300))[:, None]
-            np_ = n[owner]
-            cos_p = np.einsum("ij,ij->i", w, np_)
-            f_d, f_g = bsdf.evaluate(mat[owner], np_, wo[owner], w, split=True)
-            kind = nd["kind"][pick]
-            surface = nd["depth"][pick] > 0
-            cos_n = -np.einsum("ij,ij->i", w, ny)
-            f_p = np.where(kind == KIND_COSINE, f_d, f_d + f_g)
-            emitter = np.flatnonzero((kind == KIND_COSINE) & ~surface & (f_g > 0))
-            if emitter.size:
-                p_b = bsdf.pdf(mat[owner[emitter]], np_[emitter], wo[owner[emitter]], w[emitter],
-                               np.asarray(front)[owner[emitter]])
-                f_p[emitter] += f_g[emitter] * self.light_weight(
-                    batch, nd["triangle"][pick[emitter]], r2[emitter], np.maximum(cos_n[emitter], 0.0), p_b)
-            intensity = np.where(kind == KIND_COSINE, nd["coefficient"][pick] * np.maximum(cos_n, 0.0), 0.0)
-            if surface.any():
-                s = np.flatnonzero(surface)
-                m_n = self.scene.material[nd["triangle"][pick[s]]]
-                f_n = bsdf.evaluate(m_n, ny[s], nd["incoming"][pick[s]], -w[s])
-                intensity[s] = nd["coefficient"][pick[s]] * f_n * np.abs(cos_n[s])
-            point = np.flatnonzero(kind != KIND_COSINE)
-            if point.size:
-                intensity[point] = nd["coefficient"][pick[point]] * self.sampler.point_intensity(
-                    nd["luminaire"][pick[point]], -w[point])
-            near = (kind == KIND_COSINE) & (r2 < self.eps2)
-            val = np.where(near | (r2 <= 0), 0.0, f_p * np.abs(cos_p) * intensity / np.maximum(r2, 1e-300))
-            ok = np.flatnonzero(val > 0)
-            if ok.size:
-                side_p = np.sign(cos_p[ok])[:, None]
-                side_n = np.where(surface[ok], np.sign(cos_n[ok]), 1.0)[:, None]
-                target = y[ok] + eps * side_n * ny[ok] * (kind[ok] == KIND_COSINE)[:, None]
-                val[ok] *= shadow_transmittance(self.scene, self.engine, x[owner[ok]] + eps * side_p * np_[ok],
-                                                target)
-            total += np.bincount(owner, weights=val, minlength=P) * (stratum.size / k_each)
-        return total / self.n_b
+        y, ny = nd["position"][pick], nd["normal"][pick]
+        v = y - x[owner]
+        r2 = np.einsum("ij,ij->i", v, v)
+        w = v / np.sqrt(np.maximum(r2, 1e-300))[:, None]
+        np_ = n[owner]
+        cos_p = np.einsum("ij,ij->i", w, np_)
+        f_d, f_g = bsdf.evaluate(mat[owner], np_, wo[owner], w, split=True,
+                                 parts={key: v[owner] for key, v in parts.items()})
+        kind = nd["kind"][pick]
+        surface = nd["depth"][pick] > 0
+        cos_n = -np.einsum("ij,ij->i", w, ny)
+        f_p = np.where(kind == KIND_COSINE, f_d, f_d + f_g)
+        emitter = np.flatnonzero((kind == KIND_COSINE) & ~surface & (f_g > 0))
+        if emitter.size:
+            p_b = bsdf.pdf(mat[owner[emitter]], np_[emitter], wo[owner[emitter]], w[emitter],
+                           parts={key: v[owner[emitter]] for key, v in parts.items()})
+            f_p[emitter] += f_g[emitter] * self.light_weight(
+                batch[owner[emitter]], nd["triangle"][pick[emitter]], r2[emitter], np.maximum(cos_n[emitter], 0.0),
+                p_b)
+        intensity = np.where(kind == KIND_COSINE, nd["coefficient"][pick] * np.maximum(cos_n, 0.0), 0.0)
+        if surface.any():
+            s = np.flatnonzero(surface)
+            m_n = self.scene.material[nd["triangle"][pick[s]]]
+            rows = self.node_row[pick[s]]
+            f_n = bsdf.evaluate(m_n, ny[s], nd["incoming"][pick[s]], -w[s],
+                                parts={key: v[rows] for key, v in self.node_parts.items()})
+            intensity[s] = nd["coefficient"][pick[s]] * f_n * np.abs(cos_n[s])
+        point = np.flatnonzero(kind != KIND_COSINE)
+        if point.size:
+            intensity[point] = nd["coefficient"][pick[point]] * self.sampler.point_intensity(
+                nd["luminaire"][pick[point]], -w[point])
+        near = (kind == KIND_COSINE) & (r2 < self.eps2)
+        val = np.where(near | (r2 <= 0), 0.0, f_p * np.abs(cos_p) * intensity / np.maximum(r2, 1e-300))
+        ok = np.flatnonzero(val > 0)
+        if ok.size:
+            side_p = np.sign(cos_p[ok])[:, None]
+            side_n = np.where(surface[ok], np.sign(cos_n[ok]), 1.0)[:, None]
+            target = y[ok] + eps * side_n * ny[ok] * (kind[ok] == KIND_COSINE)[:, None]
+            val[ok] *= shadow_transmittance(self.scene, self.engine, x[owner[ok]] + eps * side_p * np_[ok],
+                                            target)
+        return val
+
+
+def _uniforms(rng, batch, columns):
+    """Uniforms (len(batch), columns) for rows of non-decreasing ``batch``, each batch's from
+    its own stream."""
+    rng.counts = np.bincount(batch, minlength=len(rng.gens))
+    return rng.random((len(batch), columns))
 
 
 def _material_paths(scene, engine, gatherer, rng, x, n, front, tri, wo, batch, near_distance):
     """Per-path luminance [cd·m⁻²] towards ``wo`` at the primary points (emission excluded):
     the eye path followed through delta surfaces, and at each vertex the connections plus
-    the BSDF-sampled rays of the rest (:func:`_scattered`)."""
+    the BSDF-sampled rays of the rest (:func:`_scattered`). Rows are ordered by ``batch``
+    (each path's batch); ``rng``: the batches' streams."""
     bsdf = scene.bsdf
     eps = engine.epsilon
     total = np.zeros(len(x))
@@ -489,17 +532,18 @@ def _material_paths(scene, engine, gatherer, rng, x, n, front, tri, wo, batch, n
         total[idx] += _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_distance)
         # continue through the delta parts: survive with R + T, choose one in proportion
         r, t = bsdf.delta(mat, np.einsum("ij,ij->i", n, wo), front)
-        u = rng.random((len(idx), 2))
+        u = _uniforms(rng, batch, 2)
         go = u[:, 0] < r + t
         refl = u[:, 1] * (r + t) < r
         d = np.where(refl[:, None], 2 * np.einsum("ij,ij->i", n, wo)[:, None] * n - wo, -wo)
         side = np.where(refl, 1.0, -1.0)[:, None]
-        idx, x, n, d, side = idx[go], x[go], n[go], d[go], side[go]
+        idx, x, n, d, side, batch = idx[go], x[go], n[go], d[go], side[go], batch[go]
         if not idx.size:
             break
         prim, dist = engine.closest_hit(x + eps * side * n, d)
         hit = prim >= 0
-        idx, x, n, d, side, prim, dist = idx[hit], x[hit], n[hit], d[hit], side[hit], prim[hit], dist[hit]
+        idx, x, n, d, side, prim, dist, batch = (idx[hit], x[hit], n[hit], d[hit], side[hit], prim[hit], dist[hit],
+                                                 batch[hit])
         x = x + eps * side * n + dist[:, None] * d
         n, front = scene.facing_normals(prim, d)
         wo, tri = -d, prim
@@ -527,12 +571,12 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     beta_f = np.ones(len(x))
     first = True
     while idx.size:
-        u = rng.random((idx.size, 4))
+        u = _uniforms(rng, batch, 4)
         wi, w, delta, _ = bsdf.sample(mat, n, wo, u[:, :3], front)
         keep = (w > 0) & ~(delta & first)
-        idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u = (
+        idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u, batch = (
             idx[keep], beta[keep], beta_f[keep], x[keep], n[keep], wi[keep], w[keep], delta[keep], wo[keep],
-            mat[keep], u[keep])
+            mat[keep], u[keep], batch[keep])
         front = np.asarray(front)[keep]
         if not idx.size:
             break
@@ -555,15 +599,16 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
             w_b = np.ones(nd.size)
             if lit.any():
                 cos_y = np.abs(np.einsum("ij,ij->i", scene.normals[prim[nd][lit]], wi[nd][lit]))
-                w_b[lit] = 1 - gatherer.light_weight(batch, prim[nd][lit], dist[nd][lit] ** 2, cos_y, pdf[lit])
+                w_b[lit] = 1 - gatherer.light_weight(batch[nd][lit], prim[nd][lit], dist[nd][lit] ** 2, cos_y,
+                                                     pdf[lit])
             be[nd] = beta[nd] * np.where(near, f_d + f_g, f_g * w_b) * scale
         hit = prim >= 0
         if hit.any():
             total[idx[hit]] += be[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
         q = np.ones(idx.size) if first else np.minimum(w, 1.0)
         go = hit & ((b > 0) | (bf > 0)) & (u[:, 3] < q)
-        idx, beta, beta_f, x, n, wi, side, prim, dist = (
-            idx[go], b[go] / q[go], bf[go] / q[go], x[go], n[go], wi[go], side[go], prim[go], dist[go])
+        idx, beta, beta_f, x, n, wi, side, prim, dist, batch = (
+            idx[go], b[go] / q[go], bf[go] / q[go], x[go], n[go], wi[go], side[go], prim[go], dist[go], batch[go])
         if not idx.size:
             break
         x = x + eps * side * n + dist[:, None] * wi
@@ -624,11 +669,14 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
         c = chunk_hits(scene, position, hit, prim, dist, d, start, chunk)
         out = np.repeat(c.emitted[:, None], batches, axis=1)
         for j in np.unique(c.block):
+            # the block's pixels in all batches at once, batch-major, each batch from its own stream
             m = np.flatnonzero(c.block == j)
-            for b in range(batches):
-                rng = stream(seed, "near", b, j)
-                out[m, b] += _material_paths(scene, engine, gatherer, rng, c.point[m], c.normal[m], c.front[m],
-                                             c.triangle[m], -d[c.index[m]], b, near_distance)
+            rows = np.tile(m, batches)
+            batch = np.repeat(np.arange(batches), m.size)
+            rng = GroupStreams([stream(seed, "near", b, j) for b in range(batches)])
+            value = _material_paths(scene, engine, gatherer, rng, c.point[rows], c.normal[rows], c.front[rows],
+                                    c.triangle[rows], -d[c.index[rows]], batch, near_distance)
+            out[m] += value.reshape(batches, m.size).T
         return c.index, out
 
     run_chunks(work, range(0, hit.size, chunk), lum_b, workers, progress, t0, hit.size)
