@@ -10,8 +10,9 @@ order (independent noise, PITFALLS.md): the mean of the two runs is the referenc
 their difference its standard error. References are kept in ``--cache`` (keyed by scene,
 view, pixels and options), so a rerun of the solver side does not repeat them.
 
-For each estimator (``local``: :func:`lsadphoto.solver.render` on the scene, the double
-local estimate with materials; ``path``: :func:`lsadphoto.solver.render_path_traced`) the
+For each estimator (``local``: the double local estimate with materials,
+:func:`~lsadphoto.solver.integrators.local_estimate.render_local_estimate_materials`, which
+:func:`lsadphoto.solver.render` runs for such scenes; ``path``: :func:`lsadphoto.solver.render_path_traced`) the
 table gives: the field-mean ratio over the subset with its standard error, the mean
 absolute relative per-pixel error (MARE) raw and with the reference's own noise removed in
 quadrature, the median self-reported relative error, the median |z| (z = (ours − ref) /
@@ -39,10 +40,11 @@ from _clock import Clock
 
 from lsadphoto.constants import RADIANCE_RGB_LUMINANCE_WEIGHTS
 from lsadphoto.geometry.pinhole import PinholeProjection
-from lsadphoto.solver import read_radiance_scene, render, render_path_traced
+from lsadphoto.solver import read_radiance_scene, render_path_traced
 from lsadphoto.solver.engine import engine_for
 from lsadphoto.solver.examples import MATERIAL_ROOMS, material_room_rad
 from lsadphoto.solver.integrators.eye import primary_rays
+from lsadphoto.solver.integrators.local_estimate import render_local_estimate_materials
 from lsadphoto.solver.scene import camera_to_world
 
 RTRACE = "-ab 12 -ad 8192 -aa 0 -lw 1e-6 -st 0 -ds 0.02 -dj 0"
@@ -121,6 +123,7 @@ def main(argv=None):
     parser.add_argument("--estimators", default="local", help="comma-separated: local, path")
     parser.add_argument("--chains", type=int, default=262144, help="light chains of the local estimate")
     parser.add_argument("--nodes-per-pixel", type=int, default=128)
+    parser.add_argument("--rays-per-vertex", type=int, default=1)
     parser.add_argument("--paths", type=int, default=4096, help="paths per pixel of the path tracer")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--reference-only", action="store_true")
@@ -144,9 +147,12 @@ def main(argv=None):
         for name in args.estimators.split(","):
             with Clock() as clock:
                 if name == "local":
-                    setting = f"{args.chains} chains, {args.nodes_per_pixel} nodes/px"
-                    lmap = render(scene, proj, position=pos, rotation=rot, samples=args.chains,
-                                  nodes_per_pixel=args.nodes_per_pixel, seed=1, workers=args.workers)
+                    setting = (f"{args.chains} chains, {args.nodes_per_pixel} nodes/px, "
+                               f"{args.rays_per_vertex} rays/vertex")
+                    lmap = render_local_estimate_materials(
+                        scene, proj, position=pos, rotation=rot, samples=args.chains,
+                        nodes_per_pixel=args.nodes_per_pixel, rays_per_vertex=args.rays_per_vertex, seed=1,
+                        workers=args.workers)
                 else:
                     setting = f"{args.paths} paths/px"
                     lmap = render_path_traced(scene, proj, position=pos, rotation=rot, samples=args.paths,

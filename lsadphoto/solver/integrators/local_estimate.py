@@ -369,6 +369,10 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
 #: Delta (mirror or straight-through) bounces an eye path follows at most.
 MAX_DELTA_BOUNCES = 16
 
+#: Delta vertices with both a reflected and a transmitted part (glass) at which an eye path
+#: splits into both (at most 2**DELTA_SPLITS branches); beyond them it chooses one.
+DELTA_SPLITS = 2
+
 #: Point–node pairs evaluated at once by the material gather (bounds temporary memory:
 #: about 40 arrays of this many float64 triples).
 GATHER_PAIRS = 1 << 17
@@ -393,9 +397,12 @@ class _MaterialGatherer:
     the sum is unbiased while narrow lobes are sampled by rays and small luminaires by nodes.
     """
 
-    def __init__(self, scene, engine, sampler, nodes, *, per_pixel, near_distance):
+    def __init__(self, scene, engine, sampler, nodes, *, per_pixel, near_distance, rays=1):
         self.scene, self.engine, self.sampler, self.nodes = scene, engine, sampler, nodes
         self.k = int(per_pixel)
+        #: BSDF-sampled rays per eye vertex; the vertices they reach gather k/rays nodes
+        self.rays = int(rays)
+        self.k_secondary = max(1, self.k // self.rays)
         self.eps2 = near_distance ** 2
         self.n_b = nodes["chains"] / nodes["batches"]
         B = nodes["batches"]
@@ -411,9 +418,7 @@ class _MaterialGatherer:
         self.stratum_nodes = [np.concatenate([st[j] for st in per_batch]) for j in (0, 1)]
         self.stratum_size = np.array([[st[j].size for j in (0, 1)] for st in per_batch], np.int64)   # (B, 2)
         self.stratum_offset = np.cumsum(self.stratum_size, axis=0) - self.stratum_size
-        strata = (self.stratum_size > 0).sum(axis=1)
-        #: draws per point and stratum of each batch: K split over its non-empty strata
-        self.draws = np.where(strata > 0, np.maximum(1, self.k // np.maximum(strata, 1)), 0)
+        self.strata = (self.stratum_size > 0).sum(axis=1)
         # each surface node's BSDF components towards its incoming direction (fixed per node)
         surface = np.flatnonzero(nodes["depth"] > 0)
         mu = np.clip(np.einsum("ij,ij->i", nodes["normal"][surface], nodes["incoming"][surface]), 1e-3, 1.0)
@@ -421,32 +426,41 @@ class _MaterialGatherer:
         self.node_row = np.full(len(nodes["depth"]), -1, np.int64)
         self.node_row[surface] = np.arange(surface.size)
 
-    def light_weight(self, batch, triangles, r2, cos_y, p_bsdf):
-        """Balance-heuristic weight w_L = K_s p_L/(K_s p_L + p_B) of emission points on
-        ``triangles`` at squared distance ``r2`` seen at cos θ_y, against the BSDF density
-        (``batch``: the batch of each point; K_s its source draws)."""
-        k_s = np.where(self.stratum_size[batch, 0] > 0, self.draws[batch], 0)
-        p_l = k_s * self.area_density[self.scene.emitter[triangles]] * r2 / np.maximum(cos_y, 1e-12)
-        return p_l / np.maximum(p_l + p_bsdf, 1e-300)
+    def draws(self, k):
+        """Draws per point and stratum of each batch when a point gathers ``k`` nodes: k split
+        over the batch's non-empty strata."""
+        return np.where(self.strata > 0, np.maximum(1, k // np.maximum(self.strata, 1)), 0)
 
-    def gather(self, rng, x, n, wo, mat, batch, front):
+    def light_weight(self, batch, triangles, r2, cos_y, p_bsdf, primary):
+        """Balance-heuristic weight w_L = K_s p_L/(K_s p_L + n_B p_B) of emission points on
+        ``triangles`` at squared distance ``r2`` seen at cos θ_y, against the BSDF density
+        (``batch``: the batch of each point; K_s its source draws, n_B its BSDF rays: those
+        of an eye vertex where ``primary``, else of a vertex reached by a sampled ray)."""
+        k, n_b = (self.k, self.rays) if primary else (self.k_secondary, 1)
+        k_s = np.where(self.stratum_size[batch, 0] > 0, self.draws(k)[batch], 0)
+        p_l = k_s * self.area_density[self.scene.emitter[triangles]] * r2 / np.maximum(cos_y, 1e-12)
+        return p_l / np.maximum(p_l + n_b * p_bsdf, 1e-300)
+
+    def gather(self, rng, x, n, wo, mat, batch, front, primary=True):
         """The connections' share of the luminance at points ``x`` towards ``wo`` [cd·m⁻²].
 
         ``batch``: the batch of each point, in non-decreasing order; ``rng`` the batches'
         :class:`~lsadphoto.solver._sampling.GroupStreams` (the node draws of each batch come
-        from its own stream, as if the batches were gathered one at a time).
+        from its own stream, as if the batches were gathered one at a time); ``primary``:
+        whether the points are eye vertices (K nodes each) or reached by sampled rays (K/rays).
         """
         P = len(x)
         total = np.zeros(P)
         if not P:
             return total
-        B = len(self.draws)
+        B = len(self.strata)
+        draws = self.draws(self.k if primary else self.k_secondary)
         counts = np.bincount(batch, minlength=B)
         # the points' BSDF components towards wo, once per point (not per pair)
         parts = self.scene.bsdf.parts(mat, np.clip(np.einsum("ij,ij->i", n, wo), 1e-3, 1.0), front)
         for j in (0, 1):
             size = self.stratum_size[:, j]
-            k_b = np.where(size > 0, self.draws, 0)
+            k_b = np.where(size > 0, draws, 0)
             rng.counts = np.where(size > 0, counts, 0)
             local = rng.integers(size, k_b)
             k_row = np.where(rng.counts[batch] > 0, k_b[batch], 0)
@@ -455,11 +469,11 @@ class _MaterialGatherer:
             val = np.zeros(pick.size)
             for lo in range(0, pick.size, GATHER_PAIRS):
                 sl = slice(lo, lo + GATHER_PAIRS)
-                val[sl] = self._terms(pick[sl], owner[sl], x, n, wo, mat, batch, parts)
+                val[sl] = self._terms(pick[sl], owner[sl], x, n, wo, mat, batch, parts, primary)
             total += np.bincount(owner, weights=val, minlength=P) * np.where(k_row > 0, size[batch] / np.maximum(k_row, 1), 0.0)
         return total / self.n_b
 
-    def _terms(self, pick, owner, x, n, wo, mat, batch, parts):
+    def _terms(self, pick, owner, x, n, wo, mat, batch, parts, primary):
         """Connection terms f_p·|cos θ_p|·I_n/r²·T of the pairs (point ``owner``, node ``pick``);
         ``parts``: the points' :meth:`~lsadphoto.solver.materials.MaterialTable.parts`."""
         nd = self.nodes
@@ -483,7 +497,7 @@ class _MaterialGatherer:
                            parts={key: v[owner[emitter]] for key, v in parts.items()})
             f_p[emitter] += f_g[emitter] * self.light_weight(
                 batch[owner[emitter]], nd["triangle"][pick[emitter]], r2[emitter], np.maximum(cos_n[emitter], 0.0),
-                p_b)
+                p_b, primary)
         intensity = np.where(kind == KIND_COSINE, nd["coefficient"][pick] * np.maximum(cos_n, 0.0), 0.0)
         if surface.any():
             s = np.flatnonzero(surface)
@@ -519,35 +533,52 @@ def _material_paths(scene, engine, gatherer, rng, x, n, front, tri, wo, batch, n
     """Per-path luminance [cd·m⁻²] towards ``wo`` at the primary points (emission excluded):
     the eye path followed through delta surfaces, and at each vertex the connections plus
     the BSDF-sampled rays of the rest (:func:`_scattered`). Rows are ordered by ``batch``
-    (each path's batch); ``rng``: the batches' streams."""
+    (each path's batch); ``rng``: the batches' streams.
+
+    At a delta vertex the path goes on with weight R + T (no roulette): in the reflected or
+    the transmitted direction, chosen in proportion to R and T, except at the first
+    :data:`DELTA_SPLITS` vertices that have both (glass), where it splits into both, of
+    weights R and T — the luminaire or sky seen through a pane and its reflection in the
+    pane then cost no variance."""
     bsdf = scene.bsdf
     eps = engine.epsilon
     total = np.zeros(len(x))
     idx = np.arange(len(x))
-    for _ in range(MAX_DELTA_BOUNCES + 1):
+    weight = np.ones(len(x))
+    for level in range(MAX_DELTA_BOUNCES + 1):
         if not idx.size:
             break
         mat = scene.material[tri]
-        total[idx] += gatherer.gather(rng, x, n, wo, mat, batch, front)
-        total[idx] += _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_distance)
-        # continue through the delta parts: survive with R + T, choose one in proportion
-        r, t = bsdf.delta(mat, np.einsum("ij,ij->i", n, wo), front)
-        u = _uniforms(rng, batch, 2)
-        go = u[:, 0] < r + t
-        refl = u[:, 1] * (r + t) < r
-        d = np.where(refl[:, None], 2 * np.einsum("ij,ij->i", n, wo)[:, None] * n - wo, -wo)
+        value = gatherer.gather(rng, x, n, wo, mat, batch, front)
+        # the rays of the rest, gatherer.rays per vertex, each counted 1/rays
+        rows = np.repeat(np.arange(idx.size), gatherer.rays)
+        part = _scattered(scene, engine, gatherer, rng, x[rows], n[rows], np.asarray(front)[rows], wo[rows],
+                          mat[rows], batch[rows], near_distance)
+        value += np.bincount(rows, weights=part, minlength=idx.size) / gatherer.rays
+        np.add.at(total, idx, weight * value)
+        # continue through the delta parts
+        mu = np.einsum("ij,ij->i", n, wo)
+        r, t = bsdf.delta(mat, mu, front)
+        u = _uniforms(rng, batch, 1)[:, 0]
+        split = (r > 0) & (t > 0) & (level < DELTA_SPLITS)
+        count = np.where(split, 2, (r + t > 0).astype(np.int64))
+        parent = np.repeat(np.arange(idx.size), count)
+        first_child = np.r_[True, parent[1:] != parent[:-1]] if parent.size else parent.astype(bool)
+        refl = np.where(split[parent], first_child, u[parent] * (r + t)[parent] < r[parent])
+        weight = weight[parent] * np.where(split[parent], np.where(refl, r[parent], t[parent]), (r + t)[parent])
+        idx, x, n, batch, wo, mu = idx[parent], x[parent], n[parent], batch[parent], wo[parent], mu[parent]
+        d = np.where(refl[:, None], 2 * mu[:, None] * n - wo, -wo)
         side = np.where(refl, 1.0, -1.0)[:, None]
-        idx, x, n, d, side, batch = idx[go], x[go], n[go], d[go], side[go], batch[go]
         if not idx.size:
             break
         prim, dist = engine.closest_hit(x + eps * side * n, d)
         hit = prim >= 0
-        idx, x, n, d, side, prim, dist, batch = (idx[hit], x[hit], n[hit], d[hit], side[hit], prim[hit], dist[hit],
-                                                 batch[hit])
+        idx, x, n, d, side, prim, dist, batch, weight = (idx[hit], x[hit], n[hit], d[hit], side[hit], prim[hit],
+                                                         dist[hit], batch[hit], weight[hit])
         x = x + eps * side * n + dist[:, None] * d
         n, front = scene.facing_normals(prim, d)
         wo, tri = -d, prim
-        total[idx] += emitted_luminance(scene, prim, wo)
+        np.add.at(total, idx, weight * emitted_luminance(scene, prim, wo))
     return total
 
 
@@ -600,7 +631,7 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
             if lit.any():
                 cos_y = np.abs(np.einsum("ij,ij->i", scene.normals[prim[nd][lit]], wi[nd][lit]))
                 w_b[lit] = 1 - gatherer.light_weight(batch[nd][lit], prim[nd][lit], dist[nd][lit] ** 2, cos_y,
-                                                     pdf[lit])
+                                                     pdf[lit], first)
             be[nd] = beta[nd] * np.where(near, f_d + f_g, f_g * w_b) * scale
         hit = prim >= 0
         if hit.any():
@@ -614,14 +645,15 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
         x = x + eps * side * n + dist[:, None] * wi
         n, front = scene.facing_normals(prim, wi)
         wo, mat = -wi, scene.material[prim]
-        total[idx] += beta * gatherer.gather(rng, x, n, wo, mat, batch, front)
+        total[idx] += beta * gatherer.gather(rng, x, n, wo, mat, batch, front, primary=False)
         first = False
     return total
 
 
 def render_local_estimate_materials(scene, projection, *, position, rotation, samples=65536, seed=0,
-                                    batches=16, nodes_per_pixel=AUTO_NODES_PER_PIXEL, near_distance=None,
-                                    max_depth=None, chunk_pixels=2048, workers=1, progress=None):
+                                    batches=16, nodes_per_pixel=AUTO_NODES_PER_PIXEL, rays_per_vertex=1,
+                                    near_distance=None, max_depth=None, chunk_pixels=2048, workers=1,
+                                    progress=None):
     """Luminance map [cd·m⁻²] of a scene with glossy, specular or transmitting materials by the
     double local estimate.
 
@@ -631,8 +663,10 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
     one delta chosen in proportion to R and T, survival R + T) and at every vertex the
     non-delta BSDF is evaluated towards the eye and connected to ``nodes_per_pixel`` chain
     nodes (:class:`_MaterialGatherer`), with the near field (nodes closer than
-    ``near_distance``, default 1 % of the scene size) replaced by BSDF-sampled rays.
-    Connections pass straight-through transmitters (glass) with their transmittance; light
+    ``near_distance``, default 1 % of the scene size) replaced by BSDF-sampled rays:
+    ``rays_per_vertex`` of them at each eye vertex (each counted 1/n, the balance heuristic
+    with n times the BSDF density), the vertices they reach gathering ``nodes_per_pixel`` /
+    ``rays_per_vertex`` nodes. Connections pass straight-through transmitters (glass) with their transmittance; light
     that reaches a non-specular point after a delta reflection (a floor lit by a mirror, by
     the reflection of a luminaire in glass) comes from the sampled rays (:func:`_scattered`).
 
@@ -653,13 +687,16 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
     near_distance = float(RELATIVE_NEAR_DISTANCE * scene.size if near_distance is None else near_distance)
     if not near_distance > 0:
         raise BadInputError(f"near_distance must be positive, got {near_distance!r}")
+    for name, value in (("nodes_per_pixel", nodes_per_pixel), ("rays_per_vertex", rays_per_vertex)):
+        if isinstance(value, (str, bool)) or int(value) != value or value < 1:
+            raise BadInputError(f"{name} must be a positive integer, got {value!r}")
     t0 = time.perf_counter()
     engine = engine_for(scene)
     sampler = EmissionSampler(scene)
     nodes = trace_material_chains(scene, engine, seed=seed, blocks=-(-samples // _BLOCK), batches=batches,
                                   max_depth=max_depth, sampler=sampler)
     gatherer = _MaterialGatherer(scene, engine, sampler, nodes, per_pixel=nodes_per_pixel,
-                                 near_distance=near_distance)
+                                 near_distance=near_distance, rays=rays_per_vertex)
     valid, prim, dist, d = primary_rays(scene, engine, projection, position, rotation)
     hit = np.flatnonzero(prim >= 0)
     lum_b = np.zeros((valid.size, batches))
@@ -687,6 +724,7 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
         extra={"samples": int(nodes["chains"]), "chains": int(nodes["chains"]),
                "nodes": int(nodes["position"].shape[0]), "near_field": "unbiased",
                "near_distance_m": near_distance, "near_field_biased": False,
-               "nodes_per_pixel": int(nodes_per_pixel), "seed": int(seed),
+               "nodes_per_pixel": int(nodes_per_pixel), "rays_per_vertex": int(rays_per_vertex),
+               "seed": int(seed),
                },
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
