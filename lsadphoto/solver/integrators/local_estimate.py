@@ -435,14 +435,18 @@ class _MaterialGatherer:
         """Balance-heuristic weight w_L = K_s p_L/(K_s p_L + n_B p_B) of emission points on
         ``triangles`` at squared distance ``r2`` seen at cos θ_y, against the BSDF density
         (``batch``: the batch of each point; K_s its source draws, n_B its BSDF rays: those
-        of an eye vertex where ``primary``, else of a vertex reached by a sampled ray)."""
-        k, n_b = (self.k, self.rays) if primary else (self.k_secondary, 1)
-        k_s = np.where(self.stratum_size[batch, 0] > 0, self.draws(k)[batch], 0)
+        of an eye vertex where ``primary`` (bool or per point), else of a vertex reached by a
+        sampled ray)."""
+        k = np.where(primary, self.k, self.k_secondary)
+        n_b = np.where(primary, self.rays, 1)
+        strata = self.strata[batch]
+        k_s = np.where(self.stratum_size[batch, 0] > 0, np.maximum(1, k // np.maximum(strata, 1)), 0)
         p_l = k_s * self.area_density[self.scene.emitter[triangles]] * r2 / np.maximum(cos_y, 1e-12)
         return p_l / np.maximum(p_l + n_b * p_bsdf, 1e-300)
 
     def gather(self, rng, x, n, wo, mat, batch, front, primary=True):
-        """The connections' share of the luminance at points ``x`` towards ``wo`` [cd·m⁻²].
+        """The connections' shares of the luminance at points ``x`` towards ``wo`` [cd·m⁻²]:
+        ``(diffuse, glossy)``, the parts scattered by the points' diffuse and glossy components.
 
         ``batch``: the batch of each point, in non-decreasing order; ``rng`` the batches'
         :class:`~lsadphoto.solver._sampling.GroupStreams` (the node draws of each batch come
@@ -450,7 +454,7 @@ class _MaterialGatherer:
         whether the points are eye vertices (K nodes each) or reached by sampled rays (K/rays).
         """
         P = len(x)
-        total = np.zeros(P)
+        total = np.zeros((2, P))
         if not P:
             return total
         B = len(self.strata)
@@ -466,16 +470,21 @@ class _MaterialGatherer:
             k_row = np.where(rng.counts[batch] > 0, k_b[batch], 0)
             owner = np.repeat(np.arange(P), k_row)
             pick = self.stratum_nodes[j][self.stratum_offset[batch[owner], j] + local]
-            val = np.zeros(pick.size)
+            val = np.zeros((2, pick.size))
             for lo in range(0, pick.size, GATHER_PAIRS):
                 sl = slice(lo, lo + GATHER_PAIRS)
-                val[sl] = self._terms(pick[sl], owner[sl], x, n, wo, mat, batch, parts, primary)
-            total += np.bincount(owner, weights=val, minlength=P) * np.where(k_row > 0, size[batch] / np.maximum(k_row, 1), 0.0)
+                val[:, sl] = self._terms(pick[sl], owner[sl], x, n, wo, mat, batch, parts, primary)
+            scale = np.where(k_row > 0, size[batch] / np.maximum(k_row, 1), 0.0)
+            for c in (0, 1):
+                total[c] += np.bincount(owner, weights=val[c], minlength=P) * scale
         return total / self.n_b
 
     def _terms(self, pick, owner, x, n, wo, mat, batch, parts, primary):
-        """Connection terms f_p·|cos θ_p|·I_n/r²·T of the pairs (point ``owner``, node ``pick``);
-        ``parts``: the points' :meth:`~lsadphoto.solver.materials.MaterialTable.parts`."""
+        """Connection terms f_p·|cos θ_p|·I_n/r²·T of the pairs (point ``owner``, node ``pick``),
+        shape (2, pairs): with the point's diffuse and glossy part of f_p; ``parts``: the
+        points' :meth:`~lsadphoto.solver.materials.MaterialTable.parts`. At surface nodes
+        I_n = W·f_n,diffuse·|cos θ_n| (their glossy part is left to the rays, see
+        :func:`_scattered`), so only the diffuse part of f_p connects to them."""
         nd = self.nodes
         bsdf = self.scene.bsdf
         eps = self.engine.epsilon
@@ -490,12 +499,12 @@ class _MaterialGatherer:
         kind = nd["kind"][pick]
         surface = nd["depth"][pick] > 0
         cos_n = -np.einsum("ij,ij->i", w, ny)
-        f_p = np.where(kind == KIND_COSINE, f_d, f_d + f_g)
+        f_pg = np.where(kind == KIND_COSINE, 0.0, f_g)
         emitter = np.flatnonzero((kind == KIND_COSINE) & ~surface & (f_g > 0))
         if emitter.size:
             p_b = bsdf.pdf(mat[owner[emitter]], np_[emitter], wo[owner[emitter]], w[emitter],
                            parts={key: v[owner[emitter]] for key, v in parts.items()})
-            f_p[emitter] += f_g[emitter] * self.light_weight(
+            f_pg[emitter] = f_g[emitter] * self.light_weight(
                 batch[owner[emitter]], nd["triangle"][pick[emitter]], r2[emitter], np.maximum(cos_n[emitter], 0.0),
                 p_b, primary)
         intensity = np.where(kind == KIND_COSINE, nd["coefficient"][pick] * np.maximum(cos_n, 0.0), 0.0)
@@ -503,22 +512,23 @@ class _MaterialGatherer:
             s = np.flatnonzero(surface)
             m_n = self.scene.material[nd["triangle"][pick[s]]]
             rows = self.node_row[pick[s]]
-            f_n = bsdf.evaluate(m_n, ny[s], nd["incoming"][pick[s]], -w[s],
-                                parts={key: v[rows] for key, v in self.node_parts.items()})
+            f_n, _ = bsdf.evaluate(m_n, ny[s], nd["incoming"][pick[s]], -w[s], split=True,
+                                   parts={key: v[rows] for key, v in self.node_parts.items()})
             intensity[s] = nd["coefficient"][pick[s]] * f_n * np.abs(cos_n[s])
         point = np.flatnonzero(kind != KIND_COSINE)
         if point.size:
             intensity[point] = nd["coefficient"][pick[point]] * self.sampler.point_intensity(
                 nd["luminaire"][pick[point]], -w[point])
         near = (kind == KIND_COSINE) & (r2 < self.eps2)
-        val = np.where(near | (r2 <= 0), 0.0, f_p * np.abs(cos_p) * intensity / np.maximum(r2, 1e-300))
-        ok = np.flatnonzero(val > 0)
+        geometry = np.where(near | (r2 <= 0), 0.0, np.abs(cos_p) * intensity / np.maximum(r2, 1e-300))
+        val = np.stack([f_d * geometry, f_pg * geometry])
+        ok = np.flatnonzero((val[0] > 0) | (val[1] > 0))
         if ok.size:
             side_p = np.sign(cos_p[ok])[:, None]
             side_n = np.where(surface[ok], np.sign(cos_n[ok]), 1.0)[:, None]
             target = y[ok] + eps * side_n * ny[ok] * (kind[ok] == KIND_COSINE)[:, None]
-            val[ok] *= shadow_transmittance(self.scene, self.engine, x[owner[ok]] + eps * side_p * np_[ok],
-                                            target)
+            val[:, ok] *= shadow_transmittance(self.scene, self.engine, x[owner[ok]] + eps * side_p * np_[ok],
+                                               target)
         return val
 
 
@@ -549,7 +559,7 @@ def _material_paths(scene, engine, gatherer, rng, x, n, front, tri, wo, batch, n
         if not idx.size:
             break
         mat = scene.material[tri]
-        value = gatherer.gather(rng, x, n, wo, mat, batch, front)
+        value = gatherer.gather(rng, x, n, wo, mat, batch, front).sum(axis=0)
         # the rays of the rest, gatherer.rays per vertex, each counted 1/rays
         rows = np.repeat(np.arange(idx.size), gatherer.rays)
         part = _scattered(scene, engine, gatherer, rng, x[rows], n[rows], np.asarray(front)[rows], wo[rows],
@@ -586,13 +596,23 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     """What the connections leave out, by BSDF-sampled rays.
 
     At each vertex one ray is drawn from the BSDF mixture (weight w = f·|μ_i|/p, or R/P_R,
-    T/P_T for a delta; at the first vertex the eye path follows the deltas itself). A path
-    carries two weights: β for the radiance that the previous vertex's connections did not
-    cover (h = f_glossy + f_diffuse·[hit closer than ε], and for emission the
-    balance-heuristic complement), and β_f for radiance reflected by a delta at the hit,
-    which no connection reaches (the full w). A delta reflection turns β_f into the weight
-    of everything beyond it; a straight-through transmission keeps both (connections pass
-    it). Russian roulette min(1, w) after the first ray.
+    T/P_T for a delta; at the first vertex the eye path follows the deltas itself). The
+    luminance leaving a hit splits into its diffuse part L_D (what the hit's diffuse
+    component scatters) and the rest, L_G (glossy lobes and deltas). A path carries two
+    weights: β for L_D and β_f for L_G. From a vertex of weights (β, β_f) with BSDF parts
+    f_d, f_g, a ray reaching a hit at distance r gets
+
+    * β' = (β f_d [r < ε] + β_f f_g)·|μ|/p: the connections to surface nodes (beyond ε, with
+      the nodes' diffuse part only) cover β f_d L_D;
+    * β_f' = (β f_d + β_f f_g)·|μ|/p: no connection covers the glossy or delta light of the hit;
+    * emission: (β f_d + β_f f_g)·|μ|/p closer than ε, else β_f f_g w_B·|μ|/p, w_B the
+      balance-heuristic complement of the emitter connections (also behind straight-through
+      transmissions, which connections pass with their transmittance).
+
+    A delta reflection turns β_f into the weight of everything beyond it (no connection
+    reaches through it); a straight-through transmission keeps both. Russian roulette
+    min(1, w) after the first ray. Each hit adds β·(diffuse share of its connections) +
+    β_f·(glossy share).
     """
     bsdf = scene.bsdf
     eps = engine.epsilon
@@ -600,52 +620,68 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     idx = np.arange(len(x))
     beta = np.ones(len(x))
     beta_f = np.ones(len(x))
+    # since the last non-delta vertex (for emission behind straight-through transmissions):
+    # emission weights near / far, that vertex's BSDF density, whether it was an eye vertex,
+    # the distance travelled, and whether only straight-through transmissions followed it
+    e_near, e_far, pdf_v, primary_v, travelled = (np.zeros(len(x)) for _ in range(5))
+    through = np.zeros(len(x), bool)
     first = True
     while idx.size:
         u = _uniforms(rng, batch, 4)
         wi, w, delta, _ = bsdf.sample(mat, n, wo, u[:, :3], front)
         keep = (w > 0) & ~(delta & first)
-        idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u, batch = (
-            idx[keep], beta[keep], beta_f[keep], x[keep], n[keep], wi[keep], w[keep], delta[keep], wo[keep],
-            mat[keep], u[keep], batch[keep])
+        (idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u, batch, e_near, e_far, pdf_v, primary_v, travelled,
+         through) = (a[keep] for a in (idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u, batch, e_near, e_far,
+                                       pdf_v, primary_v, travelled, through))
         front = np.asarray(front)[keep]
         if not idx.size:
             break
         side = np.sign(np.einsum("ij,ij->i", wi, n))[:, None]
         prim, dist = engine.closest_hit(x + eps * side * n, wi)
         reflected = delta & (side[:, 0] > 0)
-        # weights of the hit's reflected radiance (b), delta radiance (bf) and emission (be)
+        # weights of the hit's diffuse (b) and other (bf) luminance after a delta
         b = np.where(reflected, beta_f, beta) * w
-        bf = np.where(delta, beta_f, beta) * w
+        bf = beta_f * w
+        # … and of its emission: all of it after a delta reflection
         be = b.copy()
-        nd = np.flatnonzero(~delta & (prim >= 0))
+        through = through & delta & ~reflected
+        e_near, e_far = e_near * w, e_far * w
+        travelled = travelled + np.where(np.isfinite(dist), dist, 0.0)
+        nd = np.flatnonzero(~delta)
         if nd.size:
             f_d, f_g = bsdf.evaluate(mat[nd], n[nd], wo[nd], wi[nd], split=True)
             pdf = bsdf.pdf(mat[nd], n[nd], wo[nd], wi[nd], front[nd])
             mu = np.abs(np.einsum("ij,ij->i", n[nd], wi[nd]))
             near = dist[nd] < near_distance
             scale = np.where(pdf > 0, mu / np.maximum(pdf, 1e-300), 0.0)
-            b[nd] = beta[nd] * (f_g + f_d * near) * scale
-            lit = scene.emitter[prim[nd]] >= 0
-            w_b = np.ones(nd.size)
-            if lit.any():
-                cos_y = np.abs(np.einsum("ij,ij->i", scene.normals[prim[nd][lit]], wi[nd][lit]))
-                w_b[lit] = 1 - gatherer.light_weight(batch[nd][lit], prim[nd][lit], dist[nd][lit] ** 2, cos_y,
-                                                     pdf[lit], first)
-            be[nd] = beta[nd] * np.where(near, f_d + f_g, f_g * w_b) * scale
+            b[nd] = (beta[nd] * f_d * near + beta_f[nd] * f_g) * scale
+            bf[nd] = (beta[nd] * f_d + beta_f[nd] * f_g) * scale
+            e_near[nd], e_far[nd] = bf[nd], beta_f[nd] * f_g * scale
+            pdf_v[nd], primary_v[nd], travelled[nd], through[nd] = pdf, first, dist[nd], True
+        # emission where the path left a non-delta vertex and went straight on since
+        lit = np.flatnonzero(through & (prim >= 0))
+        if lit.size:
+            lit = lit[scene.emitter[prim[lit]] >= 0]
+        if lit.size:
+            cos_y = np.abs(np.einsum("ij,ij->i", scene.normals[prim[lit]], wi[lit]))
+            w_b = 1 - gatherer.light_weight(batch[lit], prim[lit], travelled[lit] ** 2, cos_y, pdf_v[lit],
+                                            primary_v[lit].astype(bool))
+            be[lit] = np.where(travelled[lit] < near_distance, e_near[lit], e_far[lit] * w_b)
         hit = prim >= 0
         if hit.any():
             total[idx[hit]] += be[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
         q = np.ones(idx.size) if first else np.minimum(w, 1.0)
         go = hit & ((b > 0) | (bf > 0)) & (u[:, 3] < q)
-        idx, beta, beta_f, x, n, wi, side, prim, dist, batch = (
-            idx[go], b[go] / q[go], bf[go] / q[go], x[go], n[go], wi[go], side[go], prim[go], dist[go], batch[go])
+        (idx, beta, beta_f, x, n, wi, side, prim, dist, batch, e_near, e_far, pdf_v, primary_v, travelled,
+         through) = (a[go] for a in (idx, b / q, bf / q, x, n, wi, side, prim, dist, batch, e_near / q, e_far / q,
+                                     pdf_v, primary_v, travelled, through))
         if not idx.size:
             break
         x = x + eps * side * n + dist[:, None] * wi
         n, front = scene.facing_normals(prim, wi)
         wo, mat = -wi, scene.material[prim]
-        total[idx] += beta * gatherer.gather(rng, x, n, wo, mat, batch, front, primary=False)
+        diffuse, glossy = gatherer.gather(rng, x, n, wo, mat, batch, front, primary=False)
+        total[idx] += beta * diffuse + beta_f * glossy
         first = False
     return total
 
