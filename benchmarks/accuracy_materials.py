@@ -47,7 +47,7 @@ from lsadphoto.solver.integrators.eye import primary_rays
 from lsadphoto.solver.integrators.local_estimate import render_local_estimate_materials
 from lsadphoto.solver.scene import camera_to_world
 
-RTRACE = "-ab 12 -ad 8192 -aa 0 -lw 1e-6 -st 0 -ds 0.02 -dj 0"
+RTRACE = "-ab 12 -ad 8192 -aa 0 -lw 1e-6 -st 0 -ss 64 -ds 0.005 -dj 0"
 
 
 def _radiance():

@@ -53,7 +53,7 @@ from ..._validation import check_choice
 from ...errors import BadInputError
 from .._sampling import GroupStreams, stream
 from ..engine import engine_for
-from ..materials import shadow_transmittance
+from ..materials import KINDS, shadow_transmittance
 from ..scene import Scene
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance,
@@ -369,6 +369,10 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
 #: Delta (mirror or straight-through) bounces an eye path follows at most.
 MAX_DELTA_BOUNCES = 16
 
+#: Largest number of mirror triangles used as virtual sources (each costs a ray per
+#: source-node connection; beyond it, light relayed by mirrors is left to sampled rays).
+MAX_VIRTUAL_MIRRORS = 64
+
 #: Delta vertices with both a reflected and a transmitted part (glass) at which an eye path
 #: splits into both (at most 2**DELTA_SPLITS branches); beyond them it chooses one.
 DELTA_SPLITS = 2
@@ -425,6 +429,12 @@ class _MaterialGatherer:
         self.node_parts = scene.bsdf.parts(self.scene.material[nodes["triangle"][surface]], mu)
         self.node_row = np.full(len(nodes["depth"]), -1, np.int64)
         self.node_row[surface] = np.arange(surface.size)
+        # planar mirrors as virtual sources (Radiance's -dr 1): mirror triangles, when few
+        kind = scene.bsdf.code[scene.material]
+        mirrors = np.flatnonzero(kind == KINDS.index("mirror"))
+        self.mirrors = mirrors if mirrors.size <= MAX_VIRTUAL_MIRRORS else mirrors[:0]
+        self.virtual = np.zeros(len(scene.triangles) + 1, bool)   # index −1: no triangle
+        self.virtual[self.mirrors] = True
 
     def draws(self, k):
         """Draws per point and stratum of each batch when a point gathers ``k`` nodes: k split
@@ -529,7 +539,56 @@ class _MaterialGatherer:
             target = y[ok] + eps * side_n * ny[ok] * (kind[ok] == KIND_COSINE)[:, None]
             val[:, ok] *= shadow_transmittance(self.scene, self.engine, x[owner[ok]] + eps * side_p * np_[ok],
                                                target)
+        source = np.flatnonzero(~surface)
+        for t in self.mirrors if source.size else ():
+            val[:, source] += self._mirrored(t, pick[source], owner[source], x, n, wo, mat, parts)
         return val
+
+    def _mirrored(self, t, pick, owner, x, n, wo, mat, parts):
+        """Terms (2, pairs) of source nodes ``pick`` seen from points ``owner`` in mirror
+        triangle ``t``: connected to the node's image y' behind the mirror's plane, through
+        the point q where x→y' crosses the triangle (nothing in between, q→y unobstructed),
+        R·f_p(ω_{x→q})·|cos θ_p|·I_y(ω_{y→q})/|y' − x|² (Radiance's virtual sources). The
+        sampled rays count no emission reached by one mirror reflection from a non-delta
+        vertex (:func:`_scattered`), so each path is counted once."""
+        scene, nd, eps = self.scene, self.nodes, self.engine.epsilon
+        out = np.zeros((2, pick.size))
+        p0, nm = scene.triangles[t, 0], scene.normals[t]
+        y, xp = nd["position"][pick], x[owner]
+        hy, hx = (y - p0) @ nm, (xp - p0) @ nm
+        live = np.flatnonzero((hy > 0) & (hx > 0))             # both in front of the mirror
+        if not live.size:
+            return out
+        image = y[live] - 2 * hy[live, None] * nm
+        v = image - xp[live]
+        length = np.sqrt(np.einsum("ij,ij->i", v, v))
+        w = v / length[:, None]
+        np_ = n[owner[live]]
+        cos_p = np.einsum("ij,ij->i", w, np_)
+        origin = xp[live] + eps * np.sign(cos_p)[:, None] * np_
+        prim, dist = self.engine.closest_hit(origin, w)
+        crossed = np.flatnonzero((prim == t) & (dist < length))
+        if not crossed.size:
+            return out
+        live, w, cos_p, length, np_ = live[crossed], w[crossed], cos_p[crossed], length[crossed], np_[crossed]
+        q = origin[crossed] + dist[crossed, None] * w
+        to_q = q - y[live]
+        to_q /= np.linalg.norm(to_q, axis=1, keepdims=True)
+        k = pick[live]
+        is_cos = nd["kind"][k] == KIND_COSINE
+        intensity = np.where(is_cos, nd["coefficient"][k] * np.maximum(np.einsum("ij,ij->i", to_q, nd["normal"][k]),
+                                                                       0.0), 0.0)
+        point = np.flatnonzero(~is_cos)
+        if point.size:
+            intensity[point] = nd["coefficient"][k[point]] * self.sampler.point_intensity(
+                nd["luminaire"][k[point]], to_q[point])
+        o = owner[live]
+        reflectance = scene.bsdf.delta(np.full(live.size, scene.material[t]), np.abs(w @ nm), np.ones(live.size, bool))[0]
+        geometry = reflectance * np.abs(cos_p) * intensity / (length * length)
+        geometry *= self.engine.visible(q + eps * nm, y[live] + eps * nd["normal"][k] * is_cos[:, None])
+        f_d, f_g = scene.bsdf.evaluate(mat[o], np_, wo[o], w, split=True, parts={key: v_[o] for key, v_ in parts.items()})
+        out[:, live] = np.stack([f_d * geometry, f_g * geometry])
+        return out
 
 
 def _uniforms(rng, batch, columns):
@@ -625,14 +684,17 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     # the distance travelled, and whether only straight-through transmissions followed it
     e_near, e_far, pdf_v, primary_v, travelled = (np.zeros(len(x)) for _ in range(5))
     through = np.zeros(len(x), bool)
+    # the triangle of each vertex (−1 at the first), and whether a non-delta ray reached it
+    tri = np.full(len(x), -1, np.int64)
+    arrived = np.zeros(len(x), bool)
     first = True
     while idx.size:
         u = _uniforms(rng, batch, 4)
         wi, w, delta, _ = bsdf.sample(mat, n, wo, u[:, :3], front)
         keep = (w > 0) & ~(delta & first)
         (idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u, batch, e_near, e_far, pdf_v, primary_v, travelled,
-         through) = (a[keep] for a in (idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u, batch, e_near, e_far,
-                                       pdf_v, primary_v, travelled, through))
+         through, tri, arrived) = (a[keep] for a in (idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u, batch, e_near,
+                                                     e_far, pdf_v, primary_v, travelled, through, tri, arrived))
         front = np.asarray(front)[keep]
         if not idx.size:
             break
@@ -667,14 +729,17 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
             w_b = 1 - gatherer.light_weight(batch[lit], prim[lit], travelled[lit] ** 2, cos_y, pdf_v[lit],
                                             primary_v[lit].astype(bool))
             be[lit] = np.where(travelled[lit] < near_distance, e_near[lit], e_far[lit] * w_b)
+        # emission one mirror reflection away from a non-delta vertex: that vertex's virtual sources
+        be[reflected & arrived & gatherer.virtual[tri]] = 0.0
         hit = prim >= 0
         if hit.any():
             total[idx[hit]] += be[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
         q = np.ones(idx.size) if first else np.minimum(w, 1.0)
         go = hit & ((b > 0) | (bf > 0)) & (u[:, 3] < q)
         (idx, beta, beta_f, x, n, wi, side, prim, dist, batch, e_near, e_far, pdf_v, primary_v, travelled,
-         through) = (a[go] for a in (idx, b / q, bf / q, x, n, wi, side, prim, dist, batch, e_near / q, e_far / q,
-                                     pdf_v, primary_v, travelled, through))
+         through, arrived) = (a[go] for a in (idx, b / q, bf / q, x, n, wi, side, prim, dist, batch, e_near / q,
+                                              e_far / q, pdf_v, primary_v, travelled, through, ~delta))
+        tri = prim
         if not idx.size:
             break
         x = x + eps * side * n + dist[:, None] * wi
