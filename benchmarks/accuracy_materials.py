@@ -123,7 +123,7 @@ def main(argv=None):
     parser.add_argument("--estimators", default="local", help="comma-separated: local, path")
     parser.add_argument("--chains", type=int, default=262144, help="light chains of the local estimate")
     parser.add_argument("--nodes-per-pixel", type=int, default=128)
-    parser.add_argument("--rays-per-vertex", type=int, default=1)
+    parser.add_argument("--rays-per-vertex", type=int, default=16)
     parser.add_argument("--paths", type=int, default=4096, help="paths per pixel of the path tracer")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--reference-only", action="store_true")

@@ -60,7 +60,7 @@ from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance,
                   luminance_map_from_batches, luminous_openings, near_step, primary_rays,
                   run_chunks, warn_odd_view)
 
-__all__ = ["AUTO_NODES_PER_PIXEL", "FULL_GATHER_PAIRS", "NEAR_FIELD_TREATMENTS",
+__all__ = ["AUTO_NODES_PER_PIXEL", "FULL_GATHER_PAIRS", "NEAR_FIELD_TREATMENTS", "RAYS_PER_VERTEX",
            "RELATIVE_NEAR_DISTANCE", "render_local_estimate", "render_local_estimate_materials"]
 
 NEAR_FIELD_TREATMENTS = ("unbiased", "clamp")
@@ -369,6 +369,11 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
 #: Delta (mirror or straight-through) bounces an eye path follows at most.
 MAX_DELTA_BOUNCES = 16
 
+#: BSDF-sampled rays per eye vertex (default of :func:`render_local_estimate_materials`):
+#: in the rooms of benchmarks/accuracy_materials.py they carry most of the variance at 1
+#: (docs/accuracy.md), and cost less than connections.
+RAYS_PER_VERTEX = 16
+
 #: Largest number of mirror triangles used as virtual sources (each costs a ray per
 #: source-node connection; beyond it, light relayed by mirrors is left to sampled rays).
 MAX_VIRTUAL_MIRRORS = 64
@@ -392,13 +397,18 @@ class _MaterialGatherer:
 
     What the connections estimate is a part of the reflection integral only: at the point
     they evaluate the full non-delta BSDF f_p towards point-luminaire nodes (which no ray can
-    hit), its diffuse part towards surface nodes, the diffuse part plus the glossy part times
-    the balance-heuristic weight w_L = K_s p_L/(K_s p_L + p_B) towards emitter nodes (p_L:
-    solid-angle density of emission points, K_s source draws, p_B the BSDF sampler's
-    density; Veach 1997, §9.2), and nothing closer than ε; the rest — the glossy part over
-    surfaces, w_B = 1 − w_L of it over emitters, and the near field — is left to
-    BSDF-sampled rays (:func:`_scattered`), whose weights carry exactly that complement, so
-    the sum is unbiased while narrow lobes are sampled by rays and small luminaires by nodes.
+    hit), its diffuse part towards surface nodes, whose own BSDF f_n they evaluate with its
+    diffuse part only, the diffuse part plus the glossy part times the balance-heuristic
+    weight w_L = K_s p_L/(K_s p_L + n_B p_B) towards emitter nodes (p_L: solid-angle density
+    of emission points, K_s source draws, p_B the BSDF sampler's density, n_B the point's
+    BSDF rays; Veach 1997, §9.2), the full f_p towards the images of source nodes behind
+    planar mirrors (:meth:`_mirrored`), and nothing closer than ε; the rest — the glossy
+    part over surfaces, the glossy light of the surfaces themselves, w_B = 1 − w_L of the
+    glossy part over emitters, and the near field — is left to BSDF-sampled rays
+    (:func:`_scattered`), whose weights carry exactly that complement, so the sum is
+    unbiased while narrow lobes are sampled by rays and small luminaires by nodes. The
+    terms are returned split by the point's diffuse and glossy part (the rays weight the
+    two differently).
     """
 
     def __init__(self, scene, engine, sampler, nodes, *, per_pixel, near_distance, rays=1):
@@ -752,7 +762,7 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
 
 
 def render_local_estimate_materials(scene, projection, *, position, rotation, samples=65536, seed=0,
-                                    batches=16, nodes_per_pixel=AUTO_NODES_PER_PIXEL, rays_per_vertex=1,
+                                    batches=16, nodes_per_pixel=AUTO_NODES_PER_PIXEL, rays_per_vertex=RAYS_PER_VERTEX,
                                     near_distance=None, max_depth=None, chunk_pixels=2048, workers=1,
                                     progress=None):
     """Luminance map [cd·m⁻²] of a scene with glossy, specular or transmitting materials by the
@@ -761,20 +771,25 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
     ``samples`` light chains (:func:`~lsadphoto.solver.chains.trace_material_chains`, each
     sampling the BSDFs) in ``batches`` batches; for each pixel and batch the eye path is
     followed through perfectly specular surfaces (mirror, glass, smooth plastic's mirror part:
-    one delta chosen in proportion to R and T, survival R + T) and at every vertex the
+    :func:`_material_paths`) and at every vertex the
     non-delta BSDF is evaluated towards the eye and connected to ``nodes_per_pixel`` chain
     nodes (:class:`_MaterialGatherer`), with the near field (nodes closer than
     ``near_distance``, default 1 % of the scene size) replaced by BSDF-sampled rays:
     ``rays_per_vertex`` of them at each eye vertex (each counted 1/n, the balance heuristic
     with n times the BSDF density), the vertices they reach gathering ``nodes_per_pixel`` /
-    ``rays_per_vertex`` nodes. Connections pass straight-through transmitters (glass) with their transmittance; light
-    that reaches a non-specular point after a delta reflection (a floor lit by a mirror, by
-    the reflection of a luminaire in glass) comes from the sampled rays (:func:`_scattered`).
+    ``rays_per_vertex`` nodes. Connections pass straight-through transmitters (glass) with
+    their transmittance, and reach source nodes through planar mirrors as virtual sources
+    (:data:`MAX_VIRTUAL_MIRRORS` mirror triangles at most); connections to surface nodes use
+    the nodes' diffuse part. The rest — glossy light of surfaces, light after other delta
+    reflections (the reflection of a luminaire in glass on a floor), the near field — comes
+    from the sampled rays (:func:`_scattered`).
 
     References
     ----------
-    Marchuk et al. (1980), §3.3 (local estimates). Veach (1997), §10 (connections and
-    specular vertices).
+    Marchuk et al. (1980), §3.3 (local estimates). Veach (1997), §9.2 (multiple importance
+    sampling), §10 (connections and specular vertices). Ward, G. J. (1994). The RADIANCE
+    lighting simulation and rendering system. *SIGGRAPH '94*, 459–472 (virtual light sources
+    for planar mirrors).
     """
     from ..chains import CHAIN_BLOCK as _BLOCK
     from ..chains import EmissionSampler, trace_material_chains
