@@ -593,10 +593,12 @@ class _MaterialGatherer:
             intensity[point] = nd["coefficient"][k[point]] * self.sampler.point_intensity(
                 nd["luminaire"][k[point]], to_q[point])
         o = owner[live]
-        reflectance = scene.bsdf.delta(np.full(live.size, scene.material[t]), np.abs(w @ nm), np.ones(live.size, bool))[0]
+        reflectance = scene.bsdf.delta(np.full(live.size, scene.material[t]), np.abs(w @ nm),
+                                       np.ones(live.size, bool))[0]
         geometry = reflectance * np.abs(cos_p) * intensity / (length * length)
         geometry *= self.engine.visible(q + eps * nm, y[live] + eps * nd["normal"][k] * is_cos[:, None])
-        f_d, f_g = scene.bsdf.evaluate(mat[o], np_, wo[o], w, split=True, parts={key: v_[o] for key, v_ in parts.items()})
+        f_d, f_g = scene.bsdf.evaluate(mat[o], np_, wo[o], w, split=True,
+                                       parts={key: value[o] for key, value in parts.items()})
         out[:, live] = np.stack([f_d * geometry, f_g * geometry])
         return out
 
