@@ -147,15 +147,17 @@ def main(argv=None):
              f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
              f"Radiance binaries of pyradiance {version}; reference `rtrace {args.rtrace}`, {args.pixels} random "
              f"pixels of a {args.size}² view, two runs of {args.repeats} traces per ray.", "",
-             "| scene | estimator | setting | time [s] | field-mean ratio | MARE | MARE, reference noise removed "
+             "| scene | estimator | setting | CPU (wall) [s] | field-mean ratio | MARE | MARE, reference noise removed "
              "| reference's own error (mean) | self-reported error (median) | median \\|z\\| | \\|z\\| ≤ 3 |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
+    comparisons = []
     for variant in args.variant or MATERIAL_ROOMS:
         pick, ref, ref_se, cpu = reference(variant, args.size, args.pixels, args.rtrace, args.cache, args.repeats)
         print(f"{variant}: reference {cpu:.0f} s CPU, own error {100 * np.mean(ref_se / ref):.2f} %", flush=True)
         if args.reference_only:
             continue
         _, scene, proj, pos, rot = view_of(variant, args.size)
+        maps = {}
         for name in args.estimators.split(","):
             with Clock() as clock:
                 if name == "local":
@@ -169,16 +171,25 @@ def main(argv=None):
                     setting = f"{args.paths} paths/px"
                     lmap = render_path_traced(scene, proj, position=pos, rotation=rot, samples=args.paths,
                                               batches=16, seed=1, workers=args.workers)
-            ours = np.asarray(lmap.luminance, float).ravel()[pick]
-            sigma = np.asarray(lmap.uncertainty, float).ravel()[pick]
+            maps[name] = (np.asarray(lmap.luminance, float).ravel(), np.asarray(lmap.uncertainty, float).ravel())
+            ours, sigma = maps[name][0][pick], maps[name][1][pick]
             s = summary(ours, sigma, ref, ref_se)
-            lines.append(f"| {variant} | {name} | {setting} | {clock.wall:.0f} | {s['field']:.4f} ± "
+            lines.append(f"| {variant} | {name} | {setting} | {clock.cpu:.0f} ({clock.wall:.0f}) | {s['field']:.4f} ± "
                          f"{s['field_se']:.4f} | {100 * s['mare']:.2f} % | {100 * s['mare_corrected']:.2f} % | "
                          f"{100 * s['ref_rel']:.2f} % | {100 * s['self']:.2f} % | {s['median_z']:.2f} | "
                          f"{100 * s['z3']:.0f} % |")
             print(lines[-1], flush=True)
-    lines.append("")
-    lines.append(f"Load average at the end: {os.getloadavg()[0]:.1f}.")
+        if len(maps) == 2:
+            # the two estimators against each other over the whole view (independent runs)
+            (a, sa), (b, sb) = maps.values()
+            ok = np.isfinite(a) & np.isfinite(b) & (sa + sb > 0)
+            z = (a[ok] - b[ok]) / np.sqrt(sa[ok] ** 2 + sb[ok] ** 2)
+            comparisons.append(f"{variant}: {' / '.join(maps)} field mean {a[ok].mean() / b[ok].mean():.4f} ± "
+                               f"{math.sqrt((sa[ok] ** 2).sum() + (sb[ok] ** 2).sum()) / b[ok].sum():.4f}, "
+                               f"mean z² {np.mean(z * z):.2f}, median |z| {np.median(np.abs(z)):.2f} over "
+                               f"{int(ok.sum())} pixels.")
+            print(comparisons[-1], flush=True)
+    lines += ["", *[f"* {c}" for c in comparisons], "", f"Load average at the end: {os.getloadavg()[0]:.1f}."]
     text = "\n".join(lines) + "\n"
     print(text)
     Path(args.output).write_text(text, encoding="utf-8")
