@@ -13,9 +13,10 @@ forms and Radiance.
   f·L·cos θ_i·cos θ_s/r² over the light by a 40×40 midpoint rule (error < 10⁻⁴ for these
   smooth lobes). Delta parts (mirror, glass) are checked where the eye ray reflects into
   or passes through to the light: L = R·L_s or T·L_s.
-* The path tracer on rooms with a glossy floor, metal and mirror panels and a glass
+* Both estimators on rooms with a glossy floor, metal and mirror panels and a glass
   partition, against pure Monte Carlo rtrace (``-aa 0 -st 0``) on a random pixel subset,
-  two runs in opposite ray order for Radiance's own noise (marked slow).
+  two runs in opposite ray order for Radiance's own noise (marked slow); a mirror relaying a point
+  light onto a floor against the image-source closed form.
 """
 
 import math
@@ -27,7 +28,7 @@ import pytest
 
 from lsadphoto.errors import BadInputError
 from lsadphoto.solver import read_radiance_scene, render, render_path_traced, simulate
-from lsadphoto.solver.examples import canonical_room_rad
+from lsadphoto.solver.examples import canonical_room_rad, material_room_rad
 from lsadphoto.solver.materials import (Material, MaterialTable, glass_transmissivity,
                                         luminance_of)
 from lsadphoto.solver.scene import camera_to_world, scene_from_dict
@@ -239,32 +240,8 @@ def test_mirror_and_glass_deltas_match_rtrace(tmp_path):
     assert np.allclose(ours, theirs, rtol=2e-4, atol=1e-9), (ours, theirs)
 
 
-# --- the path tracer against pure Monte Carlo rtrace --------------------------------------------
+# --- both estimators against pure Monte Carlo rtrace --------------------------------------------
 
-def _room(variant):
-    room = canonical_room_rad()
-    if variant == "glossy floor":
-        return room.replace("void plastic floor 0 0 5 0.2 0.2 0.2 0 0",
-                            "void plastic floor 0 0 5 0.2 0.2 0.2 0.05 0.05"), (1.0, 2.0, 1.5), (1.2, -0.3, -1.5)
-    if variant == "metal and mirror":
-        return (room + "void metal alu 0 0 5 0.8 0.8 0.8 0.9 0.1\n"
-                "alu polygon m1 0 0 12 3 0.01 0.3  3 0.01 2.5  1 0.01 2.5  1 0.01 0.3\n"
-                "void mirror mir 0 0 3 0.9 0.9 0.9\n"
-                "mir polygon m2 0 0 12 3.2 0.01 0.3  3.2 0.01 2.5  5 0.01 2.5  5 0.01 0.3\n"), \
-            (3.0, 3.5, 1.4), (0.0, -1.0, -0.1)
-    # Radiance's ambient rays ignore light sources and glass relays none (only mirrors have
-    # virtual sources), so the luminaires' reflections in the pane would be missing from its
-    # reference: the room is lit by a luminous ceiling of glow (radius 0), which Radiance's
-    # rays see like any surface, with no source sampling to skip
-    room = "\n".join(line for line in room.splitlines() if "panel" not in line and "ceiling polygon" not in line)
-    return (room + "\nvoid glow lum 0 0 4 1 1 1 0\nlum polygon c 0 0 12 0 0 3  0 4 3  6 4 3  6 0 3\n"
-            "void glass gl 0 0 3 0.96 0.96 0.96\n"
-            "gl polygon g1 0 0 12 3 0 0  3 4 0  3 4 3  3 0 3\n"), (1.0, 2.0, 1.5), (1.0, 0.3, -0.3)
-
-
-# The local estimate finds the light a mirror relays to the floor only by its one sampled
-# ray per pixel and batch (as a path tracer would, with 16 instead of 1024 rays): unbiased but
-# far too noisy for a per-pixel test at this size, so it is compared in the other two rooms.
 _REFERENCES = {}
 
 
@@ -276,7 +253,7 @@ def _room_reference(variant, folder):
 
     if variant not in _REFERENCES:
         binpath = _radiance_bin()
-        rad, eye, sight = _room(variant)
+        rad, eye, sight = material_room_rad(variant)
         scene = read_radiance_scene(rad)
         size = 16
         focal = size / (2 * math.tan(math.radians(35)))
@@ -296,7 +273,7 @@ def _room_reference(variant, folder):
 @pytest.mark.slow
 @pytest.mark.parametrize("variant, estimator", [
     ("glossy floor", "path tracer"), ("glossy floor", "local estimate"), ("metal and mirror", "path tracer"),
-    ("glass partition", "path tracer"), ("glass partition", "local estimate")])
+    ("metal and mirror", "local estimate"), ("glass partition", "path tracer"), ("glass partition", "local estimate")])
 def test_estimators_match_rtrace_in_rooms_with_materials(tmp_path, variant, estimator):
     scene, proj, pos, rot, pick, a, b = _room_reference(variant, tmp_path)
     if estimator == "path tracer":
@@ -312,3 +289,49 @@ def test_estimators_match_rtrace_in_rooms_with_materials(tmp_path, variant, esti
     assert np.median(np.abs(z)) < 1.0, np.sort(np.abs(z))[-5:]
     field_se = math.sqrt((se ** 2).sum() + (ref_se ** 2).sum()) / len(ref)
     assert abs(ours.mean() - ref.mean()) < max(3 * field_se, 0.01 * ref.mean()), (ours.mean(), ref.mean(), field_se)
+
+
+# --- the local estimate with mirrors as virtual sources ------------------------------------------
+
+def test_light_relayed_by_a_mirror_matches_the_image_source():
+    """A point light of 100 cd at (−3, 0, 2), a mirror (R = 0.9) of 1 × 1 m centred at
+    (0, 0, 2) facing (−1, 0, −1)/√2 and a white-ish floor (ρ = 0.5) seen from above: the floor's
+    luminance is ρ/π·(I·cos θ/d² + R·I·cos θ'/d'²·[x→image crosses the mirror]) with the
+    luminaire's image at (0, 0, 5). The geometry has no other light path (the floor's image in
+    the mirror, the plane x = 2, is out of its view through the mirror; the light is a point,
+    so no ray finds it), and every source node is the same point, so the estimate has no
+    noise: it must equal the closed form to float32 rounding (the map and Embree's hit
+    distances, ≈ 1e-7; tolerance 1e-6). Without virtual sources the mirrored term would be
+    missing (40 of the 64 pixels are lit through the mirror, by up to half their light)."""
+    from lsadphoto.geometry.pinhole import PinholeProjection
+    from lsadphoto.solver.engine import engine_for
+    from lsadphoto.solver.integrators.eye import primary_rays
+    from lsadphoto.solver.integrators.local_estimate import render_local_estimate_materials
+
+    s2 = math.sqrt(0.5)
+    c, a, b = np.array([0, 0, 2.0]), np.array([s2, 0, -s2]), np.array([0, 1.0, 0])
+    normal = np.array([-s2, 0, -s2])
+    quad = [c - 0.5 * a - 0.5 * b, c - 0.5 * a + 0.5 * b, c + 0.5 * a + 0.5 * b, c + 0.5 * a - 0.5 * b]
+    scene = scene_from_dict({
+        "surfaces": [{"type": "polygon", "material": "floor", "vertices": [[-1, -1, 0], [1, -1, 0], [1, 1, 0],
+                                                                           [-1, 1, 0]]},
+                     {"type": "polygon", "material": "mirror", "vertices": [list(map(float, v)) for v in quad]}],
+        "materials": {"floor": {"reflectance": 0.5}, "mirror": {"type": "mirror", "colour": [0.9, 0.9, 0.9]}},
+        "luminaires": [{"type": "point", "position": [-3, 0, 2], "intensity": 100}]})
+    assert np.allclose(scene.normals[2:], normal)               # the mirror's front faces the light
+    size = 8
+    focal = size / (2 * math.tan(math.radians(30)))
+    proj = PinholeProjection(fx=focal, fy=focal, cx=(size - 1) / 2, cy=(size - 1) / 2, width=size, height=size)
+    pos, rot = np.array([0.3, 0.0, 1.2]), camera_to_world((0, 0, -1), up=(1, 0, 0))
+    lmap = render_local_estimate_materials(scene, proj, position=pos, rotation=rot, samples=1024, nodes_per_pixel=8,
+                                           seed=1)
+    valid, _, dist, d = primary_rays(scene, engine_for(scene), proj, pos, rot)
+    x = pos + dist[:, None] * d
+    direct = 100 * 2 / np.linalg.norm(x - [-3, 0, 2], axis=1) ** 3
+    v = np.array([0, 0, 5.0]) - x
+    crossing = x + (((c - x) @ normal) / (v @ normal))[:, None] * v
+    inside = (np.abs((crossing - c) @ a) < 0.5) & (np.abs((crossing - c) @ b) < 0.5)
+    mirrored = np.where(inside, 0.9 * 100 * 5 / np.linalg.norm(v, axis=1) ** 3, 0.0)
+    assert 10 < inside.sum() < inside.size                      # both kinds of pixel are in view
+    ours = np.asarray(lmap.luminance, float).ravel()[valid]
+    assert np.allclose(ours, 0.5 / math.pi * (direct + mirrored), rtol=1e-6, atol=0)

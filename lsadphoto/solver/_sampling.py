@@ -27,6 +27,32 @@ def stream(seed, purpose, *keys):
     return np.random.Generator(np.random.Philox(ss))
 
 
+class GroupStreams:
+    """Draws for rows sorted by group, each group from its own generator.
+
+    ``counts`` (set before each use) holds the number of live rows per group; each method
+    concatenates each generator's draws, so a group's numbers do not depend on which other
+    groups share the array (work on many blocks at once draws what one block at a time
+    would).
+    """
+
+    def __init__(self, gens):
+        self.gens = gens
+        self.counts = np.zeros(len(gens), dtype=np.int64)
+
+    def random(self, size):
+        shape = (size,) if np.isscalar(size) else tuple(size)
+        rest = shape[1:]
+        return np.concatenate([g.random((int(c), *rest)) for g, c in zip(self.gens, self.counts)])
+
+    def integers(self, high, per_row):
+        """Flat integers: for each group g, ``counts[g]`` rows of ``per_row[g]`` integers in
+        [0, ``high[g]``), row by row (groups with no rows or no integers draw nothing)."""
+        parts = [g.integers(0, int(h), size=(int(c), int(k))).ravel()
+                 for g, h, k, c in zip(self.gens, high, per_row, self.counts) if c > 0 and k > 0]
+        return np.concatenate(parts) if parts else np.zeros(0, np.int64)
+
+
 def orthonormal_basis(n):
     """Two unit vectors ``(t, b)`` completing unit normals ``n`` ``(k, 3)`` (Duff et al. 2017)."""
     sign = np.where(n[:, 2] >= 0, 1.0, -1.0)

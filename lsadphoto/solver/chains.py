@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from ._sampling import cosine_directions, stream, triangle_points
+from ._sampling import GroupStreams, cosine_directions, stream, triangle_points
 from .store import KIND_COSINE, KIND_POINT, LsadStore
 
 ABSORPTION_MODES = ("weight", "roulette")
@@ -262,6 +262,65 @@ def trace_chains(scene, engine, *, seed, first_block, blocks, batches, max_depth
     return LsadStore(scene, **nodes, chains=blocks * CHAIN_BLOCK, batches=batches, seed=seed)
 
 
+#: Chain blocks traced together by :func:`trace_material_chains` (one array per bounce; each
+#: block draws from its own stream, so the nodes are those of one block at a time).
+MATERIAL_GROUP = 64
+
+
+def _material_block_group(scene, engine, sampler, seed, blocks, batches, limit):
+    """Nodes of the chains of ``blocks`` (consecutive), in block order as if traced one block
+    at a time: the blocks' chains share the arrays of each bounce, each block's random
+    numbers come from its own stream (:class:`~lsadphoto.solver._sampling.GroupStreams`)."""
+    bsdf = scene.bsdf
+    floor = WEIGHT_FLOOR * sampler.total_flux
+    n = CHAIN_BLOCK
+    starts = [_chain_starts(engine, sampler, seed, block, n, batches) for block in blocks]
+    streams = GroupStreams([s[0] for s in starts])
+    out = {key: [np.concatenate([s[1][key][0] for s in starts])] for key in starts[0][1]}
+    batch, direction, weight, origin = (np.concatenate([s[k] for s in starts]) for k in range(2, 6))
+    group = np.repeat(np.arange(len(starts)), n)
+    out.update(incoming=[np.zeros((group.size, 3))], front=[np.ones(group.size, bool)], group=[group])
+    alive = np.arange(group.size)
+    depth = 0
+    while alive.size and depth < limit:
+        depth += 1
+        prim, dist = engine.closest_hit(origin, direction)
+        streams.counts = np.bincount(group[alive], minlength=len(starts))
+        u = streams.random((alive.size, 3))
+        hit = prim >= 0
+        alive, origin, direction, weight, prim, dist, u = (
+            alive[hit], origin[hit], direction[hit], weight[hit], prim[hit], dist[hit], u[hit])
+        if not alive.size:
+            break
+        point = origin + dist[:, None] * direction
+        nrm, front = scene.facing_normals(prim, direction)
+        mat = scene.material[prim]
+        p = bsdf.parts(mat, -np.einsum("ij,ij->i", direction, nrm), front)
+        keep = (p["kd"] + p["td"] + p["rs"] + p["ts"]) > 0
+        for key, value in (("position", point), ("normal", nrm), ("coefficient", weight),
+                           ("incoming", -direction), ("front", front), ("triangle", prim),
+                           ("batch", batch[alive]), ("group", group[alive])):
+            out[key].append(value[keep])
+        k = int(keep.sum())
+        out["kind"].append(np.zeros(k, np.int8))
+        out["luminaire"].append(np.full(k, -1, np.int32))
+        out["depth"].append(np.full(k, depth, np.int16))
+        wi, w, _, _ = bsdf.sample(mat, nrm, -direction, u, front)
+        weight = weight * w
+        low = weight < floor
+        q = np.where(low, weight / floor, 1.0)
+        survive = (w > 0) & (u[:, 2] < q)
+        weight = np.where(low, floor, weight)
+        side = np.sign(np.einsum("ij,ij->i", wi, nrm))
+        alive, point, nrm, wi, weight, side = (alive[survive], point[survive], nrm[survive],
+                                               wi[survive], weight[survive], side[survive])
+        direction = wi
+        origin = point + engine.epsilon * side[:, None] * nrm
+    nodes = {key: np.concatenate(v) for key, v in out.items()}
+    order = np.argsort(nodes.pop("group"), kind="stable")   # block by block, each by depth
+    return {key: v[order] for key, v in nodes.items()}
+
+
 def trace_material_chains(scene, engine, *, seed, blocks, batches, max_depth=None, sampler=None):
     """Light-chain nodes of a scene with non-Lambertian materials (``scene.bsdf``).
 
@@ -275,49 +334,8 @@ def trace_material_chains(scene, engine, *, seed, blocks, batches, max_depth=Non
     and ``front``), ``chains`` and ``batches``.
     """
     sampler = sampler or EmissionSampler(scene)
-    bsdf = scene.bsdf
-    floor = WEIGHT_FLOOR * sampler.total_flux
-    limit = MAX_BOUNCES if max_depth is None else int(max_depth)
-    parts = []
-    for block in range(blocks):
-        n = CHAIN_BLOCK
-        rng, out, batch, direction, weight, origin = _chain_starts(engine, sampler, seed, block, n, batches)
-        out.update(incoming=[np.zeros((n, 3))], front=[np.ones(n, bool)])
-        alive = np.arange(n)
-        depth = 0
-        while alive.size and depth < limit:
-            depth += 1
-            prim, dist = engine.closest_hit(origin, direction)
-            u = rng.random((alive.size, 3))
-            hit = prim >= 0
-            alive, origin, direction, weight, prim, dist, u = (
-                alive[hit], origin[hit], direction[hit], weight[hit], prim[hit], dist[hit], u[hit])
-            if not alive.size:
-                break
-            point = origin + dist[:, None] * direction
-            nrm, front = scene.facing_normals(prim, direction)
-            mat = scene.material[prim]
-            p = bsdf.parts(mat, -np.einsum("ij,ij->i", direction, nrm), front)
-            keep = (p["kd"] + p["td"] + p["rs"] + p["ts"]) > 0
-            for key, value in (("position", point), ("normal", nrm), ("coefficient", weight),
-                               ("incoming", -direction), ("front", front), ("triangle", prim)):
-                out[key].append(value[keep])
-            k = int(keep.sum())
-            out["kind"].append(np.zeros(k, np.int8))
-            out["luminaire"].append(np.full(k, -1, np.int32))
-            out["batch"].append(batch[alive[keep]])
-            out["depth"].append(np.full(k, depth, np.int16))
-            wi, w, _, _ = bsdf.sample(mat, nrm, -direction, u, front)
-            weight = weight * w
-            low = weight < floor
-            q = np.where(low, weight / floor, 1.0)
-            survive = (w > 0) & (u[:, 2] < q)
-            weight = np.where(low, floor, weight)
-            side = np.sign(np.einsum("ij,ij->i", wi, nrm))
-            alive, point, nrm, wi, weight, side = (alive[survive], point[survive], nrm[survive],
-                                                   wi[survive], weight[survive], side[survive])
-            direction = wi
-            origin = point + engine.epsilon * side[:, None] * nrm
-        parts.append({key: np.concatenate(v) for key, v in out.items()})
+    parts = [_material_block_group(scene, engine, sampler, seed, range(first, min(first + MATERIAL_GROUP, blocks)),
+                                   batches, MAX_BOUNCES if max_depth is None else int(max_depth))
+             for first in range(0, blocks, MATERIAL_GROUP)]
     nodes = {key: np.concatenate([q[key] for q in parts]) for key in parts[0]}
     return {**nodes, "chains": blocks * CHAIN_BLOCK, "batches": batches}

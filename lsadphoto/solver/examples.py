@@ -1,4 +1,5 @@
-"""Example scenes: the canonical validation room of FORMULAS.md Part A.
+"""Example scenes: the canonical validation room of FORMULAS.md Part A, and variants of it
+with glossy, metal, glass and mirror surfaces (:func:`material_room_rad`).
 
 A closed box room 6 m × 4 m × 3 m; Lambertian grey walls ρ = 0.5, ceiling 0.7, floor 0.2;
 four square 0.6 m × 0.6 m Lambertian luminaires of 3000 lm each, centred at (1.5, 1),
@@ -12,7 +13,8 @@ import math
 
 from .scene import scene_from_dict
 
-__all__ = ["canonical_room", "canonical_room_rad", "canonical_room_toml"]
+__all__ = ["MATERIAL_ROOMS", "canonical_room", "canonical_room_rad", "canonical_room_toml",
+           "material_room_rad"]
 
 _LUMINAIRE = """
 [[luminaires]]
@@ -95,3 +97,50 @@ panel polygon p2 0 0 12 1.2 2.7 2.99  1.2 3.3 2.99  1.8 3.3 2.99  1.8 2.7 2.99
 panel polygon p3 0 0 12 4.2 0.7 2.99  4.2 1.3 2.99  4.8 1.3 2.99  4.8 0.7 2.99
 panel polygon p4 0 0 12 4.2 2.7 2.99  4.2 3.3 2.99  4.8 3.3 2.99  4.8 2.7 2.99
 """
+
+
+#: Variants of :func:`material_room_rad`.
+MATERIAL_ROOMS = ("glossy floor", "metal panel", "mirror", "glass partition")
+
+_METAL = ("void metal alu 0 0 5 0.8 0.8 0.8 0.9 0.1\n"
+          "alu polygon m1 0 0 12 3 0.01 0.3  3 0.01 2.5  1 0.01 2.5  1 0.01 0.3\n")
+_MIRROR = ("void mirror mir 0 0 3 0.9 0.9 0.9\n"
+           "mir polygon m2 0 0 12 3.2 0.01 0.3  3.2 0.01 2.5  5 0.01 2.5  5 0.01 0.3\n")
+
+
+def material_room_rad(variant):
+    """The canonical room with non-Lambertian surfaces, in Radiance's scene language, and a
+    view of them: ``(text, eye, line_of_sight)``.
+
+    ``variant`` (:data:`MATERIAL_ROOMS`, or ``"metal and mirror"`` for both panels):
+
+    * ``glossy floor``: the floor as ``plastic`` of specularity 0.05, roughness 0.05;
+    * ``metal panel``: a 2 × 2.2 m ``metal`` panel (grey 0.8, specularity 0.9, roughness 0.1)
+      1 cm in front of the wall y = 0;
+    * ``mirror``: a 1.8 × 2.2 m ``mirror`` (0.9) there;
+    * ``glass partition``: a ``glass`` pane (transmissivity 0.96) across the room at x = 3,
+      the room lit by a luminous ceiling of ``glow`` (1 W·sr⁻¹·m⁻², radius 0) instead of the
+      panels: Radiance's ambient rays ignore light sources and glass relays none (only
+      mirrors have virtual sources), so the panels' reflections in the pane would be missing
+      from a Radiance reference, while a glow ceiling is seen by its rays like any surface.
+
+    Examples
+    --------
+    >>> text, eye, sight = material_room_rad("mirror")
+    >>> "void mirror" in text, eye
+    (True, (3.0, 3.5, 1.4))
+    """
+    room = canonical_room_rad()
+    if variant == "glossy floor":
+        return (room.replace("void plastic floor 0 0 5 0.2 0.2 0.2 0 0",
+                             "void plastic floor 0 0 5 0.2 0.2 0.2 0.05 0.05"), (1.0, 2.0, 1.5), (1.2, -0.3, -1.5))
+    panels = {"metal panel": _METAL, "mirror": _MIRROR, "metal and mirror": _METAL + _MIRROR}
+    if variant in panels:
+        return room + panels[variant], (3.0, 3.5, 1.4), (0.0, -1.0, -0.1)
+    if variant == "glass partition":
+        room = "\n".join(line for line in room.splitlines()
+                         if "panel" not in line and "ceiling polygon" not in line)
+        return (room + "\nvoid glow lum 0 0 4 1 1 1 0\nlum polygon c 0 0 12 0 0 3  0 4 3  6 4 3  6 0 3\n"
+                "void glass gl 0 0 3 0.96 0.96 0.96\n"
+                "gl polygon g1 0 0 12 3 0 0  3 4 0  3 4 3  3 0 3\n"), (1.0, 2.0, 1.5), (1.0, 0.3, -0.3)
+    raise ValueError(f"unknown material room {variant!r}; valid: {', '.join(MATERIAL_ROOMS)}")

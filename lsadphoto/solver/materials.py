@@ -311,7 +311,8 @@ class MaterialTable:
 
     def evaluate(self, m, n, wo, wi, parts=None, split=False):
         """Non-delta BSDF value f(ω_i, ω_o) [sr⁻¹] (diffuse and glossy components), or with
-        ``split`` the pair (diffuse, glossy)."""
+        ``split`` the pair (diffuse, glossy); ``parts``: :meth:`parts` at these points (μ_o
+        clipped to [10⁻³, 1]), if already known."""
         mu_o = np.clip(_dot(n, wo), 1e-3, 1.0)
         mu_i = _dot(n, wi)
         p = self.parts(m, mu_o) if parts is None else parts
@@ -424,11 +425,12 @@ class MaterialTable:
         weight[is_delta & (total > 0)] = total[is_delta & (total > 0)]
         return wi, weight, is_delta, total
 
-    def pdf(self, m, n, wo, wi, front=None):
+    def pdf(self, m, n, wo, wi, front=None, parts=None):
         """Density [sr⁻¹] with which :meth:`sample` picks the non-delta direction ``wi``
-        (the mixture Σ_c P_c p_c over the non-delta components)."""
+        (the mixture Σ_c P_c p_c over the non-delta components); ``parts``: :meth:`parts`
+        at these points, if already known."""
         m = np.asarray(m)
-        p = self.parts(m, np.clip(_dot(n, wo), 1e-3, 1.0), front)
+        p = self.parts(m, np.clip(_dot(n, wo), 1e-3, 1.0), front) if parts is None else parts
         coef = np.stack([p["kd"], p["td"], p["rs"], p["ts"], p["R"], p["T"]], axis=1)
         total = coef.sum(axis=1)
         dens = (self._pdfs(m, n, wo, wi, p) * coef[:, :4]).sum(axis=1)

@@ -51,16 +51,16 @@ import numpy as np
 
 from ..._validation import check_choice
 from ...errors import BadInputError
-from .._sampling import stream
+from .._sampling import GroupStreams, stream
 from ..engine import engine_for
-from ..materials import shadow_transmittance
+from ..materials import KINDS, shadow_transmittance
 from ..scene import Scene
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance,
                   luminance_map_from_batches, luminous_openings, near_step, primary_rays,
                   run_chunks, warn_odd_view)
 
-__all__ = ["AUTO_NODES_PER_PIXEL", "FULL_GATHER_PAIRS", "NEAR_FIELD_TREATMENTS",
+__all__ = ["AUTO_NODES_PER_PIXEL", "FULL_GATHER_PAIRS", "NEAR_FIELD_TREATMENTS", "RAYS_PER_VERTEX",
            "RELATIVE_NEAR_DISTANCE", "render_local_estimate", "render_local_estimate_materials"]
 
 NEAR_FIELD_TREATMENTS = ("unbiased", "clamp")
@@ -369,6 +369,23 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
 #: Delta (mirror or straight-through) bounces an eye path follows at most.
 MAX_DELTA_BOUNCES = 16
 
+#: BSDF-sampled rays per eye vertex (default of :func:`render_local_estimate_materials`):
+#: in the rooms of benchmarks/accuracy_materials.py they carry most of the variance at 1
+#: (docs/accuracy.md), and cost less than connections.
+RAYS_PER_VERTEX = 16
+
+#: Largest number of mirror triangles used as virtual sources (each costs a ray per
+#: source-node connection; beyond it, light relayed by mirrors is left to sampled rays).
+MAX_VIRTUAL_MIRRORS = 64
+
+#: Delta vertices with both a reflected and a transmitted part (glass) at which an eye path
+#: splits into both (at most 2**DELTA_SPLITS branches); beyond them it chooses one.
+DELTA_SPLITS = 2
+
+#: Point–node pairs evaluated at once by the material gather (bounds temporary memory:
+#: about 40 arrays of this many float64 triples).
+GATHER_PAIRS = 1 << 17
+
 
 class _MaterialGatherer:
     """Node terms W·f_n(ω_in, ω_out)|cos θ_n|·f_p(ω_{p→n}, ω_o)|cos θ_p|/r²·T at points.
@@ -380,130 +397,269 @@ class _MaterialGatherer:
 
     What the connections estimate is a part of the reflection integral only: at the point
     they evaluate the full non-delta BSDF f_p towards point-luminaire nodes (which no ray can
-    hit), its diffuse part towards surface nodes, the diffuse part plus the glossy part times
-    the balance-heuristic weight w_L = K_s p_L/(K_s p_L + p_B) towards emitter nodes (p_L:
-    solid-angle density of emission points, K_s source draws, p_B the BSDF sampler's
-    density; Veach 1997, §9.2), and nothing closer than ε; the rest — the glossy part over
-    surfaces, w_B = 1 − w_L of it over emitters, and the near field — is left to
-    BSDF-sampled rays (:func:`_scattered`), whose weights carry exactly that complement, so
-    the sum is unbiased while narrow lobes are sampled by rays and small luminaires by nodes.
+    hit), its diffuse part towards surface nodes, whose own BSDF f_n they evaluate with its
+    diffuse part only, the diffuse part plus the glossy part times the balance-heuristic
+    weight w_L = K_s p_L/(K_s p_L + n_B p_B) towards emitter nodes (p_L: solid-angle density
+    of emission points, K_s source draws, p_B the BSDF sampler's density, n_B the point's
+    BSDF rays; Veach 1997, §9.2), the full f_p towards the images of source nodes behind
+    planar mirrors (:meth:`_mirrored`), and nothing closer than ε; the rest — the glossy
+    part over surfaces, the glossy light of the surfaces themselves, w_B = 1 − w_L of the
+    glossy part over emitters, and the near field — is left to BSDF-sampled rays
+    (:func:`_scattered`), whose weights carry exactly that complement, so the sum is
+    unbiased while narrow lobes are sampled by rays and small luminaires by nodes. The
+    terms are returned split by the point's diffuse and glossy part (the rays weight the
+    two differently).
     """
 
-    def __init__(self, scene, engine, sampler, nodes, *, per_pixel, near_distance):
+    def __init__(self, scene, engine, sampler, nodes, *, per_pixel, near_distance, rays=1):
         self.scene, self.engine, self.sampler, self.nodes = scene, engine, sampler, nodes
         self.k = int(per_pixel)
+        #: BSDF-sampled rays per eye vertex; the vertices they reach gather k/rays nodes
+        self.rays = int(rays)
+        self.k_secondary = max(1, self.k // self.rays)
         self.eps2 = near_distance ** 2
         self.n_b = nodes["chains"] / nodes["batches"]
+        B = nodes["batches"]
         order = np.argsort(nodes["batch"], kind="stable")
-        bounds = np.searchsorted(nodes["batch"][order], np.arange(nodes["batches"] + 1))
+        bounds = np.searchsorted(nodes["batch"][order], np.arange(B + 1))
         # emission-point density per unit area [m⁻²] of each area luminaire: (Φ_l/Φ)/A_l
         self.area_density = np.array([lum.flux / (sampler.total_flux * scene.areas[lum.triangles].sum())
                                       for lum in scene.area_luminaires])
-        self.strata = []
-        for b in range(nodes["batches"]):
-            idx = order[bounds[b]:bounds[b + 1]]
-            self.strata.append([s for s in (idx[nodes["depth"][idx] == 0], idx[nodes["depth"][idx] > 0])
-                                if s.size])
+        # the strata (0: source nodes, 1: surface nodes) of every batch, each as one array of
+        # node indices in batch order with each batch's offset and size
+        per_batch = [(idx[nodes["depth"][idx] == 0], idx[nodes["depth"][idx] > 0])
+                     for idx in (order[bounds[b]:bounds[b + 1]] for b in range(B))]
+        self.stratum_nodes = [np.concatenate([st[j] for st in per_batch]) for j in (0, 1)]
+        self.stratum_size = np.array([[st[j].size for j in (0, 1)] for st in per_batch], np.int64)   # (B, 2)
+        self.stratum_offset = np.cumsum(self.stratum_size, axis=0) - self.stratum_size
+        self.strata = (self.stratum_size > 0).sum(axis=1)
+        # each surface node's BSDF components towards its incoming direction (fixed per node)
+        surface = np.flatnonzero(nodes["depth"] > 0)
+        mu = np.clip(np.einsum("ij,ij->i", nodes["normal"][surface], nodes["incoming"][surface]), 1e-3, 1.0)
+        self.node_parts = scene.bsdf.parts(self.scene.material[nodes["triangle"][surface]], mu)
+        self.node_row = np.full(len(nodes["depth"]), -1, np.int64)
+        self.node_row[surface] = np.arange(surface.size)
+        # planar mirrors as virtual sources (Radiance's -dr 1): mirror triangles, when few
+        kind = scene.bsdf.code[scene.material]
+        mirrors = np.flatnonzero(kind == KINDS.index("mirror"))
+        self.mirrors = mirrors if mirrors.size <= MAX_VIRTUAL_MIRRORS else mirrors[:0]
+        self.virtual = np.zeros(len(scene.triangles) + 1, bool)   # index −1: no triangle
+        self.virtual[self.mirrors] = True
 
-    def source_draws(self, batch):
-        """Source-node draws per point of ``batch`` (0 when it has no source nodes)."""
-        st = self.strata[batch]
-        if not st or self.nodes["depth"][st[0][0]] != 0:
-            return 0
-        return max(1, self.k // len(st))
+    def draws(self, k):
+        """Draws per point and stratum of each batch when a point gathers ``k`` nodes: k split
+        over the batch's non-empty strata."""
+        return np.where(self.strata > 0, np.maximum(1, k // np.maximum(self.strata, 1)), 0)
 
-    def light_weight(self, batch, triangles, r2, cos_y, p_bsdf):
-        """Balance-heuristic weight w_L = K_s p_L/(K_s p_L + p_B) of emission points on
-        ``triangles`` at squared distance ``r2`` seen at cos θ_y, against the BSDF density."""
-        p_l = (self.source_draws(batch) * self.area_density[self.scene.emitter[triangles]] * r2
-               / np.maximum(cos_y, 1e-12))
-        return p_l / np.maximum(p_l + p_bsdf, 1e-300)
-
-    def gather(self, rng, x, n, wo, mat, batch, front):
-        """The connections' share of the luminance at points ``x`` towards ``wo`` [cd·m⁻²]."""
-        P = len(x)
-        total = np.zeros(P)
+    def light_weight(self, batch, triangles, r2, cos_y, p_bsdf, primary):
+        """Balance-heuristic weight w_L = K_s p_L/(K_s p_L + n_B p_B) of emission points on
+        ``triangles`` at squared distance ``r2`` seen at cos θ_y, against the BSDF density
+        (``batch``: the batch of each point; K_s its source draws, n_B its BSDF rays: those
+        of an eye vertex where ``primary`` (bool or per point), else of a vertex reached by a
+        sampled ray)."""
+        k = np.where(primary, self.k, self.k_secondary)
+        n_b = np.where(primary, self.rays, 1)
         strata = self.strata[batch]
-        if not P or not strata:
+        k_s = np.where(self.stratum_size[batch, 0] > 0, np.maximum(1, k // np.maximum(strata, 1)), 0)
+        p_l = k_s * self.area_density[self.scene.emitter[triangles]] * r2 / np.maximum(cos_y, 1e-12)
+        return p_l / np.maximum(p_l + n_b * p_bsdf, 1e-300)
+
+    def gather(self, rng, x, n, wo, mat, batch, front, primary=True):
+        """The connections' shares of the luminance at points ``x`` towards ``wo`` [cd·m⁻²]:
+        ``(diffuse, glossy)``, the parts scattered by the points' diffuse and glossy components.
+
+        ``batch``: the batch of each point, in non-decreasing order; ``rng`` the batches'
+        :class:`~lsadphoto.solver._sampling.GroupStreams` (the node draws of each batch come
+        from its own stream, as if the batches were gathered one at a time); ``primary``:
+        whether the points are eye vertices (K nodes each) or reached by sampled rays (K/rays).
+        """
+        P = len(x)
+        total = np.zeros((2, P))
+        if not P:
             return total
-        k_each = max(1, self.k // len(strata))
+        B = len(self.strata)
+        draws = self.draws(self.k if primary else self.k_secondary)
+        counts = np.bincount(batch, minlength=B)
+        # the points' BSDF components towards wo, once per point (not per pair)
+        parts = self.scene.bsdf.parts(mat, np.clip(np.einsum("ij,ij->i", n, wo), 1e-3, 1.0), front)
+        for j in (0, 1):
+            size = self.stratum_size[:, j]
+            k_b = np.where(size > 0, draws, 0)
+            rng.counts = np.where(size > 0, counts, 0)
+            local = rng.integers(size, k_b)
+            k_row = np.where(rng.counts[batch] > 0, k_b[batch], 0)
+            owner = np.repeat(np.arange(P), k_row)
+            pick = self.stratum_nodes[j][self.stratum_offset[batch[owner], j] + local]
+            val = np.zeros((2, pick.size))
+            for lo in range(0, pick.size, GATHER_PAIRS):
+                sl = slice(lo, lo + GATHER_PAIRS)
+                val[:, sl] = self._terms(pick[sl], owner[sl], x, n, wo, mat, batch, parts, primary)
+            scale = np.where(k_row > 0, size[batch] / np.maximum(k_row, 1), 0.0)
+            for c in (0, 1):
+                total[c] += np.bincount(owner, weights=val[c], minlength=P) * scale
+        return total / self.n_b
+
+    def _terms(self, pick, owner, x, n, wo, mat, batch, parts, primary):
+        """Connection terms f_p·|cos θ_p|·I_n/r²·T of the pairs (point ``owner``, node ``pick``),
+        shape (2, pairs): with the point's diffuse and glossy part of f_p; ``parts``: the
+        points' :meth:`~lsadphoto.solver.materials.MaterialTable.parts`. At surface nodes
+        I_n = W·f_n,diffuse·|cos θ_n| (their glossy part is left to the rays, see
+        :func:`_scattered`), so only the diffuse part of f_p connects to them."""
         nd = self.nodes
         bsdf = self.scene.bsdf
         eps = self.engine.epsilon
-        for stratum in strata:
-            pick = stratum[rng.integers(0, stratum.size, size=(P, k_each))].ravel()
-            owner = np.repeat(np.arange(P), k_each)
-            y, ny = nd["position"][pick], nd["normal"][pick]
-            v = y - x[owner]
-            r2 = np.einsum("ij,ij->i", v, v)
-            w = v / np.sqrt(np.maximum(r2, 1e-300))[:, None]
-            np_ = n[owner]
-            cos_p = np.einsum("ij,ij->i", w, np_)
-            f_d, f_g = bsdf.evaluate(mat[owner], np_, wo[owner], w, split=True)
-            kind = nd["kind"][pick]
-            surface = nd["depth"][pick] > 0
-            cos_n = -np.einsum("ij,ij->i", w, ny)
-            f_p = np.where(kind == KIND_COSINE, f_d, f_d + f_g)
-            emitter = np.flatnonzero((kind == KIND_COSINE) & ~surface & (f_g > 0))
-            if emitter.size:
-                p_b = bsdf.pdf(mat[owner[emitter]], np_[emitter], wo[owner[emitter]], w[emitter],
-                               np.asarray(front)[owner[emitter]])
-                f_p[emitter] += f_g[emitter] * self.light_weight(
-                    batch, nd["triangle"][pick[emitter]], r2[emitter], np.maximum(cos_n[emitter], 0.0), p_b)
-            intensity = np.where(kind == KIND_COSINE, nd["coefficient"][pick] * np.maximum(cos_n, 0.0), 0.0)
-            if surface.any():
-                s = np.flatnonzero(surface)
-                m_n = self.scene.material[nd["triangle"][pick[s]]]
-                f_n = bsdf.evaluate(m_n, ny[s], nd["incoming"][pick[s]], -w[s])
-                intensity[s] = nd["coefficient"][pick[s]] * f_n * np.abs(cos_n[s])
-            point = np.flatnonzero(kind != KIND_COSINE)
-            if point.size:
-                intensity[point] = nd["coefficient"][pick[point]] * self.sampler.point_intensity(
-                    nd["luminaire"][pick[point]], -w[point])
-            near = (kind == KIND_COSINE) & (r2 < self.eps2)
-            val = np.where(near | (r2 <= 0), 0.0, f_p * np.abs(cos_p) * intensity / np.maximum(r2, 1e-300))
-            ok = np.flatnonzero(val > 0)
-            if ok.size:
-                side_p = np.sign(cos_p[ok])[:, None]
-                side_n = np.where(surface[ok], np.sign(cos_n[ok]), 1.0)[:, None]
-                target = y[ok] + eps * side_n * ny[ok] * (kind[ok] == KIND_COSINE)[:, None]
-                val[ok] *= shadow_transmittance(self.scene, self.engine, x[owner[ok]] + eps * side_p * np_[ok],
-                                                target)
-            total += np.bincount(owner, weights=val, minlength=P) * (stratum.size / k_each)
-        return total / self.n_b
+        y, ny = nd["position"][pick], nd["normal"][pick]
+        v = y - x[owner]
+        r2 = np.einsum("ij,ij->i", v, v)
+        w = v / np.sqrt(np.maximum(r2, 1e-300))[:, None]
+        np_ = n[owner]
+        cos_p = np.einsum("ij,ij->i", w, np_)
+        f_d, f_g = bsdf.evaluate(mat[owner], np_, wo[owner], w, split=True,
+                                 parts={key: v[owner] for key, v in parts.items()})
+        kind = nd["kind"][pick]
+        surface = nd["depth"][pick] > 0
+        cos_n = -np.einsum("ij,ij->i", w, ny)
+        f_pg = np.where(kind == KIND_COSINE, 0.0, f_g)
+        emitter = np.flatnonzero((kind == KIND_COSINE) & ~surface & (f_g > 0))
+        if emitter.size:
+            p_b = bsdf.pdf(mat[owner[emitter]], np_[emitter], wo[owner[emitter]], w[emitter],
+                           parts={key: v[owner[emitter]] for key, v in parts.items()})
+            f_pg[emitter] = f_g[emitter] * self.light_weight(
+                batch[owner[emitter]], nd["triangle"][pick[emitter]], r2[emitter], np.maximum(cos_n[emitter], 0.0),
+                p_b, primary)
+        intensity = np.where(kind == KIND_COSINE, nd["coefficient"][pick] * np.maximum(cos_n, 0.0), 0.0)
+        if surface.any():
+            s = np.flatnonzero(surface)
+            m_n = self.scene.material[nd["triangle"][pick[s]]]
+            rows = self.node_row[pick[s]]
+            f_n, _ = bsdf.evaluate(m_n, ny[s], nd["incoming"][pick[s]], -w[s], split=True,
+                                   parts={key: v[rows] for key, v in self.node_parts.items()})
+            intensity[s] = nd["coefficient"][pick[s]] * f_n * np.abs(cos_n[s])
+        point = np.flatnonzero(kind != KIND_COSINE)
+        if point.size:
+            intensity[point] = nd["coefficient"][pick[point]] * self.sampler.point_intensity(
+                nd["luminaire"][pick[point]], -w[point])
+        near = (kind == KIND_COSINE) & (r2 < self.eps2)
+        geometry = np.where(near | (r2 <= 0), 0.0, np.abs(cos_p) * intensity / np.maximum(r2, 1e-300))
+        val = np.stack([f_d * geometry, f_pg * geometry])
+        ok = np.flatnonzero((val[0] > 0) | (val[1] > 0))
+        if ok.size:
+            side_p = np.sign(cos_p[ok])[:, None]
+            side_n = np.where(surface[ok], np.sign(cos_n[ok]), 1.0)[:, None]
+            target = y[ok] + eps * side_n * ny[ok] * (kind[ok] == KIND_COSINE)[:, None]
+            val[:, ok] *= shadow_transmittance(self.scene, self.engine, x[owner[ok]] + eps * side_p * np_[ok],
+                                               target)
+        source = np.flatnonzero(~surface)
+        for t in self.mirrors if source.size else ():
+            val[:, source] += self._mirrored(t, pick[source], owner[source], x, n, wo, mat, parts)
+        return val
+
+    def _mirrored(self, t, pick, owner, x, n, wo, mat, parts):
+        """Terms (2, pairs) of source nodes ``pick`` seen from points ``owner`` in mirror
+        triangle ``t``: connected to the node's image y' behind the mirror's plane, through
+        the point q where x→y' crosses the triangle (nothing in between, q→y unobstructed),
+        R·f_p(ω_{x→q})·|cos θ_p|·I_y(ω_{y→q})/|y' − x|² (Radiance's virtual sources). The
+        sampled rays count no emission reached by one mirror reflection from a non-delta
+        vertex (:func:`_scattered`), so each path is counted once."""
+        scene, nd, eps = self.scene, self.nodes, self.engine.epsilon
+        out = np.zeros((2, pick.size))
+        p0, nm = scene.triangles[t, 0], scene.normals[t]
+        y, xp = nd["position"][pick], x[owner]
+        hy, hx = (y - p0) @ nm, (xp - p0) @ nm
+        live = np.flatnonzero((hy > 0) & (hx > 0))             # both in front of the mirror
+        if not live.size:
+            return out
+        image = y[live] - 2 * hy[live, None] * nm
+        v = image - xp[live]
+        length = np.sqrt(np.einsum("ij,ij->i", v, v))
+        w = v / length[:, None]
+        np_ = n[owner[live]]
+        cos_p = np.einsum("ij,ij->i", w, np_)
+        origin = xp[live] + eps * np.sign(cos_p)[:, None] * np_
+        prim, dist = self.engine.closest_hit(origin, w)
+        crossed = np.flatnonzero((prim == t) & (dist < length))
+        if not crossed.size:
+            return out
+        live, w, cos_p, length, np_ = live[crossed], w[crossed], cos_p[crossed], length[crossed], np_[crossed]
+        q = origin[crossed] + dist[crossed, None] * w
+        to_q = q - y[live]
+        to_q /= np.linalg.norm(to_q, axis=1, keepdims=True)
+        k = pick[live]
+        is_cos = nd["kind"][k] == KIND_COSINE
+        intensity = np.where(is_cos, nd["coefficient"][k] * np.maximum(np.einsum("ij,ij->i", to_q, nd["normal"][k]),
+                                                                       0.0), 0.0)
+        point = np.flatnonzero(~is_cos)
+        if point.size:
+            intensity[point] = nd["coefficient"][k[point]] * self.sampler.point_intensity(
+                nd["luminaire"][k[point]], to_q[point])
+        o = owner[live]
+        reflectance = scene.bsdf.delta(np.full(live.size, scene.material[t]), np.abs(w @ nm),
+                                       np.ones(live.size, bool))[0]
+        geometry = reflectance * np.abs(cos_p) * intensity / (length * length)
+        geometry *= self.engine.visible(q + eps * nm, y[live] + eps * nd["normal"][k] * is_cos[:, None])
+        f_d, f_g = scene.bsdf.evaluate(mat[o], np_, wo[o], w, split=True,
+                                       parts={key: value[o] for key, value in parts.items()})
+        out[:, live] = np.stack([f_d * geometry, f_g * geometry])
+        return out
+
+
+def _uniforms(rng, batch, columns):
+    """Uniforms (len(batch), columns) for rows of non-decreasing ``batch``, each batch's from
+    its own stream."""
+    rng.counts = np.bincount(batch, minlength=len(rng.gens))
+    return rng.random((len(batch), columns))
 
 
 def _material_paths(scene, engine, gatherer, rng, x, n, front, tri, wo, batch, near_distance):
     """Per-path luminance [cd·m⁻²] towards ``wo`` at the primary points (emission excluded):
     the eye path followed through delta surfaces, and at each vertex the connections plus
-    the BSDF-sampled rays of the rest (:func:`_scattered`)."""
+    the BSDF-sampled rays of the rest (:func:`_scattered`). Rows are ordered by ``batch``
+    (each path's batch); ``rng``: the batches' streams.
+
+    At a delta vertex the path goes on with weight R + T (no roulette): in the reflected or
+    the transmitted direction, chosen in proportion to R and T, except at the first
+    :data:`DELTA_SPLITS` vertices that have both (glass), where it splits into both, of
+    weights R and T — the luminaire or sky seen through a pane and its reflection in the
+    pane then cost no variance."""
     bsdf = scene.bsdf
     eps = engine.epsilon
     total = np.zeros(len(x))
     idx = np.arange(len(x))
-    for _ in range(MAX_DELTA_BOUNCES + 1):
+    weight = np.ones(len(x))
+    for level in range(MAX_DELTA_BOUNCES + 1):
         if not idx.size:
             break
         mat = scene.material[tri]
-        total[idx] += gatherer.gather(rng, x, n, wo, mat, batch, front)
-        total[idx] += _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_distance)
-        # continue through the delta parts: survive with R + T, choose one in proportion
-        r, t = bsdf.delta(mat, np.einsum("ij,ij->i", n, wo), front)
-        u = rng.random((len(idx), 2))
-        go = u[:, 0] < r + t
-        refl = u[:, 1] * (r + t) < r
-        d = np.where(refl[:, None], 2 * np.einsum("ij,ij->i", n, wo)[:, None] * n - wo, -wo)
+        value = gatherer.gather(rng, x, n, wo, mat, batch, front).sum(axis=0)
+        # the rays of the rest, gatherer.rays per vertex, each counted 1/rays
+        rows = np.repeat(np.arange(idx.size), gatherer.rays)
+        part = _scattered(scene, engine, gatherer, rng, x[rows], n[rows], np.asarray(front)[rows], wo[rows],
+                          mat[rows], batch[rows], near_distance)
+        value += np.bincount(rows, weights=part, minlength=idx.size) / gatherer.rays
+        np.add.at(total, idx, weight * value)
+        # continue through the delta parts
+        mu = np.einsum("ij,ij->i", n, wo)
+        r, t = bsdf.delta(mat, mu, front)
+        u = _uniforms(rng, batch, 1)[:, 0]
+        split = (r > 0) & (t > 0) & (level < DELTA_SPLITS)
+        count = np.where(split, 2, (r + t > 0).astype(np.int64))
+        parent = np.repeat(np.arange(idx.size), count)
+        first_child = np.r_[True, parent[1:] != parent[:-1]] if parent.size else parent.astype(bool)
+        refl = np.where(split[parent], first_child, u[parent] * (r + t)[parent] < r[parent])
+        weight = weight[parent] * np.where(split[parent], np.where(refl, r[parent], t[parent]), (r + t)[parent])
+        idx, x, n, batch, wo, mu = idx[parent], x[parent], n[parent], batch[parent], wo[parent], mu[parent]
+        d = np.where(refl[:, None], 2 * mu[:, None] * n - wo, -wo)
         side = np.where(refl, 1.0, -1.0)[:, None]
-        idx, x, n, d, side = idx[go], x[go], n[go], d[go], side[go]
         if not idx.size:
             break
         prim, dist = engine.closest_hit(x + eps * side * n, d)
         hit = prim >= 0
-        idx, x, n, d, side, prim, dist = idx[hit], x[hit], n[hit], d[hit], side[hit], prim[hit], dist[hit]
+        idx, x, n, d, side, prim, dist, batch, weight = (idx[hit], x[hit], n[hit], d[hit], side[hit], prim[hit],
+                                                         dist[hit], batch[hit], weight[hit])
         x = x + eps * side * n + dist[:, None] * d
         n, front = scene.facing_normals(prim, d)
         wo, tri = -d, prim
-        total[idx] += emitted_luminance(scene, prim, wo)
+        np.add.at(total, idx, weight * emitted_luminance(scene, prim, wo))
     return total
 
 
@@ -511,13 +667,23 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     """What the connections leave out, by BSDF-sampled rays.
 
     At each vertex one ray is drawn from the BSDF mixture (weight w = f·|μ_i|/p, or R/P_R,
-    T/P_T for a delta; at the first vertex the eye path follows the deltas itself). A path
-    carries two weights: β for the radiance that the previous vertex's connections did not
-    cover (h = f_glossy + f_diffuse·[hit closer than ε], and for emission the
-    balance-heuristic complement), and β_f for radiance reflected by a delta at the hit,
-    which no connection reaches (the full w). A delta reflection turns β_f into the weight
-    of everything beyond it; a straight-through transmission keeps both (connections pass
-    it). Russian roulette min(1, w) after the first ray.
+    T/P_T for a delta; at the first vertex the eye path follows the deltas itself). The
+    luminance leaving a hit splits into its diffuse part L_D (what the hit's diffuse
+    component scatters) and the rest, L_G (glossy lobes and deltas). A path carries two
+    weights: β for L_D and β_f for L_G. From a vertex of weights (β, β_f) with BSDF parts
+    f_d, f_g, a ray reaching a hit at distance r gets
+
+    * β' = (β f_d [r < ε] + β_f f_g)·|μ|/p: the connections to surface nodes (beyond ε, with
+      the nodes' diffuse part only) cover β f_d L_D;
+    * β_f' = (β f_d + β_f f_g)·|μ|/p: no connection covers the glossy or delta light of the hit;
+    * emission: (β f_d + β_f f_g)·|μ|/p closer than ε, else β_f f_g w_B·|μ|/p, w_B the
+      balance-heuristic complement of the emitter connections (also behind straight-through
+      transmissions, which connections pass with their transmittance).
+
+    A delta reflection turns β_f into the weight of everything beyond it (no connection
+    reaches through it); a straight-through transmission keeps both. Russian roulette
+    min(1, w) after the first ray. Each hit adds β·(diffuse share of its connections) +
+    β_f·(glossy share).
     """
     bsdf = scene.bsdf
     eps = engine.epsilon
@@ -525,76 +691,107 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     idx = np.arange(len(x))
     beta = np.ones(len(x))
     beta_f = np.ones(len(x))
+    # since the last non-delta vertex (for emission behind straight-through transmissions):
+    # emission weights near / far, that vertex's BSDF density, whether it was an eye vertex,
+    # the distance travelled, and whether only straight-through transmissions followed it
+    e_near, e_far, pdf_v, primary_v, travelled = (np.zeros(len(x)) for _ in range(5))
+    through = np.zeros(len(x), bool)
+    # the triangle of each vertex (−1 at the first), and whether a non-delta ray reached it
+    tri = np.full(len(x), -1, np.int64)
+    arrived = np.zeros(len(x), bool)
     first = True
     while idx.size:
-        u = rng.random((idx.size, 4))
+        u = _uniforms(rng, batch, 4)
         wi, w, delta, _ = bsdf.sample(mat, n, wo, u[:, :3], front)
         keep = (w > 0) & ~(delta & first)
-        idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u = (
-            idx[keep], beta[keep], beta_f[keep], x[keep], n[keep], wi[keep], w[keep], delta[keep], wo[keep],
-            mat[keep], u[keep])
+        (idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u, batch, e_near, e_far, pdf_v, primary_v, travelled,
+         through, tri, arrived) = (a[keep] for a in (idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u, batch, e_near,
+                                                     e_far, pdf_v, primary_v, travelled, through, tri, arrived))
         front = np.asarray(front)[keep]
         if not idx.size:
             break
         side = np.sign(np.einsum("ij,ij->i", wi, n))[:, None]
         prim, dist = engine.closest_hit(x + eps * side * n, wi)
         reflected = delta & (side[:, 0] > 0)
-        # weights of the hit's reflected radiance (b), delta radiance (bf) and emission (be)
+        # weights of the hit's diffuse (b) and other (bf) luminance after a delta
         b = np.where(reflected, beta_f, beta) * w
-        bf = np.where(delta, beta_f, beta) * w
+        bf = beta_f * w
+        # … and of its emission: all of it after a delta reflection
         be = b.copy()
-        nd = np.flatnonzero(~delta & (prim >= 0))
+        through = through & delta & ~reflected
+        e_near, e_far = e_near * w, e_far * w
+        travelled = travelled + np.where(np.isfinite(dist), dist, 0.0)
+        nd = np.flatnonzero(~delta)
         if nd.size:
             f_d, f_g = bsdf.evaluate(mat[nd], n[nd], wo[nd], wi[nd], split=True)
             pdf = bsdf.pdf(mat[nd], n[nd], wo[nd], wi[nd], front[nd])
             mu = np.abs(np.einsum("ij,ij->i", n[nd], wi[nd]))
             near = dist[nd] < near_distance
             scale = np.where(pdf > 0, mu / np.maximum(pdf, 1e-300), 0.0)
-            b[nd] = beta[nd] * (f_g + f_d * near) * scale
-            lit = scene.emitter[prim[nd]] >= 0
-            w_b = np.ones(nd.size)
-            if lit.any():
-                cos_y = np.abs(np.einsum("ij,ij->i", scene.normals[prim[nd][lit]], wi[nd][lit]))
-                w_b[lit] = 1 - gatherer.light_weight(batch, prim[nd][lit], dist[nd][lit] ** 2, cos_y, pdf[lit])
-            be[nd] = beta[nd] * np.where(near, f_d + f_g, f_g * w_b) * scale
+            b[nd] = (beta[nd] * f_d * near + beta_f[nd] * f_g) * scale
+            bf[nd] = (beta[nd] * f_d + beta_f[nd] * f_g) * scale
+            e_near[nd], e_far[nd] = bf[nd], beta_f[nd] * f_g * scale
+            pdf_v[nd], primary_v[nd], travelled[nd], through[nd] = pdf, first, dist[nd], True
+        # emission where the path left a non-delta vertex and went straight on since
+        lit = np.flatnonzero(through & (prim >= 0))
+        if lit.size:
+            lit = lit[scene.emitter[prim[lit]] >= 0]
+        if lit.size:
+            cos_y = np.abs(np.einsum("ij,ij->i", scene.normals[prim[lit]], wi[lit]))
+            w_b = 1 - gatherer.light_weight(batch[lit], prim[lit], travelled[lit] ** 2, cos_y, pdf_v[lit],
+                                            primary_v[lit].astype(bool))
+            be[lit] = np.where(travelled[lit] < near_distance, e_near[lit], e_far[lit] * w_b)
+        # emission one mirror reflection away from a non-delta vertex: that vertex's virtual sources
+        be[reflected & arrived & gatherer.virtual[tri]] = 0.0
         hit = prim >= 0
         if hit.any():
             total[idx[hit]] += be[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
         q = np.ones(idx.size) if first else np.minimum(w, 1.0)
         go = hit & ((b > 0) | (bf > 0)) & (u[:, 3] < q)
-        idx, beta, beta_f, x, n, wi, side, prim, dist = (
-            idx[go], b[go] / q[go], bf[go] / q[go], x[go], n[go], wi[go], side[go], prim[go], dist[go])
+        (idx, beta, beta_f, x, n, wi, side, prim, dist, batch, e_near, e_far, pdf_v, primary_v, travelled,
+         through, arrived) = (a[go] for a in (idx, b / q, bf / q, x, n, wi, side, prim, dist, batch, e_near / q,
+                                              e_far / q, pdf_v, primary_v, travelled, through, ~delta))
+        tri = prim
         if not idx.size:
             break
         x = x + eps * side * n + dist[:, None] * wi
         n, front = scene.facing_normals(prim, wi)
         wo, mat = -wi, scene.material[prim]
-        total[idx] += beta * gatherer.gather(rng, x, n, wo, mat, batch, front)
+        diffuse, glossy = gatherer.gather(rng, x, n, wo, mat, batch, front, primary=False)
+        total[idx] += beta * diffuse + beta_f * glossy
         first = False
     return total
 
 
 def render_local_estimate_materials(scene, projection, *, position, rotation, samples=65536, seed=0,
-                                    batches=16, nodes_per_pixel=AUTO_NODES_PER_PIXEL, near_distance=None,
-                                    max_depth=None, chunk_pixels=2048, workers=1, progress=None):
+                                    batches=16, nodes_per_pixel=AUTO_NODES_PER_PIXEL, rays_per_vertex=RAYS_PER_VERTEX,
+                                    near_distance=None, max_depth=None, chunk_pixels=2048, workers=1,
+                                    progress=None):
     """Luminance map [cd·m⁻²] of a scene with glossy, specular or transmitting materials by the
     double local estimate.
 
     ``samples`` light chains (:func:`~lsadphoto.solver.chains.trace_material_chains`, each
     sampling the BSDFs) in ``batches`` batches; for each pixel and batch the eye path is
     followed through perfectly specular surfaces (mirror, glass, smooth plastic's mirror part:
-    one delta chosen in proportion to R and T, survival R + T) and at every vertex the
+    :func:`_material_paths`) and at every vertex the
     non-delta BSDF is evaluated towards the eye and connected to ``nodes_per_pixel`` chain
     nodes (:class:`_MaterialGatherer`), with the near field (nodes closer than
-    ``near_distance``, default 1 % of the scene size) replaced by BSDF-sampled rays.
-    Connections pass straight-through transmitters (glass) with their transmittance; light
-    that reaches a non-specular point after a delta reflection (a floor lit by a mirror, by
-    the reflection of a luminaire in glass) comes from the sampled rays (:func:`_scattered`).
+    ``near_distance``, default 1 % of the scene size) replaced by BSDF-sampled rays:
+    ``rays_per_vertex`` of them at each eye vertex (each counted 1/n, the balance heuristic
+    with n times the BSDF density), the vertices they reach gathering ``nodes_per_pixel`` /
+    ``rays_per_vertex`` nodes. Connections pass straight-through transmitters (glass) with
+    their transmittance, and reach source nodes through planar mirrors as virtual sources
+    (:data:`MAX_VIRTUAL_MIRRORS` mirror triangles at most); connections to surface nodes use
+    the nodes' diffuse part. The rest — glossy light of surfaces, light after other delta
+    reflections (the reflection of a luminaire in glass on a floor), the near field — comes
+    from the sampled rays (:func:`_scattered`).
 
     References
     ----------
-    Marchuk et al. (1980), §3.3 (local estimates). Veach (1997), §10 (connections and
-    specular vertices).
+    Marchuk et al. (1980), §3.3 (local estimates). Veach (1997), §9.2 (multiple importance
+    sampling), §10 (connections and specular vertices). Ward, G. J. (1994). The RADIANCE
+    lighting simulation and rendering system. *SIGGRAPH '94*, 459–472 (virtual light sources
+    for planar mirrors).
     """
     from ..chains import CHAIN_BLOCK as _BLOCK
     from ..chains import EmissionSampler, trace_material_chains
@@ -608,13 +805,16 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
     near_distance = float(RELATIVE_NEAR_DISTANCE * scene.size if near_distance is None else near_distance)
     if not near_distance > 0:
         raise BadInputError(f"near_distance must be positive, got {near_distance!r}")
+    for name, value in (("nodes_per_pixel", nodes_per_pixel), ("rays_per_vertex", rays_per_vertex)):
+        if isinstance(value, (str, bool)) or int(value) != value or value < 1:
+            raise BadInputError(f"{name} must be a positive integer, got {value!r}")
     t0 = time.perf_counter()
     engine = engine_for(scene)
     sampler = EmissionSampler(scene)
     nodes = trace_material_chains(scene, engine, seed=seed, blocks=-(-samples // _BLOCK), batches=batches,
                                   max_depth=max_depth, sampler=sampler)
     gatherer = _MaterialGatherer(scene, engine, sampler, nodes, per_pixel=nodes_per_pixel,
-                                 near_distance=near_distance)
+                                 near_distance=near_distance, rays=rays_per_vertex)
     valid, prim, dist, d = primary_rays(scene, engine, projection, position, rotation)
     hit = np.flatnonzero(prim >= 0)
     lum_b = np.zeros((valid.size, batches))
@@ -624,11 +824,14 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
         c = chunk_hits(scene, position, hit, prim, dist, d, start, chunk)
         out = np.repeat(c.emitted[:, None], batches, axis=1)
         for j in np.unique(c.block):
+            # the block's pixels in all batches at once, batch-major, each batch from its own stream
             m = np.flatnonzero(c.block == j)
-            for b in range(batches):
-                rng = stream(seed, "near", b, j)
-                out[m, b] += _material_paths(scene, engine, gatherer, rng, c.point[m], c.normal[m], c.front[m],
-                                             c.triangle[m], -d[c.index[m]], b, near_distance)
+            rows = np.tile(m, batches)
+            batch = np.repeat(np.arange(batches), m.size)
+            rng = GroupStreams([stream(seed, "near", b, j) for b in range(batches)])
+            value = _material_paths(scene, engine, gatherer, rng, c.point[rows], c.normal[rows], c.front[rows],
+                                    c.triangle[rows], -d[c.index[rows]], batch, near_distance)
+            out[m] += value.reshape(batches, m.size).T
         return c.index, out
 
     run_chunks(work, range(0, hit.size, chunk), lum_b, workers, progress, t0, hit.size)
@@ -639,6 +842,7 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
         extra={"samples": int(nodes["chains"]), "chains": int(nodes["chains"]),
                "nodes": int(nodes["position"].shape[0]), "near_field": "unbiased",
                "near_distance_m": near_distance, "near_field_biased": False,
-               "nodes_per_pixel": int(nodes_per_pixel), "seed": int(seed),
+               "nodes_per_pixel": int(nodes_per_pixel), "rays_per_vertex": int(rays_per_vertex),
+               "seed": int(seed),
                },
         elapsed=time.perf_counter() - t0, pose=(position, rotation))

@@ -16,7 +16,7 @@ import time
 import numpy as np
 
 from ...errors import BadInputError
-from .._sampling import cosine_directions, stream
+from .._sampling import GroupStreams, cosine_directions, stream
 from ..chains import EmissionSampler
 from ..engine import engine_for
 from ..materials import shadow_transmittance
@@ -27,24 +27,6 @@ from .eye import (PIXEL_BLOCK, check_pose, chunk_hits, chunk_size, emitted_lumin
                   warn_odd_view)
 
 __all__ = ["render_path_traced"]
-
-
-class _GroupStreams:
-    """Draws for paths sorted by group, each group from its own generator.
-
-    ``counts`` (set before each use) holds the number of live paths per group; ``random``
-    concatenates each generator's draws, so a group's numbers do not depend on which
-    other groups share the array.
-    """
-
-    def __init__(self, gens):
-        self.gens = gens
-        self.counts = np.zeros(len(gens), dtype=np.int64)
-
-    def random(self, size):
-        shape = (size,) if np.isscalar(size) else tuple(size)
-        rest = shape[1:]
-        return np.concatenate([g.random((int(c), *rest)) for g, c in zip(self.gens, self.counts)])
 
 
 def render_path_traced(scene, projection, *, position, rotation, samples=64, seed=0, batches=16,
@@ -100,7 +82,7 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
         pix = np.tile(np.repeat(np.arange(h.size), per_batch), batches)
         path_batch = np.repeat(np.arange(batches), h.size * per_batch)
         group = path_batch * n_blocks + local_block[pix]
-        streams = _GroupStreams([stream(seed, "path", b, j0 + jl)
+        streams = GroupStreams([stream(seed, "path", b, j0 + jl)
                                  for b in range(batches) for jl in range(n_blocks)])
         acc = np.zeros(pix.size)
         alive = np.arange(pix.size)
