@@ -347,6 +347,7 @@ class Scene:
     name: str = "scene"
     source: dict = field(default_factory=dict)
     surface_materials: list = None
+    distant_sources: list = field(default_factory=list)
 
     def __post_init__(self):
         self.triangles = np.ascontiguousarray(self.triangles, dtype=float).reshape(-1, 3, 3)
@@ -365,7 +366,7 @@ class Scene:
         self.reflectance = np.asarray(self.reflectance, dtype=float)
         if np.any(self.reflectance < 0) or np.any(self.reflectance >= 1):
             raise BadInputError("reflectance must be in [0, 1)")
-        if not self.area_luminaires and not self.point_luminaires:
+        if not self.area_luminaires and not self.point_luminaires and not self.distant_sources:
             raise BadInputError("scene has no luminaires")
         lo = self.triangles.reshape(-1, 3).min(axis=0)
         hi = self.triangles.reshape(-1, 3).max(axis=0)
@@ -375,6 +376,9 @@ class Scene:
         self.bounds = (lo, hi)
         #: Characteristic size of the scene: diagonal of its bounding box [m].
         self.size = float(np.linalg.norm(hi - lo))
+        #: Bounding sphere (centre [m], radius [m]) through which distant sources' light
+        #: enters (:mod:`lsadphoto.solver.sky`).
+        self.sphere = (0.5 * (lo + hi), 0.5 * self.size * (1 + 1e-3) + 1e-9)
         self.triangle_reflectance = self.reflectance[self.material]
         self.bsdf = None
         if self.surface_materials is not None:
@@ -443,13 +447,20 @@ class Scene:
     def __repr__(self):
         return (f"Scene({self.name!r}, {len(self.triangles)} triangles, "
                 f"{len(self.area_luminaires)} area + {len(self.point_luminaires)} point luminaires, "
+                f"{len(self.distant_sources)} distant sources, "
                 f"{len(self.views)} views)")
 
     @property
     def total_flux(self):
         """Luminous flux of all luminaires [lm]."""
         return (sum(l.flux for l in self.area_luminaires)
-                + sum(l.flux for l in self.point_luminaires))
+                + sum(l.flux for l in self.point_luminaires)
+                + sum(self.distant_flux(s) for s in self.distant_sources))
+
+    def distant_flux(self, source):
+        """Luminous flux [lm] of a distant source through the cross-section πR² of the
+        scene's bounding sphere (what the light chains carry into the scene)."""
+        return math.pi * self.sphere[1] ** 2 * source.integral
 
     def facing_normals(self, prim, direction):
         """Normals of triangles ``prim`` turned against rays of unit ``direction`` that hit
