@@ -44,8 +44,8 @@ import numpy as np
 from ..errors import BadInputError
 from ._sampling import orthonormal_basis, stream
 
-__all__ = ["DistantSource", "SKY_FUNCTIONS", "background_luminance", "distant_illuminance",
-           "sky_luminance_shape"]
+__all__ = ["DISTANT_SAMPLES", "DistantSource", "SKY_FUNCTIONS", "background_luminance",
+           "distant_illuminance", "distant_uniforms", "sky_luminance_shape"]
 
 #: The sky functions read natively: (function, .cal file) → number of real arguments.
 SKY_FUNCTIONS = {("skybr", "skybright.cal"): (3, 7), ("skybright", "perezlum.cal"): (10,)}
@@ -261,12 +261,37 @@ def background_luminance(scene, directions):
     return out
 
 
-def distant_illuminance(scene, engine, points, normals, *, samples, seed, purpose_key, block_ids=None):
+#: Shadow rays per distant source and point of :func:`distant_illuminance` in the
+#: estimators (per batch in the double local estimate; × the direct samples' growth of the
+#: surface cache's rounds).
+DISTANT_SAMPLES = 4
+
+
+def distant_uniforms(scene, seed, key, blocks, samples, generators=None):
+    """Uniforms ``(P, sources, samples, 3)`` for :func:`distant_illuminance`: each block of
+    ``blocks`` (one key per point) from its own stream ``(seed, "distant", *key, block)``,
+    so results do not depend on how points are chunked. ``generators`` (a dict) keeps the
+    streams between calls, so that repeated calls for one block draw new numbers."""
+    blocks = np.asarray(blocks)
+    u = np.empty((len(blocks), len(scene.distant_sources), int(samples), 3))
+    for j in np.unique(blocks):
+        m = blocks == j
+        g = None if generators is None else generators.get((*key, j))
+        if g is None:
+            g = stream(seed, "distant", *key, j)
+            if generators is not None:
+                generators[(*key, j)] = g
+        u[m] = g.random((int(m.sum()), *u.shape[1:]))
+    return u
+
+
+def distant_illuminance(scene, engine, points, normals, u):
     """Direct illuminance [lx] of the scene's distant sources at points, and its variance.
 
-    ``samples`` shadow rays per source and point, directions drawn by
-    :meth:`DistantSource.sample`; E = Σ_sources K·mean(w·max(0, n·ω)·V) (unbiased). The random
-    streams are ``(seed, "direct", purpose_key, block, 2)`` per block of ``block_ids``.
+    ``u`` ``(P, sources, s, 3)`` uniforms (:func:`distant_uniforms`): s shadow rays per
+    source and point, directions drawn by :meth:`DistantSource.sample`;
+    E = Σ_sources K·mean(w·max(0, n·ω)·V), unbiased; the variance is the samples' (for s = 1
+    the square of the estimate, an upper bound).
     """
     x = np.asarray(points, float).reshape(-1, 3)
     n = np.asarray(normals, float).reshape(-1, 3)
@@ -275,17 +300,13 @@ def distant_illuminance(scene, engine, points, normals, *, samples, seed, purpos
     sources = scene.distant_sources
     if P == 0 or not sources:
         return E, var
-    s = int(samples)
-    blocks = np.zeros(P, dtype=np.int64) if block_ids is None else np.asarray(block_ids)
-    u = np.empty((P, len(sources), s, 3))
-    for j in np.unique(blocks):
-        m = blocks == j
-        u[m] = stream(seed, "direct", purpose_key, j, 2).random((int(m.sum()), len(sources), s, 3))
+    s = u.shape[2]
     origins = np.repeat(x + engine.epsilon * n, s, axis=0).astype(np.float32)
+    normals_s = np.repeat(n, s, axis=0)
     reach = np.float32(4 * scene.sphere[1] + 1.0)
     for k, src in enumerate(sources):
         d, w = src.sample(u[:, k].reshape(-1, 3))
-        g = w * np.einsum("ij,ij->i", d, np.repeat(n, s, axis=0))
+        g = w * np.einsum("ij,ij->i", d, normals_s)
         lit = np.flatnonzero(g > 0)
         value = np.zeros(P * s)
         if lit.size:
@@ -293,8 +314,5 @@ def distant_illuminance(scene, engine, points, normals, *, samples, seed, purpos
             value[lit] = np.where(blocked, 0.0, src.integral * g[lit])
         value = value.reshape(P, s)
         E += value.mean(axis=1)
-        if s > 1:
-            var += value.var(axis=1, ddof=1) / s
-        else:
-            var += value[:, 0] ** 2  # one sample: its square bounds the variance
+        var += value.var(axis=1, ddof=1) / s if s > 1 else value[:, 0] ** 2
     return E, var

@@ -55,6 +55,7 @@ from .._sampling import stream
 from ..engine import engine_for
 from ..materials import shadow_transmittance
 from ..scene import Scene
+from ..sky import DISTANT_SAMPLES, distant_illuminance, distant_uniforms
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance,
                   luminance_map_from_batches, luminous_openings, near_step, primary_rays,
@@ -97,6 +98,7 @@ class _Gatherer:
         self.per_pixel = per_pixel
         self.seed = seed
         self.tiny = 1e-9 * store.scene.size
+        self.n_b = store.chains_per_batch
         order = np.argsort(store.batch, kind="stable")
         bounds = np.searchsorted(store.batch[order], np.arange(store.batches + 1))
         self.batch_nodes = [order[bounds[b]:bounds[b + 1]] for b in range(store.batches)]
@@ -206,11 +208,11 @@ class _Gatherer:
         """
         P = len(points)
         idx_all = self.batch_nodes[batch]
+        total = self._distant(points, normals, batch, block_ids)
         if P == 0 or idx_all.size == 0:
-            return np.zeros(P)
+            return total
         origins = points + self.engine.epsilon * normals
         if self.per_pixel is not None:
-            total = np.zeros(P)
             for stratum, k in zip(self.strata[batch], self.stratum_draws[batch]):
                 if k == 0:
                     continue
@@ -241,7 +243,16 @@ class _Gatherer:
                                              lambda sel, K=K: sel // K, origins)
             if sel.size:
                 out += np.bincount(sel // K, weights=terms, minlength=P)
-        return out
+        return out + total
+
+    def _distant(self, points, normals, batch, block_ids):
+        """E·N_b [lm·m⁻²·chains] of the distant sources at ``points``, next-event estimated
+        (:func:`~lsadphoto.solver.sky.distant_illuminance`: they leave no source nodes)."""
+        if not self.scene.distant_sources or len(points) == 0:
+            return np.zeros(len(points))
+        blocks = np.zeros(len(points), np.int64) if block_ids is None else block_ids
+        u = distant_uniforms(self.scene, self.seed, (1, batch), blocks, DISTANT_SAMPLES, self._gens)
+        return distant_illuminance(self.scene, self.engine, points, normals, u)[0] * self.n_b
 
 
 def _near_field_terms(scene, engine, gatherer, points, normals, rho, batch, block_ids, seed,
@@ -601,6 +612,9 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
 
     if not isinstance(scene, Scene) or scene.bsdf is None:
         raise BadInputError("render_local_estimate_materials needs a Scene with non-Lambertian materials")
+    if scene.distant_sources:
+        raise BadInputError(f"{scene.name}: the double local estimate with materials does not model distant "
+                            "sources (sun, sky) yet; use render_path_traced (--estimator path)")
     position, rotation = check_pose(position, rotation)
     samples, batches = int(samples), int(batches)
     if batches < 2 or _BLOCK % batches or samples < _BLOCK:
