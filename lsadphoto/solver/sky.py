@@ -16,8 +16,10 @@ How the estimators use them (one path per concept):
 * **direct light** at a point x with normal n, E = ∫ L(ω) max(0, n·ω) V(x, ω) dω, by
   next-event estimation with directions drawn in proportion to L (:meth:`DistantSource.sample`;
   uniform in the cone for a uniform source, a tabulated 32 × 64 grid of equal-solid-angle
-  cells for a sky, with the weight L(ω)/(p(ω)·K), K = ∫L dω): unbiased, and exact for a
-  fully visible sun (:func:`distant_illuminance`);
+  cells for a sky, with the weight L(ω)/(p(ω)·K), K = ∫L dω), the s directions of a point
+  stratified (jittered on a ⌊√s⌋² grid of the unit square, which the sampler maps
+  continuously onto the cone): unbiased, and exact for a fully visible sun
+  (:func:`distant_illuminance`);
 * **light chains** enter the scene through its bounding sphere: a source chosen in
   proportion to its flux Φ = πR²·K through the sphere's cross-section, a direction ω drawn
   as above, a point uniform on the disc of radius R perpendicular to ω, the chain travelling
@@ -182,7 +184,7 @@ class DistantSource:
         #: (the sun's normal illuminance), the flux per unit area of a plane of any
         #: orientation across the light.
         self.integral = (self.luminance * self.solid_angle if self.function is None
-                         else self.luminance * self._table["mass"].sum())
+                         else self.luminance * float(self._table["mass"].sum()))
 
     def to_dict(self):
         """JSON-ready description (stores)."""
@@ -230,25 +232,35 @@ class DistantSource:
         values = self._shape(self._directions(cu[:, None], ph[None, :]).reshape(-1, 3))
         mean = values.reshape(nu, k, nphi, k).mean(axis=(1, 3))
         mean = np.maximum(mean, 1e-6 * mean.max(initial=0.0))  # p > 0 wherever light may come from
-        cell = self.solid_angle / (nu * nphi)
-        mass = (mean * cell).ravel()
-        cdf = np.cumsum(mass)
-        self._table = {"mean": mean.ravel(), "mass": mass, "cdf": cdf / cdf[-1]}
+        mass = mean * (self.solid_angle / (nu * nphi))
+        rows = mass.sum(axis=1)
+        self._table = {"mean": mean, "mass": mass, "rows": np.cumsum(rows) / rows.sum(),
+                       "row_mass": rows, "cols": np.cumsum(mass, axis=1) / rows[:, None]}
 
     def sample(self, u):
-        """Directions towards the source from uniforms ``u`` ``(n, 3)`` and their weights
-        L(ω)/(p(ω)·K) (1 for a uniform source), so that K·weight·g(ω) estimates ∫L g dω."""
+        """Directions towards the source from uniforms ``u`` ``(n, ≥ 2)`` and their weights
+        L(ω)/(p(ω)·K) (1 for a uniform source), so that K·weight·g(ω) estimates ∫L g dω.
+
+        The unit square maps continuously onto the cone (cos θ from ``u[:, 0]``, azimuth from
+        ``u[:, 1]``; for a sky through the table's marginal and conditional distributions of
+        cells, piecewise constant density), so stratified uniforms give stratified directions.
+        """
         n = len(u)
         if self.function is None:
             cos_t = 1 - u[:, 0] * (1 - self.cos_half)
             return self._directions(cos_t, 2 * math.pi * u[:, 1]), np.ones(n)
         t = self._table
-        cell = np.minimum(np.searchsorted(t["cdf"], u[:, 2], side="right"), len(t["cdf"]) - 1)
         nu, nphi = TABLE_CELLS
-        iu, ip = np.divmod(cell, nphi)
-        cos_t = self.cos_half + (1 - self.cos_half) * (iu + u[:, 0]) / nu
-        d = self._directions(cos_t, 2 * math.pi * (ip + u[:, 1]) / nphi)
-        return d, self._shape(d) / t["mean"][cell]
+        iu = np.minimum(np.searchsorted(t["rows"], u[:, 0], side="right"), nu - 1)
+        below = np.where(iu > 0, t["rows"][iu - 1], 0.0)
+        r0 = np.clip((u[:, 0] - below) / (t["rows"][iu] - below), 0.0, 1.0)
+        cols = t["cols"][iu]
+        ip = np.minimum((cols < u[:, 1:2]).sum(axis=1), nphi - 1)
+        left = np.where(ip > 0, cols[np.arange(n), ip - 1], 0.0)
+        r1 = np.clip((u[:, 1] - left) / (cols[np.arange(n), ip] - left), 0.0, 1.0)
+        cos_t = self.cos_half + (1 - self.cos_half) * (iu + r0) / nu
+        d = self._directions(cos_t, 2 * math.pi * (ip + r1) / nphi)
+        return d, self._shape(d) / t["mean"][iu, ip]
 
 
 def background_luminance(scene, directions):
@@ -267,13 +279,23 @@ def background_luminance(scene, directions):
 DISTANT_SAMPLES = 4
 
 
+#: Independent stratified groups of a point's samples (from 16 samples on), whose spread
+#: gives the variance.
+STRATIFIED_GROUPS = 4
+
+
 def distant_uniforms(scene, seed, key, blocks, samples, generators=None):
-    """Uniforms ``(P, sources, samples, 3)`` for :func:`distant_illuminance`: each block of
-    ``blocks`` (one key per point) from its own stream ``(seed, "distant", *key, block)``,
-    so results do not depend on how points are chunked. ``generators`` (a dict) keeps the
-    streams between calls, so that repeated calls for one block draw new numbers."""
+    """Uniforms ``(P, sources, samples, 2)`` for :func:`distant_illuminance`, stratified: the
+    samples of a point and source form :data:`STRATIFIED_GROUPS` interleaved groups (one
+    below 16 samples), each jittered one per cell of an m × m grid of the unit square
+    (m = ⌊√(group size)⌋; the rest of the group uniform). Every uniform is uniform on the
+    square (unbiased), and the groups are independent. Each block of ``blocks`` (one key per
+    point) draws from its own stream ``(seed, "distant", *key, block)``, so results do not
+    depend on how points are chunked; ``generators`` (a dict) keeps the streams between
+    calls, so that repeated calls for one block draw new numbers."""
     blocks = np.asarray(blocks)
-    u = np.empty((len(blocks), len(scene.distant_sources), int(samples), 3))
+    s = int(samples)
+    u = np.empty((len(blocks), len(scene.distant_sources), s, 2))
     for j in np.unique(blocks):
         m = blocks == j
         g = None if generators is None else generators.get((*key, j))
@@ -282,16 +304,31 @@ def distant_uniforms(scene, seed, key, blocks, samples, generators=None):
             if generators is not None:
                 generators[(*key, j)] = g
         u[m] = g.random((int(m.sum()), *u.shape[1:]))
+    groups = _groups(s)
+    for first in range(groups):
+        size = len(range(first, s, groups))
+        side = math.isqrt(size)
+        if side > 1:
+            idx = np.arange(first, s, groups)[:side * side]
+            cell = np.arange(side * side)
+            u[:, :, idx, 0] = (cell // side + u[:, :, idx, 0]) / side
+            u[:, :, idx, 1] = (cell % side + u[:, :, idx, 1]) / side
     return u
+
+
+def _groups(samples):
+    return STRATIFIED_GROUPS if samples >= 16 else 1
 
 
 def distant_illuminance(scene, engine, points, normals, u):
     """Direct illuminance [lx] of the scene's distant sources at points, and its variance.
 
-    ``u`` ``(P, sources, s, 3)`` uniforms (:func:`distant_uniforms`): s shadow rays per
+    ``u`` ``(P, sources, s, 2)`` uniforms (:func:`distant_uniforms`): s shadow rays per
     source and point, directions drawn by :meth:`DistantSource.sample`;
-    E = Σ_sources K·mean(w·max(0, n·ω)·V), unbiased; the variance is the samples' (for s = 1
-    the square of the estimate, an upper bound).
+    E = Σ_sources K·mean(w·max(0, n·ω)·V), unbiased. The variance is the spread of the
+    independent stratified groups' means (from 16 samples on); below, the samples' spread as
+    if they were independent, an upper bound for stratified samples (for s = 1 the square of
+    the estimate, also an upper bound).
     """
     x = np.asarray(points, float).reshape(-1, 3)
     n = np.asarray(normals, float).reshape(-1, 3)
@@ -305,7 +342,7 @@ def distant_illuminance(scene, engine, points, normals, u):
     normals_s = np.repeat(n, s, axis=0)
     reach = np.float32(4 * scene.sphere[1] + 1.0)
     for k, src in enumerate(sources):
-        d, w = src.sample(u[:, k].reshape(-1, 3))
+        d, w = src.sample(u[:, k].reshape(-1, 2))
         g = w * np.einsum("ij,ij->i", d, normals_s)
         lit = np.flatnonzero(g > 0)
         value = np.zeros(P * s)
@@ -314,5 +351,10 @@ def distant_illuminance(scene, engine, points, normals, u):
             value[lit] = np.where(blocked, 0.0, src.integral * g[lit])
         value = value.reshape(P, s)
         E += value.mean(axis=1)
-        var += value.var(axis=1, ddof=1) / s if s > 1 else value[:, 0] ** 2
+        groups = _groups(s)
+        if groups > 1:
+            means = np.stack([value[:, g::groups].mean(axis=1) for g in range(groups)], axis=1)
+            var += means.var(axis=1, ddof=1) / groups
+        else:
+            var += value.var(axis=1, ddof=1) / s if s > 1 else value[:, 0] ** 2
     return E, var
