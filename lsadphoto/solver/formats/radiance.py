@@ -18,8 +18,17 @@ What is read, as Radiance reads it:
   179 lm/W × the same weights, front side only, not reflecting), ``glow`` whose radius of
   influence is 0 (it then lights everything, like a ``light``), ``illum`` as its alternate
   material (or left out without one: see :meth:`_Reader.place_illum`), ``spotlight`` as a
-  luminaire emitting within its cone (:meth:`_Reader.spotlight`). Anything else is refused
+  luminaire emitting within its cone (:meth:`_Reader.spotlight`); a ``glow`` with a
+  positive radius of influence is the same emitter (the radius only chooses how Radiance
+  samples it), one with a negative radius is refused. Anything else is refused
   when a surface uses it, in one line naming file, line, modifier and parameter.
+- **Distant sources**: a ``source`` (direction, angle) with a ``light`` or ``glow`` material
+  becomes a :class:`~lsadphoto.solver.sky.DistantSource` — the sun of ``gensky``/``gendaylit``,
+  and sky and ground glows modified by their ``brightfunc skyfunc`` (``skybr`` of
+  ``skybright.cal``: CIE clear, intermediate, overcast, uniform; ``skybright`` of
+  ``perezlum.cal``: Perez), evaluated natively from the arguments written
+  (:func:`~lsadphoto.solver.sky.sky_luminance_shape`). Other patterns on a source, other
+  functions or a ``.cal`` file that is not found are refused in one line.
 - **Luminaires from ies2rad**: a ``light`` modified by a ``brightdata`` of Radiance's
   ``source.cal`` (``flatcorr``, ``corr``, ``boxcorr``, ``cylcorr`` over ``src_theta``,
   ``src_phi``, ``src_phi2``, ``src_phi4``) becomes one luminaire with a luminous intensity
@@ -42,7 +51,7 @@ A ``mesh`` is read from the OBJ it was compiled from (``name.obj`` beside ``name
 through trimesh; one modifier for all faces), an ``instance`` from the Radiance files its
 octree's header names (its ``oconv`` command). Everything else is refused with one line
 (:class:`~lsadphoto.errors.BadInputError`) naming the file, the line, the primitive or
-modifier: distant ``source``\\ s, compiled meshes
+modifier: compiled meshes
 without their OBJ (or with per-face ``usemtl``: use ``!obj2rad``), patterns and textures on materials, other functions or ``.cal``
 files. Colour is reduced to luminance with Radiance's own RGB weights (those of its
 primaries, ``color.h``), the weights the photo pipeline uses for Radiance pictures
