@@ -614,7 +614,7 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
         raise BadInputError("render_local_estimate_materials needs a Scene with non-Lambertian materials")
     if scene.distant_sources:
         raise BadInputError(f"{scene.name}: the double local estimate with materials does not model distant "
-                            "sources (sun, sky) yet; use render_path_traced (--estimator path)")
+                            "sources (sun, sky) yet; render it with lsadphoto.solver.render_path_traced")
     position, rotation = check_pose(position, rotation)
     samples, batches = int(samples), int(batches)
     if batches < 2 or _BLOCK % batches or samples < _BLOCK:
