@@ -216,3 +216,19 @@ def test_materials_with_distant_sources_need_the_path_tracer():
     assert "\n" not in str(info.value)
     lmap = render_path_traced(scene, cam, samples=16, **pose)
     assert np.all(np.asarray(lmap.luminance)[np.isfinite(lmap.luminance)] > 0)
+
+
+def test_a_rotated_sky_turns_its_sun_and_its_sky_function(tmp_path):
+    # !xform -rz 90 turns the sources' directions and the sky function's coordinates (its
+    # pattern's transform), as Radiance's xform does: L_rotated(R·d) = L(d)
+    sky = _radiance(["gensky", "3", "21", "10", "+s", "-a", "52", "-o", "-5", "-m", "0"]).decode() + GLOWS
+    (tmp_path / "sky.rad").write_text(sky)
+    (tmp_path / "plain.rad").write_text(sky + FLOOR)
+    (tmp_path / "turned.rad").write_text("!xform -rz 90 sky.rad\n" + FLOOR)
+    plain, turned = read_scene(tmp_path / "plain.rad"), read_scene(tmp_path / "turned.rad")
+    rz = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    d = np.random.default_rng(2).normal(size=(200, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    for a, b in zip(plain.distant_sources, turned.distant_sources):
+        np.testing.assert_allclose(b.axis, rz @ a.axis, atol=1e-12)
+        np.testing.assert_allclose(b.radiance(d @ rz.T), a.radiance(d), rtol=1e-9)

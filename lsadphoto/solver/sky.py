@@ -46,8 +46,8 @@ import numpy as np
 from ..errors import BadInputError
 from ._sampling import orthonormal_basis, stream
 
-__all__ = ["DISTANT_SAMPLES", "DistantSource", "SKY_FUNCTIONS", "background_luminance",
-           "distant_illuminance", "distant_uniforms", "sky_luminance_shape"]
+__all__ = ["DistantSource", "GATHER_DISTANT_SAMPLES", "SKY_FUNCTIONS",
+           "background_luminance", "distant_illuminance", "distant_uniforms", "sky_luminance_shape"]
 
 #: The sky functions read natively: (function, .cal file) → number of real arguments.
 SKY_FUNCTIONS = {("skybr", "skybright.cal"): (3, 7), ("skybright", "perezlum.cal"): (10,)}
@@ -273,10 +273,10 @@ def background_luminance(scene, directions):
     return out
 
 
-#: Shadow rays per distant source and point of :func:`distant_illuminance` in the
-#: estimators (per batch in the double local estimate; × the direct samples' growth of the
-#: surface cache's rounds).
-DISTANT_SAMPLES = 4
+#: Shadow rays per distant source, point and batch in the double local estimate's gathers
+#: (16 batches: 256 per pixel, beside its 16 × 32 node connections); the direct light of
+#: the surface cache and the grids takes its ``direct_samples`` per distant source too.
+GATHER_DISTANT_SAMPLES = 16
 
 
 #: Independent stratified groups of a point's samples (from 16 samples on), whose spread

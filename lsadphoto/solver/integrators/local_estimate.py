@@ -55,7 +55,7 @@ from .._sampling import stream
 from ..engine import engine_for
 from ..materials import shadow_transmittance
 from ..scene import Scene
-from ..sky import DISTANT_SAMPLES, distant_illuminance, distant_uniforms
+from ..sky import GATHER_DISTANT_SAMPLES, distant_illuminance, distant_uniforms
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance,
                   luminance_map_from_batches, luminous_openings, near_step, primary_rays,
@@ -251,7 +251,7 @@ class _Gatherer:
         if not self.scene.distant_sources or len(points) == 0:
             return np.zeros(len(points))
         blocks = np.zeros(len(points), np.int64) if block_ids is None else block_ids
-        u = distant_uniforms(self.scene, self.seed, (1, batch), blocks, DISTANT_SAMPLES, self._gens)
+        u = distant_uniforms(self.scene, self.seed, (1, batch), blocks, GATHER_DISTANT_SAMPLES, self._gens)
         return distant_illuminance(self.scene, self.engine, points, normals, u)[0] * self.n_b
 
 
