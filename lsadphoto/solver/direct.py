@@ -371,7 +371,7 @@ def _luminaire_weights(u, exact, draws, picks):
 
 
 def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES, seed=0,
-                       block_ids=None, purpose_key=0, luminaires="auto"):
+                       block_ids=None, purpose_key=0, luminaires="auto", distant_samples=None):
     """Direct illuminance [lx] at surface points, and its sampling variance [lx²].
 
     Parameters
@@ -401,6 +401,9 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         luminaire is fully visible and its unoccluded value exact, at the cost of ≤ 2K
         luminaire estimates per point instead of all. ``"auto"`` (default): all up to
         :data:`ALL_LUMINAIRES_UP_TO` luminaires, else K = :data:`LUMINAIRE_DRAWS`.
+    distant_samples : int, optional
+        Shadow rays per distant source (sun, sky: :func:`~lsadphoto.solver.sky.distant_illuminance`)
+        and point; default ``samples``.
 
     Returns
     -------
@@ -425,7 +428,8 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     draws = _luminaire_draws(luminaires, n_lum)
     blocks = np.zeros(P, dtype=np.int64) if block_ids is None else np.asarray(block_ids)
     if scene.distant_sources:  # the sun and the sky, next-event estimated (solver/sky.py)
-        u = distant_uniforms(scene, seed, (0, purpose_key), blocks, s)
+        u = distant_uniforms(scene, seed, (0, purpose_key), blocks,
+                             s if distant_samples is None else check_positive_int(distant_samples, "distant samples"))
         E, var = distant_illuminance(scene, engine, x, n, u)
     if P == 0 or n_lum == 0:
         return E, var

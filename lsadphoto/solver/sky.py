@@ -46,7 +46,7 @@ import numpy as np
 from ..errors import BadInputError
 from ._sampling import orthonormal_basis, stream
 
-__all__ = ["DistantSource", "GATHER_DISTANT_SAMPLES", "SKY_FUNCTIONS",
+__all__ = ["DISTANT_RAYS_PER_DIRECT_SAMPLE", "DistantSource", "GATHER_DISTANT_SAMPLES", "SKY_FUNCTIONS",
            "background_luminance", "distant_illuminance", "distant_uniforms", "sky_luminance_shape"]
 
 #: The sky functions read natively: (function, .cal file) → number of real arguments.
@@ -277,6 +277,13 @@ def background_luminance(scene, directions):
 #: (16 batches: 256 per pixel, beside its 16 × 32 node connections); the direct light of
 #: the surface cache and the grids takes its ``direct_samples`` per distant source too.
 GATHER_DISTANT_SAMPLES = 16
+
+
+#: Shadow rays per distant source and pixel or grid point for each of the surface cache's
+#: and the grids' ``direct_samples`` (4 by default: 64 rays, four stratified groups of 16,
+#: whose spread gives the pixel's variance; a near-field hit, averaged anyway, takes
+#: ``direct_samples``).
+DISTANT_RAYS_PER_DIRECT_SAMPLE = 16
 
 
 #: Independent stratified groups of a point's samples (from 16 samples on), whose spread
