@@ -242,6 +242,8 @@ REFUSALS = [
      r"scene.rad:3: brightfunc 'sf': skybr of skybright.cal needs 7 real arguments, got 3"),
     ("void brightfunc sf 2 skybr skybright.cal 0 3 5 10 2\nsf glow g 0 0 4 1 1 1 0\ng source s 0 0 4 0 0 1 180\n",
      r"scene.rad:3: brightfunc 'sf': skybr's first argument must be the sky type"),
+    ("void brightfunc sf 2 skybr skybright.cal 0 3 2 0 0\nsf glow g 0 0 4 1 1 1 0\ng source s 0 0 4 0 0 1 180\n",
+     r"scene.rad:5: source 's' emits no light \(its sky function is zero\)"),
     ("void colorfunc sf 4 r g b . 0 0\nsf glow g 0 0 4 1 1 1 0\ng source s 0 0 4 0 0 1 180\n",
      r"scene.rad:5: source 's': glow 'g' .* is modified by colorfunc .sf. .*; only a brightfunc sky function"),
     ("void mesh m 1 m.rtm 0 0\n", r"scene.rad:3: mesh 'm': m.rtm is a compiled \(binary\) mesh and its source m.obj"),

@@ -151,8 +151,12 @@ class DistantSource:
         Y of the glow's RGB) [cd·m⁻² per unit of the function].
     function : tuple, optional
         ``(function, calfile, args)`` of a sky function (:func:`sky_luminance_shape`);
-        ``None``: uniform. ``transform`` (3×3) maps world directions into the function's
-        coordinates (the pattern's own transform in Radiance).
+        ``None``: uniform.
+    transform : array_like, shape (3, 3), optional
+        Maps world directions into the function's coordinates (the pattern's own transform
+        in Radiance).
+    where : str
+        Where it was defined (``file:line``), for messages.
     """
 
     name: str
@@ -166,25 +170,32 @@ class DistantSource:
 
     def __post_init__(self):
         a = np.asarray(self.axis, float)
+        label = f"{self.where}: source {self.name!r}" if self.where else f"distant source {self.name!r}"
         if a.shape != (3,) or not np.linalg.norm(a) > 0:
-            raise BadInputError(f"distant source {self.name!r}: its direction must be a non-zero 3-vector")
+            raise BadInputError(f"{label}: its direction must be a non-zero 3-vector")
         self.axis = a / np.linalg.norm(a)
         if not 0 < self.half_angle <= math.pi:
-            raise BadInputError(f"distant source {self.name!r}: its angle must be in (0°, 360°], got "
+            raise BadInputError(f"{label}: its angle must be in (0°, 360°], got "
                                 f"{math.degrees(2 * self.half_angle):g}°")
-        if not self.luminance >= 0:
-            raise BadInputError(f"distant source {self.name!r}: negative luminance")
+        if not self.luminance > 0:
+            raise BadInputError(f"{label}: its luminance must be positive, got {self.luminance!r}")
+        if self.function is not None:
+            check_sky_arguments(*self.function, label)
         self.cos_half = math.cos(self.half_angle)
         #: Solid angle of the cone [sr].
         self.solid_angle = 2 * math.pi * (1 - self.cos_half)
         self._frame = np.stack([*orthonormal_basis(self.axis[None]), self.axis[None]], axis=1)[0]
         if self.function is not None:
             self._build_table()
-        #: ∫ L dω over the cone [lx]: the illuminance on a plane facing a small source
-        #: (the sun's normal illuminance), the flux per unit area of a plane of any
-        #: orientation across the light.
+        #: K = ∫ L dω over the cone [lx]: the illuminance on a plane facing a small source
+        #: (the sun's normal illuminance); πR²·K is the flux through a disc of radius R
+        #: perpendicular to each direction, summed over the directions (the light chains'
+        #: flux, :meth:`~lsadphoto.solver.scene.Scene.distant_flux`). A sky's K is the
+        #: table's (its cell means on 3 × 3 sub-points), which the weights L/(p·K) correct.
         self.integral = (self.luminance * self.solid_angle if self.function is None
                          else self.luminance * float(self._table["mass"].sum()))
+        if not self.integral > 0:
+            raise BadInputError(f"{label} emits no light (its sky function is zero)")
 
     def to_dict(self):
         """JSON-ready description (stores)."""
@@ -234,6 +245,9 @@ class DistantSource:
         mean = np.maximum(mean, 1e-6 * mean.max(initial=0.0))  # p > 0 wherever light may come from
         mass = mean * (self.solid_angle / (nu * nphi))
         rows = mass.sum(axis=1)
+        if not rows.sum() > 0:
+            self._table = {"mass": mass}  # emits nothing: refused by __post_init__
+            return
         self._table = {"mean": mean, "mass": mass, "rows": np.cumsum(rows) / rows.sum(),
                        "row_mass": rows, "cols": np.cumsum(mass, axis=1) / rows[:, None]}
 

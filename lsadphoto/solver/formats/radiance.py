@@ -531,6 +531,8 @@ class _Reader:
                                     f"{pattern.describe()}; only a brightfunc sky function is supported "
                                     "on a distant source")
             function, inverse = self.sky_function(pattern)
+        if luminance <= 0:  # black: it emits nothing (as a black light surface)
+            return
         self.distant_sources.append(DistantSource(ident, axis, math.radians(reals[3]) / 2, luminance,
                                                   function, inverse, where))
 
