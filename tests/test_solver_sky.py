@@ -232,3 +232,18 @@ def test_a_rotated_sky_turns_its_sun_and_its_sky_function(tmp_path):
     for a, b in zip(plain.distant_sources, turned.distant_sources):
         np.testing.assert_allclose(b.axis, rz @ a.axis, atol=1e-12)
         np.testing.assert_allclose(b.radiance(d @ rz.T), a.radiance(d), rtol=1e-9)
+
+
+def test_daylight_renders_do_not_depend_on_chunking():
+    # the distant sources' shadow rays draw from streams keyed by pixel block (and batch),
+    # like every other sample: the same map for any chunk size and thread count
+    scene = read_scene(EXAMPLE / "daylit_room.rad")
+    cam = IdealFisheyeProjection("equidistant", 15.5, 15.5, 16.0, 180.0, 32, 32)
+    pose = {"position": np.array([2.0, 2.8, 1.2]), "rotation": camera_to_world([0, -1, 0], [0, 0, 1])}
+    store = simulate(scene, samples=2048, seed=3)
+    a = render(store, cam, nodes_per_pixel=4, chunk_pixels=256, **pose)
+    b = render(store, cam, nodes_per_pixel=4, chunk_pixels=1024, workers=2, **pose)
+    np.testing.assert_array_equal(a.luminance, b.luminance)
+    c = render_path_traced(scene, cam, samples=16, chunk_pixels=256, **pose)
+    d = render_path_traced(scene, cam, samples=16, chunk_pixels=1024, **pose)
+    np.testing.assert_array_equal(c.luminance, d.luminance)
