@@ -203,19 +203,27 @@ def test_bad_sky_is_refused_in_one_line_with_exit_2(tmp_path, sky, message):
         read_scene(tmp_path / "sky.rad")
 
 
-def test_materials_with_distant_sources_need_the_path_tracer():
-    # the double local estimate with materials does not model distant sources yet: refused
-    # in one line that names the estimator to use; the path tracer renders the scene
-    text = ("void brightfunc skyfunc 2 skybr skybright.cal 0 3 2 100 33.3\n" + GLOWS + FLOOR
-            + "void glass pane 0 0 3 .9 .9 .9\npane polygon roof 0 0 12 -1 -1 1  1 -1 1  1 1 1  -1 1 1\n")
+def test_daylight_through_glass_and_in_a_mirror_local_estimate_matches_path_tracer():
+    # a floor under a glass pane and beside a mirror, gensky's sun and sky with the glows:
+    # the double local estimate with materials (sun and sky by next-event estimation through
+    # the glass, the sky after delta reflections by sampled rays, sun light relayed by the
+    # mirror by the light chains) against the independent path tracer, two views
+    sky = _radiance(["gensky", "-ang", "50", "20", "+s"]).decode()
+    text = (sky + GLOWS + FLOOR + "void glass pane 0 0 3 .9 .9 .9\nvoid mirror mir 0 0 3 .9 .9 .9\n"
+            "pane polygon roof 0 0 12 -1 -1 1  1 -1 1  1 1 1  -1 1 1\n"
+            "mir polygon m 0 0 12 2 -1 0  2 1 0  2 1 1.5  2 -1 1.5\n")
     scene = read_radiance_scene(text)
-    cam = IdealFisheyeProjection("equidistant", 3.5, 3.5, 4.0, 90.0, 8, 8)
-    pose = {"position": np.array([0.0, 0.0, 0.5]), "rotation": camera_to_world([0, 0, -1], [0, 1, 0])}
-    with pytest.raises(BadInputError, match="render_path_traced") as info:
-        render(scene, cam, samples=256, **pose)
-    assert "\n" not in str(info.value)
-    lmap = render_path_traced(scene, cam, samples=16, **pose)
-    assert np.all(np.asarray(lmap.luminance)[np.isfinite(lmap.luminance)] > 0)
+    cam = IdealFisheyeProjection("equidistant", 11.5, 11.5, 12.0, 150.0, 24, 24)
+    position = np.array([0.0, 0.0, 0.5])
+    for rotation in (camera_to_world([0, 0, -1], [0, 1, 0]), camera_to_world([1, 0, 0], [0, 0, 1])):
+        a = render(scene, cam, position=position, rotation=rotation, samples=2 ** 16, seed=1)
+        b = render_path_traced(scene, cam, position=position, rotation=rotation, samples=512, seed=2)
+        pa, pb = a.provenance, b.provenance
+        assert pa["estimator"] == "double local estimate (materials)"
+        diff = pa["field_mean_luminance"] - pb["field_mean_luminance"]
+        # both unbiased: field means within 4 combined standard errors (each below 1 %)
+        se = math.hypot(pa["field_mean_standard_error"], pb["field_mean_standard_error"])
+        assert abs(diff) < 4 * se and se < 0.01 * pb["field_mean_luminance"], (diff / pb["field_mean_luminance"], se)
 
 
 def test_a_rotated_sky_turns_its_sun_and_its_sky_function(tmp_path):

@@ -47,7 +47,8 @@ from ..errors import BadInputError
 from ._sampling import orthonormal_basis, stream
 
 __all__ = ["DISTANT_RAYS_PER_DIRECT_SAMPLE", "DistantSource", "GATHER_DISTANT_SAMPLES", "SKY_FUNCTIONS",
-           "background_luminance", "distant_illuminance", "distant_uniforms", "sky_luminance_shape"]
+           "background_luminance", "distant_illuminance", "distant_reflection", "distant_uniforms",
+           "sky_luminance_shape", "stratified"]
 
 #: The sky functions read natively: (function, .cal file) → number of real arguments.
 SKY_FUNCTIONS = {("skybr", "skybright.cal"): (3, 7), ("skybright", "perezlum.cal"): (10,)}
@@ -325,6 +326,14 @@ def distant_uniforms(scene, seed, key, blocks, samples, generators=None):
             if generators is not None:
                 generators[(*key, j)] = g
         u[m] = g.random((int(m.sum()), *u.shape[1:]))
+    return stratified(u)
+
+
+def stratified(u):
+    """Uniforms ``(..., s, 2)`` made stratified in place (and returned), as
+    :func:`distant_uniforms` describes: :data:`STRATIFIED_GROUPS` interleaved groups of the
+    s samples (one below 16), each jittered on an m × m grid."""
+    s = u.shape[-2]
     groups = _groups(s)
     for first in range(groups):
         size = len(range(first, s, groups))
@@ -332,8 +341,8 @@ def distant_uniforms(scene, seed, key, blocks, samples, generators=None):
         if side > 1:
             idx = np.arange(first, s, groups)[:side * side]
             cell = np.arange(side * side)
-            u[:, :, idx, 0] = (cell // side + u[:, :, idx, 0]) / side
-            u[:, :, idx, 1] = (cell % side + u[:, :, idx, 1]) / side
+            u[..., idx, 0] = (cell // side + u[..., idx, 0]) / side
+            u[..., idx, 1] = (cell % side + u[..., idx, 1]) / side
     return u
 
 
@@ -379,3 +388,36 @@ def distant_illuminance(scene, engine, points, normals, u):
         else:
             var += value.var(axis=1, ddof=1) / s if s > 1 else value[:, 0] ** 2
     return E, var
+
+
+def distant_reflection(scene, engine, points, normals, towards, materials, u):
+    """Luminance [cd·m⁻²] that points with non-Lambertian materials reflect or transmit
+    towards ``towards`` from the distant sources, by next-event estimation.
+
+    ``u`` ``(P, sources, s, 2)`` uniforms (stratified); per source Σ K·w·f(ω, ω_o)·|n·ω|·T/s
+    with f the whole non-delta BSDF (:meth:`~lsadphoto.solver.materials.MaterialTable.evaluate`,
+    either side of transmitting surfaces) and T the shadow transmittance (glass passes light
+    straight through). The delta parts (mirror reflections) are left to sampled rays.
+    """
+    from .materials import shadow_transmittance
+
+    x = np.asarray(points, float).reshape(-1, 3)
+    P = len(x)
+    out = np.zeros(P)
+    if P == 0 or not scene.distant_sources:
+        return out
+    s = u.shape[2]
+    owner = np.repeat(np.arange(P), s)
+    n, wo, mat = normals[owner], towards[owner], np.asarray(materials)[owner]
+    reach = 4 * scene.sphere[1] + 1.0
+    eps = engine.epsilon
+    for k, src in enumerate(scene.distant_sources):
+        d, w = src.sample(u[:, k].reshape(-1, 2))
+        cos = np.einsum("ij,ij->i", d, n)
+        val = src.integral * w * scene.bsdf.evaluate(mat, n, wo, d) * np.abs(cos)
+        ok = np.flatnonzero(val > 0)
+        if ok.size:
+            origin = x[owner[ok]] + eps * np.sign(cos[ok])[:, None] * n[ok]
+            val[ok] *= shadow_transmittance(scene, engine, origin, origin + reach * d[ok])
+            out += np.bincount(owner[ok], weights=val[ok], minlength=P) / s
+    return out

@@ -55,7 +55,8 @@ from .._sampling import stream
 from ..engine import engine_for
 from ..materials import shadow_transmittance
 from ..scene import Scene
-from ..sky import GATHER_DISTANT_SAMPLES, distant_illuminance, distant_uniforms
+from ..sky import (GATHER_DISTANT_SAMPLES, background_luminance, distant_illuminance, distant_reflection,
+                   distant_uniforms, stratified)
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance,
                   luminance_map_from_batches, luminous_openings, near_step, primary_rays,
@@ -431,12 +432,18 @@ class _MaterialGatherer:
         return p_l / np.maximum(p_l + p_bsdf, 1e-300)
 
     def gather(self, rng, x, n, wo, mat, batch, front):
-        """The connections' share of the luminance at points ``x`` towards ``wo`` [cd·m⁻²]."""
+        """The connections' share of the luminance at points ``x`` towards ``wo`` [cd·m⁻²],
+        with the distant sources' light by next-event estimation (they leave no nodes)."""
         P = len(x)
         total = np.zeros(P)
+        if P and self.scene.distant_sources:
+            u = stratified(rng.random((P, len(self.scene.distant_sources), GATHER_DISTANT_SAMPLES, 2)))
+            sky = distant_reflection(self.scene, self.engine, x, n, wo, mat, u)
+        else:
+            sky = 0.0
         strata = self.strata[batch]
         if not P or not strata:
-            return total
+            return total + sky
         k_each = max(1, self.k // len(strata))
         nd = self.nodes
         bsdf = self.scene.bsdf
@@ -481,7 +488,7 @@ class _MaterialGatherer:
                 val[ok] *= shadow_transmittance(self.scene, self.engine, x[owner[ok]] + eps * side_p * np_[ok],
                                                 target)
             total += np.bincount(owner, weights=val, minlength=P) * (stratum.size / k_each)
-        return total / self.n_b
+        return total / self.n_b + sky
 
 
 def _material_paths(scene, engine, gatherer, rng, x, n, front, tri, wo, batch, near_distance):
@@ -510,6 +517,8 @@ def _material_paths(scene, engine, gatherer, rng, x, n, front, tri, wo, batch, n
             break
         prim, dist = engine.closest_hit(x + eps * side * n, d)
         hit = prim >= 0
+        if scene.distant_sources:  # the sky seen through glass or in a mirror
+            total[idx[~hit]] += background_luminance(scene, d[~hit])
         idx, x, n, d, side, prim, dist = idx[hit], x[hit], n[hit], d[hit], side[hit], prim[hit], dist[hit]
         x = x + eps * side * n + dist[:, None] * d
         n, front = scene.facing_normals(prim, d)
@@ -536,14 +545,17 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     idx = np.arange(len(x))
     beta = np.ones(len(x))
     beta_f = np.ones(len(x))
+    # weight of the distant sources' radiance, which the connections' next-event estimate
+    # covers except after delta reflections (and straight transmissions after those)
+    beta_s = np.zeros(len(x))
     first = True
     while idx.size:
         u = rng.random((idx.size, 4))
         wi, w, delta, _ = bsdf.sample(mat, n, wo, u[:, :3], front)
         keep = (w > 0) & ~(delta & first)
-        idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u = (
-            idx[keep], beta[keep], beta_f[keep], x[keep], n[keep], wi[keep], w[keep], delta[keep], wo[keep],
-            mat[keep], u[keep])
+        idx, beta, beta_f, beta_s, x, n, wi, w, delta, wo, mat, u = (
+            idx[keep], beta[keep], beta_f[keep], beta_s[keep], x[keep], n[keep], wi[keep], w[keep], delta[keep],
+            wo[keep], mat[keep], u[keep])
         front = np.asarray(front)[keep]
         if not idx.size:
             break
@@ -571,10 +583,15 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
         hit = prim >= 0
         if hit.any():
             total[idx[hit]] += be[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
+        bs = np.where(delta, np.where(reflected, beta_f, beta_s), 0.0) * w
+        away = np.flatnonzero(~hit & (bs > 0))
+        if away.size:
+            total[idx[away]] += bs[away] * background_luminance(scene, wi[away])
         q = np.ones(idx.size) if first else np.minimum(w, 1.0)
         go = hit & ((b > 0) | (bf > 0)) & (u[:, 3] < q)
-        idx, beta, beta_f, x, n, wi, side, prim, dist = (
-            idx[go], b[go] / q[go], bf[go] / q[go], x[go], n[go], wi[go], side[go], prim[go], dist[go])
+        idx, beta, beta_f, beta_s, x, n, wi, side, prim, dist = (
+            idx[go], b[go] / q[go], bf[go] / q[go], bs[go] / q[go], x[go], n[go], wi[go], side[go], prim[go],
+            dist[go])
         if not idx.size:
             break
         x = x + eps * side * n + dist[:, None] * wi
@@ -612,9 +629,6 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
 
     if not isinstance(scene, Scene) or scene.bsdf is None:
         raise BadInputError("render_local_estimate_materials needs a Scene with non-Lambertian materials")
-    if scene.distant_sources:
-        raise BadInputError(f"{scene.name}: the double local estimate with materials does not model distant "
-                            "sources (sun, sky) yet; render it with lsadphoto.solver.render_path_traced")
     position, rotation = check_pose(position, rotation)
     samples, batches = int(samples), int(batches)
     if batches < 2 or _BLOCK % batches or samples < _BLOCK:
