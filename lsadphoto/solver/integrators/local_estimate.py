@@ -585,7 +585,7 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
             total[idx[hit]] += be[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
         bs = np.where(delta, np.where(reflected, beta_f, beta_s), 0.0) * w
         away = np.flatnonzero(~hit & (bs > 0))
-        if away.size:
+        if away.size and scene.distant_sources:
             total[idx[away]] += bs[away] * background_luminance(scene, wi[away])
         q = np.ones(idx.size) if first else np.minimum(w, 1.0)
         go = hit & ((b > 0) | (bf > 0)) & (u[:, 3] < q)
