@@ -17,15 +17,18 @@ How the estimators use them (one path per concept):
   next-event estimation with directions drawn in proportion to L (:meth:`DistantSource.sample`;
   uniform in the cone for a uniform source, a tabulated 32 × 64 grid of equal-solid-angle
   cells for a sky, with the weight L(ω)/(p(ω)·K), K = ∫L dω), the s directions of a point
-  stratified (jittered on a ⌊√s⌋² grid of the unit square, which the sampler maps
-  continuously onto the cone): unbiased, and exact for a fully visible sun
-  (:func:`distant_illuminance`);
+  stratified (four independent groups, each jittered on a grid of the unit square, which the
+  sampler maps continuously onto the cone; the groups' spread is the variance): unbiased,
+  and exact for a fully visible sun (:func:`distant_illuminance`; with the whole non-delta
+  BSDF and the shadow transmittance through glass for other materials,
+  :func:`distant_reflection`);
 * **light chains** enter the scene through its bounding sphere: a source chosen in
   proportion to its flux Φ = πR²·K through the sphere's cross-section, a direction ω drawn
   as above, a point uniform on the disc of radius R perpendicular to ω, the chain travelling
   along −ω with weight W₀·L/(p·K) (:class:`~lsadphoto.solver.chains.EmissionSampler`);
-* **rays that leave the scene** see L(ω) (:func:`background_luminance`): eye rays, and
-  path-tracer rays after a delta reflection (as emission found by such rays).
+* **rays that leave the scene** see L(ω) (:func:`background_luminance`): eye rays (through
+  glass and mirrors too), and rays after a delta reflection, which next-event estimation
+  cannot follow (as emission found by such rays).
 
 References
 ----------
@@ -45,6 +48,7 @@ import numpy as np
 
 from ..errors import BadInputError
 from ._sampling import orthonormal_basis, stream
+from .materials import shadow_transmittance
 
 __all__ = ["DISTANT_RAYS_PER_DIRECT_SAMPLE", "DistantSource", "GATHER_DISTANT_SAMPLES", "SKY_FUNCTIONS",
            "background_luminance", "distant_illuminance", "distant_reflection", "distant_uniforms",
@@ -250,7 +254,7 @@ class DistantSource:
             self._table = {"mass": mass}  # emits nothing: refused by __post_init__
             return
         self._table = {"mean": mean, "mass": mass, "rows": np.cumsum(rows) / rows.sum(),
-                       "row_mass": rows, "cols": np.cumsum(mass, axis=1) / rows[:, None]}
+                       "cols": np.cumsum(mass, axis=1) / rows[:, None]}
 
     def sample(self, u):
         """Directions towards the source from uniforms ``u`` ``(n, ≥ 2)`` and their weights
@@ -289,8 +293,7 @@ def background_luminance(scene, directions):
 
 
 #: Shadow rays per distant source, point and batch in the double local estimate's gathers
-#: (16 batches: 256 per pixel, beside its 16 × 32 node connections); the direct light of
-#: the surface cache and the grids takes its ``direct_samples`` per distant source too.
+#: (16 batches: 256 per pixel, beside its 16 × 32 node connections).
 GATHER_DISTANT_SAMPLES = 16
 
 
@@ -399,8 +402,6 @@ def distant_reflection(scene, engine, points, normals, towards, materials, u):
     either side of transmitting surfaces) and T the shadow transmittance (glass passes light
     straight through). The delta parts (mirror reflections) are left to sampled rays.
     """
-    from .materials import shadow_transmittance
-
     x = np.asarray(points, float).reshape(-1, 3)
     P = len(x)
     out = np.zeros(P)
