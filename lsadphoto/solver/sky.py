@@ -8,8 +8,8 @@ luminance; the sky and the ground glow are hemispheres whose luminance follows a
 (:func:`sky_luminance_shape`): the CIE clear, intermediate, overcast and uniform skies of
 Radiance's ``skybright.cal`` as ``gensky`` writes them, and the Perez all-weather sky of
 ``perezlum.cal`` as ``gendaylit`` writes it, evaluated natively from the same arguments.
-Overlapping sources add (the sky behind the sun's disc is not taken away, as Radiance does:
-at most L_sky·Ω_sun, 6·10⁻⁵ of the sky's zenith luminance times a steradian).
+Overlapping sources add: where Radiance shows only the sun, the sky behind its disc is added
+(at most L_sky·Ω_sun, Ω_sun = 6·10⁻⁵ sr).
 
 How the estimators use them (one path per concept):
 
