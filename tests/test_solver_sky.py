@@ -255,3 +255,38 @@ def test_daylight_renders_do_not_depend_on_chunking():
     c = render_path_traced(scene, cam, samples=16, chunk_pixels=256, **pose)
     d = render_path_traced(scene, cam, samples=16, chunk_pixels=1024, **pose)
     np.testing.assert_array_equal(c.luminance, d.luminance)
+
+
+def test_toml_sun_and_sky():
+    # [[luminaires]] type = "sky" / "sun" in a TOML scene: the CIE overcast sky (ground at the
+    # horizon's luminance, so the horizon blend is < 1e-4 of E_h, as above) and a sun of
+    # given normal illuminance over an open plane: E_h = 7π/9·L_z + E_n·cos 45° (Moon &
+    # Spencer; the disc's mean cos is within 1e-5 of cos 45°); a clear sky has its zenith
+    # luminance as given (Radiance's skybright.cal function normalised at the zenith)
+    from lsadphoto.solver import scene_from_dict
+
+    L_z, E_n = 3000.0, 80000.0
+    data = {"materials": {"grey": {"reflectance": 0.5}},
+            "surfaces": [{"type": "polygon", "material": "grey",
+                          "vertices": [[-10, -10, 0], [10, -10, 0], [10, 10, 0], [-10, 10, 0]]}],
+            "luminaires": [{"type": "sky", "name": "sky", "model": "cie-overcast", "zenith_luminance": L_z,
+                            "ground_luminance": L_z / 3},
+                           {"type": "sun", "name": "sun", "direction": [0, -1, 1], "illuminance": E_n}]}
+    scene = scene_from_dict(data)
+    assert [s.name for s in scene.distant_sources] == ["sky", "sky ground", "sun"]
+    assert scene.distant_sources[2].integral == pytest.approx(E_n, rel=1e-12)
+    n = 2000
+    E, var = direct_illuminance(scene, engine_for(scene), np.zeros((n, 3)), np.tile([0, 0, 1.0], (n, 1)),
+                                samples=16, block_ids=np.arange(n) // 256)
+    expected = 7 * math.pi / 9 * L_z + E_n * math.cos(math.radians(45))
+    assert abs(E.mean() - expected) < 4 * math.sqrt(var.sum()) / n + 1e-4 * expected, E.mean() / expected - 1
+    clear = {"type": "sky", "model": "cie-clear", "zenith_luminance": L_z, "sun_direction": [0.3, -0.5, 0.8]}
+    sky = scene_from_dict({**data, "luminaires": [clear]}).distant_sources[0]
+    # the horizon blend weight at the zenith is 2.01⁻²⁰ ≈ 1e-6
+    assert sky.radiance(np.array([[0.0, 0.0, 1.0]]))[0] == pytest.approx(L_z, rel=1e-5)
+    for bad, message in ((dict(clear, sun_direction=None), "needs its sun_direction"),
+                         ({"type": "sun", "direction": [0, 0, 1]}, "give exactly one of 'illuminance'"),
+                         ({"type": "sky", "model": "perez", "zenith_luminance": 1.0}, "model must be one of")):
+        bad = {k: v for k, v in bad.items() if v is not None}
+        with pytest.raises(BadInputError, match=message):
+            scene_from_dict({**data, "luminaires": [bad]})

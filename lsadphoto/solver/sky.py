@@ -51,8 +51,8 @@ from ._sampling import orthonormal_basis, stream
 from .materials import shadow_transmittance
 
 __all__ = ["DISTANT_RAYS_PER_DIRECT_SAMPLE", "DistantSource", "GATHER_DISTANT_SAMPLES", "SKY_FUNCTIONS",
-           "background_luminance", "distant_illuminance", "distant_reflection", "distant_uniforms",
-           "sky_luminance_shape", "stratified"]
+           "TOML_SKY_MODELS", "background_luminance", "distant_illuminance", "distant_reflection",
+           "distant_uniforms", "sky_luminance_shape", "sky_sources", "stratified"]
 
 #: The sky functions read natively: (function, .cal file) → number of real arguments.
 SKY_FUNCTIONS = {("skybr", "skybright.cal"): (3, 7), ("skybright", "perezlum.cal"): (10,)}
@@ -422,3 +422,39 @@ def distant_reflection(scene, engine, points, normals, towards, materials, u):
             val[ok] *= shadow_transmittance(scene, engine, origin, origin + reach * d[ok])
             out += np.bincount(owner[ok], weights=val[ok], minlength=P) / s
     return out
+
+
+#: Sky models of a TOML scene's ``[[luminaires]] type = "sky"`` → skybright.cal's sky type.
+TOML_SKY_MODELS = {"cie-clear": 1, "cie-overcast": 2, "uniform": 3, "cie-intermediate": 4}
+
+
+def sky_sources(name, model, zenith_luminance, *, sun_direction=None, ground_luminance=0.0):
+    """The distant sources of a sky given by its model and zenith luminance [cd·m⁻²]: the
+    sky hemisphere (skybright.cal's function, normalised so that the zenith has exactly
+    ``zenith_luminance``, its horizon blended with ``ground_luminance`` as gensky's sky is)
+    and, when ``ground_luminance`` > 0, a uniform ground hemisphere below the horizon (what
+    gensky users add as the ground glow). ``sun_direction`` (towards the sun) is needed by
+    the clear and intermediate skies."""
+    kind = TOML_SKY_MODELS[model]
+    if not zenith_luminance > 0:
+        raise BadInputError(f"{name}: zenith_luminance must be positive, got {zenith_luminance!r}")
+    if not ground_luminance >= 0:
+        raise BadInputError(f"{name}: ground_luminance must be ≥ 0, got {ground_luminance!r}")
+    args = (kind, zenith_luminance, ground_luminance)
+    if kind in (1, 4):
+        if sun_direction is None:
+            raise BadInputError(f"{name}: a {model} sky needs its sun_direction")
+        sun = np.asarray(sun_direction, float)
+        if sun.shape != (3,) or not np.linalg.norm(sun) > 0:
+            raise BadInputError(f"{name}: sun_direction must be a non-zero 3-vector")
+        sun = sun / np.linalg.norm(sun)
+        args = (kind, zenith_luminance, ground_luminance, 1.0, *sun)
+        # the normalisation A4: the function's own value at the zenith, so that L(zenith) = A2
+        args = (*args[:3], float(sky_luminance_shape("skybr", "skybright.cal", args, np.array([0.0, 0.0, 1.0]))
+                                 / _horizon_blend(1.0, 1.0, 0.0) / zenith_luminance), *sun)
+    sources = [DistantSource(f"{name}", np.array([0.0, 0.0, 1.0]), math.pi / 2, 1.0,
+                             ("skybr", "skybright.cal", args))]
+    if ground_luminance > 0:
+        sources.append(DistantSource(f"{name} ground", np.array([0.0, 0.0, -1.0]), math.pi / 2,
+                                     float(ground_luminance)))
+    return sources
