@@ -7,8 +7,9 @@ any view is then rendered from the store by the double local estimate or its sur
 projections that photographs use. Scenes with Radiance's glossy, specular and transmitting
 materials (:mod:`~lsadphoto.solver.materials`) render directly from the scene. A conventional
 path tracer (:func:`render_path_traced`) is included for cross-checks, and
-:func:`read_radiance_scene` reads Radiance scene files (with ies2rad luminaires). Luminaires'
-intensity distributions are :class:`Photometry` objects.
+:func:`read_radiance_scene` reads Radiance scene files (with ies2rad luminaires, and the sun and
+the sky of gensky/gendaylit as distant sources, :class:`DistantSource` in :mod:`~lsadphoto.solver.sky`).
+Luminaires' intensity distributions are :class:`Photometry` objects.
 
 References
 ----------
@@ -30,5 +31,6 @@ __getattr__, __dir__, __all__ = lazy_exports(__name__, globals(), {
     ".scene": ["AreaLuminaire", "PointLuminaire", "Scene", "View", "camera_to_world",
                "scene_from_dict"],
     ".simulation": ["simulate"],
+    ".sky": ["DistantSource"],
     ".store": ["LsadStore", "load_store"],
 })

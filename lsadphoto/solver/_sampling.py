@@ -17,8 +17,8 @@ import math
 import numpy as np
 
 #: Stream purposes (the first spawn key): light chains, near-field rays, path tracing,
-#: gather subsampling, direct-light samples, surface-cache node draws.
-_PURPOSE = {"chains": 1, "near": 2, "path": 3, "gather": 4, "direct": 5, "cache": 6}
+#: gather subsampling, direct-light samples, surface-cache node draws, distant-source samples.
+_PURPOSE = {"chains": 1, "near": 2, "path": 3, "gather": 4, "direct": 5, "cache": 6, "distant": 7}
 
 
 def stream(seed, purpose, *keys):

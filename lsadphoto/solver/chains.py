@@ -22,10 +22,13 @@ import math
 
 import numpy as np
 
-from ._sampling import GroupStreams, cosine_directions, stream, triangle_points
+from ._sampling import GroupStreams, cosine_directions, orthonormal_basis, stream, triangle_points
 from .store import KIND_COSINE, KIND_POINT, LsadStore
 
 ABSORPTION_MODES = ("weight", "roulette")
+
+#: Kind of the emission samples of distant sources (never stored as nodes).
+KIND_DISTANT = 2
 
 __all__ = [
     "ABSORPTION_MODES",
@@ -33,6 +36,7 @@ __all__ = [
     "MAX_BOUNCES",
     "WEIGHT_FLOOR",
     "EmissionSampler",
+    "KIND_DISTANT",
     "trace_chains",
 ]
 
@@ -76,7 +80,11 @@ class EmissionSampler:
             self._tri = np.zeros(0, np.int64)
             self._tri_lum = np.zeros(0, np.int64)
             tri_mass = np.zeros(0)
-        mass = np.concatenate([tri_mass, fluxes[self.n_area:]])
+        # … then each distant source, its flux through the scene's bounding sphere
+        self.distant = list(scene.distant_sources)
+        dist_flux = np.array([scene.distant_flux(d) for d in self.distant], dtype=float)
+        mass = np.concatenate([tri_mass, fluxes[self.n_area:], dist_flux])
+        self._n_point = len(points)
         self._cdf = np.cumsum(mass) / mass.sum()
         self._cdf[-1] = 1.0
         self._n_tri = len(self._tri)
@@ -98,9 +106,15 @@ class EmissionSampler:
     def sample(self, rng, n):
         """``n`` emission points: dict of position, normal, luminaire, kind, coefficient.
 
-        ``luminaire`` indexes area luminaires (kind 0) or point luminaires (kind 1).
-        ``coefficient`` is Φ_total/π for Lambertian emitters and Φ_total/Φ_luminaire for
-        point luminaires (see :class:`~lsadphoto.solver.store.LsadStore`).
+        ``luminaire`` indexes area luminaires (kind 0), point luminaires (kind 1) or distant
+        sources (:data:`KIND_DISTANT`). ``coefficient`` is Φ_total/π for Lambertian emitters
+        and Φ_total/Φ_luminaire for point luminaires (see
+        :class:`~lsadphoto.solver.store.LsadStore`). A distant sample is a direction ω
+        towards its source (``direction``, drawn by
+        :meth:`~lsadphoto.solver.sky.DistantSource.sample`, weight ``factor`` = L/(p·K)) and
+        a point uniform on the disc of the bounding sphere's radius R perpendicular to ω on
+        the sphere's ω side (``position``; ``normal`` = −ω, the way its light travels), with
+        coefficient Φ_total/(πR²): then Φ_total/(πR²)·factor·g estimates ∫L(ω)g(ω)dω.
         """
         scene = self.scene
         u_choice = rng.random(n)
@@ -120,7 +134,7 @@ class EmissionSampler:
             position[on_tri] = triangle_points(scene.triangles[t], u_pt[on_tri])
             normal[on_tri] = scene.normals[t]
             coefficient[on_tri] = self.total_flux / math.pi
-        pt = ~on_tri
+        pt = ~on_tri & (which < self._n_tri + self._n_point)
         if pt.any():
             k = which[pt] - self._n_tri
             lum_index[pt] = k
@@ -129,8 +143,38 @@ class EmissionSampler:
             position[pt] = self._positions[k] + offs[:, :1] * frames[:, 0] + offs[:, 1:] * frames[:, 1]
             normal[pt] = frames[:, 2]
             coefficient[pt] = self._coef[k]
-        return {"position": position, "normal": normal, "kind": kind, "luminaire": lum_index,
-                "coefficient": coefficient, "triangle": triangle}
+        out = {"position": position, "normal": normal, "kind": kind, "luminaire": lum_index,
+               "coefficient": coefficient, "triangle": triangle}
+        if self.distant:
+            self._sample_distant(rng, which, out)
+        return out
+
+    def _sample_distant(self, rng, which, out):
+        """Fill the distant samples of :meth:`sample` in ``out`` (its uniforms are drawn only
+        for scenes with distant sources, so other scenes keep their random streams)."""
+        n = len(which)
+        u = rng.random((n, 5))
+        out["direction"] = np.zeros((n, 3))
+        out["factor"] = np.ones(n)
+        rows = np.flatnonzero(which >= self._n_tri + self._n_point)
+        if not rows.size:
+            return
+        k = which[rows] - self._n_tri - self._n_point
+        centre, radius = self.scene.sphere
+        for j, src in enumerate(self.distant):
+            m = rows[k == j]
+            if m.size:
+                out["direction"][m], out["factor"][m] = src.sample(u[m, :3])
+        d = out["direction"][rows]
+        t, b = orthonormal_basis(d)
+        r = radius * np.sqrt(u[rows, 3])
+        phi = 2 * math.pi * u[rows, 4]
+        out["position"][rows] = (centre + radius * d + (r * np.cos(phi))[:, None] * t
+                                 + (r * np.sin(phi))[:, None] * b)
+        out["normal"][rows] = -d
+        out["kind"][rows] = KIND_DISTANT
+        out["luminaire"][rows] = k
+        out["coefficient"][rows] = self.total_flux / (math.pi * radius ** 2)
 
     def point_intensity(self, luminaire, directions):
         """Intensity [cd] of point luminaires ``luminaire`` (indices, shape (n,)) towards
@@ -152,6 +196,10 @@ class EmissionSampler:
         n = len(src["kind"])
         direction = cosine_directions(src["normal"], rng.random((n, 2)))
         factor = np.ones(n)
+        if self.distant:
+            far = src["kind"] == KIND_DISTANT
+            direction[far] = src["normal"][far]
+            factor = src["factor"].copy()
         point = np.flatnonzero(src["kind"] == KIND_POINT)
         if point.size:
             table_of = self._table_of[src["luminaire"][point]]
@@ -171,11 +219,15 @@ def _chain_starts(engine, sampler, seed, block, n, batches):
     rng = stream(seed, "chains", block)
     src = sampler.sample(rng, n)
     batch = ((block * CHAIN_BLOCK + np.arange(n)) % batches).astype(np.int16)
+    # distant sources leave no source node: their direct light is next-event estimated
+    # where it arrives (lsadphoto.solver.sky.distant_illuminance)
+    near = src["kind"] != KIND_DISTANT
     out = {
-        "position": [src["position"]], "normal": [src["normal"]],
-        "coefficient": [src["coefficient"]], "kind": [src["kind"]],
-        "luminaire": [np.where(src["kind"] == KIND_POINT, src["luminaire"], -1).astype(np.int32)],
-        "batch": [batch], "depth": [np.zeros(n, np.int16)], "triangle": [src["triangle"]],
+        "position": [src["position"][near]], "normal": [src["normal"][near]],
+        "coefficient": [src["coefficient"][near]], "kind": [src["kind"][near]],
+        "luminaire": [np.where(src["kind"] == KIND_POINT, src["luminaire"], -1)[near].astype(np.int32)],
+        "batch": [batch[near]], "depth": [np.zeros(int(near.sum()), np.int16)],
+        "triangle": [src["triangle"][near]],
     }
     direction, factor = sampler.first_directions(rng, src)
     origin = src["position"] + engine.epsilon * np.where(
@@ -278,8 +330,10 @@ def _material_block_group(scene, engine, sampler, seed, blocks, batches, limit):
     streams = GroupStreams([s[0] for s in starts])
     out = {key: [np.concatenate([s[1][key][0] for s in starts])] for key in starts[0][1]}
     batch, direction, weight, origin = (np.concatenate([s[k] for s in starts]) for k in range(2, 6))
-    group = np.repeat(np.arange(len(starts)), n)
-    out.update(incoming=[np.zeros((group.size, 3))], front=[np.ones(group.size, bool)], group=[group])
+    group = np.repeat(np.arange(len(starts)), n)   # of each chain
+    # the source nodes of each block (distant sources leave none)
+    sources = np.repeat(np.arange(len(starts)), [len(s[1]["batch"][0]) for s in starts])
+    out.update(incoming=[np.zeros((sources.size, 3))], front=[np.ones(sources.size, bool)], group=[sources])
     alive = np.arange(group.size)
     depth = 0
     while alive.size and depth < limit:

@@ -44,6 +44,7 @@ from numba import njit
 
 from .._validation import check_positive_int
 from ._sampling import stream
+from .sky import distant_illuminance, distant_uniforms
 
 __all__ = ["ALL_LUMINAIRES_UP_TO", "DIRECT_SAMPLES", "LUMINAIRE_DRAWS", "LuminaireTable",
            "direct_illuminance", "projected_solid_angle", "sampled_direct_illuminance",
@@ -370,7 +371,7 @@ def _luminaire_weights(u, exact, draws, picks):
 
 
 def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES, seed=0,
-                       block_ids=None, purpose_key=0, luminaires="auto"):
+                       block_ids=None, purpose_key=0, luminaires="auto", distant_samples=None):
     """Direct illuminance [lx] at surface points, and its sampling variance [lx²].
 
     Parameters
@@ -400,6 +401,9 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         luminaire is fully visible and its unoccluded value exact, at the cost of ≤ 2K
         luminaire estimates per point instead of all. ``"auto"`` (default): all up to
         :data:`ALL_LUMINAIRES_UP_TO` luminaires, else K = :data:`LUMINAIRE_DRAWS`.
+    distant_samples : int, optional
+        Shadow rays per distant source (sun, sky: :func:`~lsadphoto.solver.sky.distant_illuminance`)
+        and point; default ``samples``.
 
     Returns
     -------
@@ -422,9 +426,13 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     samplers = _samplers(scene)
     n_lum = len(samplers) + len(scene.point_luminaires)
     draws = _luminaire_draws(luminaires, n_lum)
+    blocks = np.zeros(P, dtype=np.int64) if block_ids is None else np.asarray(block_ids)
+    if scene.distant_sources:  # the sun and the sky, next-event estimated (solver/sky.py)
+        u = distant_uniforms(scene, seed, (0, purpose_key), blocks,
+                             s if distant_samples is None else check_positive_int(distant_samples, "distant samples"))
+        E, var = distant_illuminance(scene, engine, x, n, u)
     if P == 0 or n_lum == 0:
         return E, var
-    blocks = np.zeros(P, dtype=np.int64) if block_ids is None else np.asarray(block_ids)
     origins = x + engine.epsilon * n
     lums = [(sampler, _area_estimate) for sampler in samplers] + [
         (lum, _point_estimate) for lum in scene.point_luminaires]
@@ -598,9 +606,12 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
     n = np.ascontiguousarray(normals, dtype=np.float64).reshape(-1, 3)
     P = len(x)
     E = np.zeros(P)
-    if P == 0 or table.count == 0:
-        return E
     blocks = np.zeros(P, dtype=np.int64) if block_ids is None else np.asarray(block_ids)
+    sky = 0.0
+    if scene.distant_sources:  # the sun and the sky, one next-event sample each (solver/sky.py)
+        sky = distant_illuminance(scene, engine, x, n, distant_uniforms(scene, seed, (2, purpose_key), blocks, 1))[0]
+    if P == 0 or table.count == 0:
+        return E + sky
     u = np.empty((P, 4))
     for j in np.unique(blocks):
         m = blocks == j
@@ -624,4 +635,4 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
             e, _ = _point_estimate(scene.point_luminaires[li - len(samplers)], x[m], n[m],
                                    origins[m], uu, engine)
             E[m] = e
-    return E / prob
+    return E / prob + sky

@@ -40,6 +40,7 @@ from .._validation import check_choice, check_positive, check_positive_int
 from ..errors import BadInputError
 from .direct import DIRECT_SAMPLES, direct_illuminance
 from .engine import engine_for
+from .sky import DISTANT_RAYS_PER_DIRECT_SAMPLE
 from .store import LsadStore
 from .integrators.surface_cache import CACHE_NODES, indirect_illuminance
 
@@ -238,7 +239,8 @@ def grid_illuminance(store, grid, *, nodes=CACHE_NODES, direct_samples=DIRECT_SA
     ns = np.ascontiguousarray(normals.reshape(-1, 3))
     blocks = np.arange(len(xs)) // 256
     e_dir, v_dir = direct_illuminance(scene, engine_for(scene), xs, ns, samples=direct_samples,
-                                      seed=seed, block_ids=blocks, purpose_key=7)
+                                      seed=seed, block_ids=blocks, purpose_key=7,
+                                      distant_samples=DISTANT_RAYS_PER_DIRECT_SAMPLE * direct_samples)
     groups = indirect_illuminance(store, xs, ns, nodes=nodes, direct_samples=direct_samples,
                                   seed=seed, key=7, block_ids=blocks)
     G = groups.shape[1]

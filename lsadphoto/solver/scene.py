@@ -33,6 +33,7 @@ from ..geometry.base import Projection, projection_from_dict
 from ..geometry.observer import orthonormal_pair
 from .materials import GLASS_INDEX, KINDS, Material, MaterialTable, glass_transmissivity
 from .photometry import Photometry, luminaire_frame, read_photometry
+from .sky import TOML_SKY_MODELS, DistantSource, sky_sources
 
 __all__ = [
     "AreaLuminaire",
@@ -347,6 +348,7 @@ class Scene:
     name: str = "scene"
     source: dict = field(default_factory=dict)
     surface_materials: list = None
+    distant_sources: list = field(default_factory=list)
 
     def __post_init__(self):
         self.triangles = np.ascontiguousarray(self.triangles, dtype=float).reshape(-1, 3, 3)
@@ -365,7 +367,7 @@ class Scene:
         self.reflectance = np.asarray(self.reflectance, dtype=float)
         if np.any(self.reflectance < 0) or np.any(self.reflectance >= 1):
             raise BadInputError("reflectance must be in [0, 1)")
-        if not self.area_luminaires and not self.point_luminaires:
+        if not self.area_luminaires and not self.point_luminaires and not self.distant_sources:
             raise BadInputError("scene has no luminaires")
         lo = self.triangles.reshape(-1, 3).min(axis=0)
         hi = self.triangles.reshape(-1, 3).max(axis=0)
@@ -375,6 +377,9 @@ class Scene:
         self.bounds = (lo, hi)
         #: Characteristic size of the scene: diagonal of its bounding box [m].
         self.size = float(np.linalg.norm(hi - lo))
+        #: Bounding sphere (centre [m], radius [m]) through which distant sources' light
+        #: enters (:mod:`lsadphoto.solver.sky`).
+        self.sphere = (0.5 * (lo + hi), 0.5 * self.size * (1 + 1e-3) + 1e-9)
         self.triangle_reflectance = self.reflectance[self.material]
         self.bsdf = None
         if self.surface_materials is not None:
@@ -443,13 +448,20 @@ class Scene:
     def __repr__(self):
         return (f"Scene({self.name!r}, {len(self.triangles)} triangles, "
                 f"{len(self.area_luminaires)} area + {len(self.point_luminaires)} point luminaires, "
+                f"{len(self.distant_sources)} distant sources, "
                 f"{len(self.views)} views)")
 
     @property
     def total_flux(self):
         """Luminous flux of all luminaires [lm]."""
         return (sum(l.flux for l in self.area_luminaires)
-                + sum(l.flux for l in self.point_luminaires))
+                + sum(l.flux for l in self.point_luminaires)
+                + sum(self.distant_flux(s) for s in self.distant_sources))
+
+    def distant_flux(self, source):
+        """Luminous flux [lm] of a distant source through the cross-section πR² of the
+        scene's bounding sphere (what the light chains carry into the scene)."""
+        return math.pi * self.sphere[1] ** 2 * source.integral
 
     def facing_normals(self, prim, direction):
         """Normals of triangles ``prim`` turned against rays of unit ``direction`` that hit
@@ -533,6 +545,16 @@ SCENE_SCHEMA = Table({
                         "length_axis": _vec3("C0 direction", default=[1.0, 0.0, 0.0]),
                         "extent": Key(list, items=float, length=2, minimum=0, doc="[length, width] [m]"),
                         "multiplier": Key(float, default=1.0, **_POSITIVE)}),
+        "sun": Table({"name": Key(str), "direction": _vec3("towards the sun", required=True),
+                      "illuminance": Key(float, **_POSITIVE, doc="normal illuminance E_n [lx]"),
+                      "luminance": Key(float, **_POSITIVE, doc="[cd·m⁻²]"),
+                      "angle": Key(float, default=0.533, minimum=0, exclusive=True, maximum=360,
+                                   doc="angular diameter [°]")}),
+        "sky": Table({"name": Key(str), "model": Key(str, required=True, choices=tuple(TOML_SKY_MODELS)),
+                      "zenith_luminance": Key(float, required=True, **_POSITIVE, doc="[cd·m⁻²]"),
+                      "sun_direction": _vec3("towards the sun (cie-clear, cie-intermediate)"),
+                      "ground_luminance": Key(float, default=0.0, minimum=0,
+                                              doc="uniform ground below the horizon [cd·m⁻²]")}),
     })),
     "views": ArrayOf(Table({"name": Key(str), "position": _vec3("eye [m]", required=True),
                             "line_of_sight": _vec3("[m]", required=True),
@@ -672,12 +694,14 @@ def _build_checked(data, base, photometry_reader):
             tri_list.append(tris)
             mat_list.append(np.full(len(tris), mat))
             emit_list.append(np.full(len(tris), -1))
-    area_lums, point_lums = [], []
+    area_lums, point_lums, distant = [], [], []
     files = {}
     for k, spec in enumerate(data.get("luminaires", [])):
         ctx = f"luminaires[{k}]"
         lname = spec.get("name", f"luminaire{k}")
-        if spec["type"] == "area":
+        if spec["type"] in ("sun", "sky"):
+            distant += _distant_sources(spec, lname, ctx)
+        elif spec["type"] == "area":
             lum_material = material_of({"material": spec["material"]}, ctx)
             parts = _shape_triangles(spec["shape"], f"{ctx} shape", base, lambda s, c, m=lum_material: m)
             tris = np.concatenate([t for t, _ in parts])
@@ -715,12 +739,30 @@ def _build_checked(data, base, photometry_reader):
     views = _views(data.get("views", []))
     if not tri_list:
         raise BadInputError("scene has no surfaces")
-    if not area_lums and not point_lums:
+    if not area_lums and not point_lums and not distant:
         raise BadInputError("scene has no luminaires")
     return Scene(np.concatenate(tri_list), np.concatenate(mat_list), names, np.asarray(rho),
                  np.concatenate(emit_list), area_lums, point_lums, views, name=name,
                  source=data,
-                 surface_materials=None if all(m.is_lambertian for m in surface) else surface)
+                 surface_materials=None if all(m.is_lambertian for m in surface) else surface,
+                 distant_sources=distant)
+
+
+def _distant_sources(spec, name, ctx):
+    """The :class:`~lsadphoto.solver.sky.DistantSource` list of a checked ``sun`` or ``sky``
+    luminaire table."""
+    try:
+        if spec["type"] == "sky":
+            return sky_sources(name, spec["model"], spec["zenith_luminance"],
+                               sun_direction=spec.get("sun_direction"),
+                               ground_luminance=spec["ground_luminance"])
+        if ("illuminance" in spec) == ("luminance" in spec):
+            raise BadInputError("give exactly one of 'illuminance' (normal, [lx]) or 'luminance' [cd/m²]")
+        half = math.radians(spec["angle"]) / 2
+        luminance = spec.get("luminance") or spec["illuminance"] / (2 * math.pi * (1 - math.cos(half)))
+        return [DistantSource(name, _vector(spec["direction"], "direction"), half, luminance)]
+    except BadInputError as exc:
+        raise BadInputError(f"{ctx}: {exc}") from None
 
 
 def _material(spec, ctx):

@@ -31,6 +31,7 @@ from .._atomic import atomic_path
 from .cache_grid import SurfaceCache
 from .photometry import Photometry
 from .scene import AreaLuminaire, PointLuminaire, Scene, View
+from .sky import DistantSource
 
 __all__ = ["STORE_FORMAT", "LsadStore", "load_store"]
 
@@ -128,6 +129,7 @@ class LsadStore:
                 "views": [
                     {"name": v.name, "position": v.position.tolist(), "rotation": v.rotation.tolist(),
                      "projection": v.projection.to_dict()} for v in scene.views],
+                "distant_sources": [d.to_dict() for d in scene.distant_sources],
             },
         }
         arrays = {name: getattr(self, name) for name in _NODE_FIELDS}
@@ -179,7 +181,8 @@ def load_store(path):
         views = [View(v["name"], np.asarray(v["position"]), np.asarray(v["rotation"]),
                       projection_from_dict(v["projection"])) for v in s["views"]]
         scene = Scene(arrays["triangles"], arrays["material"], s["material_names"],
-                      arrays["reflectance"], emitter, area, points, views, name=s["name"])
+                      arrays["reflectance"], emitter, area, points, views, name=s["name"],
+                      distant_sources=[DistantSource.from_dict(d) for d in s.get("distant_sources", [])])
         nodes = {name: arrays[name] for name in _NODE_FIELDS}
         cache = None
         if "surface_cache" in meta:

@@ -18,8 +18,17 @@ What is read, as Radiance reads it:
   179 lm/W × the same weights, front side only, not reflecting), ``glow`` whose radius of
   influence is 0 (it then lights everything, like a ``light``), ``illum`` as its alternate
   material (or left out without one: see :meth:`_Reader.place_illum`), ``spotlight`` as a
-  luminaire emitting within its cone (:meth:`_Reader.spotlight`). Anything else is refused
+  luminaire emitting within its cone (:meth:`_Reader.spotlight`); a ``glow`` with a
+  positive radius of influence is the same emitter (the radius only chooses how Radiance
+  samples it), one with a negative radius is refused. Anything else is refused
   when a surface uses it, in one line naming file, line, modifier and parameter.
+- **Distant sources**: a ``source`` (direction, angle) with a ``light`` or ``glow`` material
+  becomes a :class:`~lsadphoto.solver.sky.DistantSource` — the sun of ``gensky``/``gendaylit``,
+  and sky and ground glows modified by their ``brightfunc skyfunc`` (``skybr`` of
+  ``skybright.cal``: CIE clear, intermediate, overcast, uniform; ``skybright`` of
+  ``perezlum.cal``: Perez), evaluated natively from the arguments written
+  (:func:`~lsadphoto.solver.sky.sky_luminance_shape`). Other patterns on a source, other
+  functions or a ``.cal`` file that is not found are refused in one line.
 - **Luminaires from ies2rad**: a ``light`` modified by a ``brightdata`` of Radiance's
   ``source.cal`` (``flatcorr``, ``corr``, ``boxcorr``, ``cylcorr`` over ``src_theta``,
   ``src_phi``, ``src_phi2``, ``src_phi4``) becomes one luminaire with a luminous intensity
@@ -42,7 +51,7 @@ A ``mesh`` is read from the OBJ it was compiled from (``name.obj`` beside ``name
 through trimesh; one modifier for all faces), an ``instance`` from the Radiance files its
 octree's header names (its ``oconv`` command). Everything else is refused with one line
 (:class:`~lsadphoto.errors.BadInputError`) naming the file, the line, the primitive or
-modifier: distant ``source``\\ s, compiled meshes
+modifier: compiled meshes
 without their OBJ (or with per-face ``usemtl``: use ``!obj2rad``), patterns and textures on materials, other functions or ``.cal``
 files. Colour is reduced to luminance with Radiance's own RGB weights (those of its
 primaries, ``color.h``), the weights the photo pipeline uses for Radiance pictures
@@ -78,6 +87,7 @@ from ...io.hdr import parse_view
 from ..materials import Material
 from ..photometry import Photometry, luminaire_frame
 from ..scene import AreaLuminaire, PointLuminaire, Scene, as_views, polygon_triangles
+from ..sky import DistantSource, check_sky_arguments
 from .shapes import DEFAULT_TESSELLATION_ERROR, annulus_triangles, cone_triangles, sphere_triangles
 from .xform import TRANSFORM_WORDS, Transform, parse_transform
 
@@ -88,9 +98,6 @@ __all__ = ["DEFAULT_COMMAND_TIMEOUT", "RadianceMaterial", "radiance_luminance", 
 DEFAULT_COMMAND_TIMEOUT = 60.0
 
 _SURFACES = {"polygon", "sphere", "bubble", "cone", "cup", "cylinder", "tube", "ring"}
-_REFUSED_SURFACES = {
-    "source": "a distant source (sun or sky) is not supported",
-}
 _MATERIALS = {"plastic", "metal", "trans", "plastic2", "metal2", "trans2", "glass", "dielectric",
               "interface", "mirror", "light", "glow", "illum", "spotlight", "mist", "prism1", "prism2",
               "antimatter", "plasfunc", "metfunc", "transfunc", "plasdata", "metdata", "transdata",
@@ -339,6 +346,7 @@ class _Reader:
         self.count = 0  # triangles so far
         self.names, self.rho, self.index, self.models = [], [], {}, []
         self.area_luminaires, self.luminaire_parts, self.spot_parts = [], {}, {}
+        self.distant_sources = []
         self.folder_of = {}  # definition -> folder of the file that defined it
 
     # the scene's materials (reflectance) by record
@@ -409,7 +417,9 @@ class _Reader:
             elif ptype == "instance":
                 self.instance(override or modifier, prefix + ident, args[0], where, transform, folder,
                               depth)
-            elif ptype in _SURFACES or ptype in _REFUSED_SURFACES:
+            elif ptype == "source":
+                self.distant(override or modifier, prefix + ident, reals, where, transform)
+            elif ptype in _SURFACES:
                 self.surface(override or modifier, ptype, prefix + ident, reals, where, transform)
             elif ptype in _MATERIALS or ptype in _PATTERNS:
                 self.define(modifier, ptype, ident, tuple(args[0]), reals, where, transform)
@@ -450,8 +460,6 @@ class _Reader:
     # surfaces
     def surface(self, modifier, ptype, ident, reals, where, transform):
         what = f"{ptype} {ident!r}"
-        if ptype in _REFUSED_SURFACES:
-            raise BadInputError(f"{where}: {what}: {_REFUSED_SURFACES[ptype]}")
         tris = self.tessellate(ptype, what, reals, where, transform)
         self.place(modifier, ident, ptype, reals, tris, where, transform)
 
@@ -473,11 +481,7 @@ class _Reader:
             return
         if material.kind in ("light", "glow"):
             luminance = material.emitted_luminance()
-            if material.kind == "glow" and material.reals[3] != 0:
-                raise BadInputError(
-                    f"{where}: {what}: glow {material.name!r} ({material.where}) has radius of influence "
-                    f"{material.reals[3]:g}: Radiance then lights only nearby (or, if negative, no) surfaces, "
-                    "which no physical emitter does; use 0 (lights everything) or a light")
+            _check_glow_radius(material, where, what)
             if patterns:
                 # a sphere's projected area is πr² in every direction: kept exact, not tessellated
                 disc = math.pi * (reals[3] * transform.scale) ** 2 if ptype == "sphere" else None
@@ -503,6 +507,51 @@ class _Reader:
             self.add(tris, material, -1)
         except BadInputError as exc:
             raise BadInputError(f"{where}: {what} uses {exc}") from None
+
+    def distant(self, modifier, ident, reals, where, transform):
+        """A ``source`` (direction, angle) with a ``light`` or ``glow`` material: the sun, or a
+        sky or ground glow modified by a sky function (:mod:`lsadphoto.solver.sky`)."""
+        what = f"source {ident!r}"
+        if len(reals) != 4:
+            raise BadInputError(f"{where}: {what} needs 4 real arguments (xdir ydir zdir angle), got {len(reals)}")
+        material, patterns = self.material_of(self.resolve(modifier, where, what), where, what)
+        if material.kind not in ("light", "glow"):
+            raise BadInputError(f"{where}: {what}: {material.describe()} is not supported on a distant "
+                                "source; use light or glow")
+        luminance = material.emitted_luminance()
+        _check_glow_radius(material, where, what)
+        axis = transform.vector(reals[:3])
+        if not np.linalg.norm(axis) > 0 or not 0 < reals[3] <= 360:
+            raise BadInputError(f"{where}: {what}: needs a non-zero direction and an angle in (0, 360] degrees")
+        function = inverse = None
+        if patterns:
+            pattern = patterns[0]
+            if pattern.kind != "brightfunc" or len(patterns) > 1:
+                raise BadInputError(f"{where}: {what}: {material.describe()} is modified by "
+                                    f"{pattern.describe()}; only a brightfunc sky function is supported "
+                                    "on a distant source")
+            function, inverse = self.sky_function(pattern)
+        if luminance <= 0:  # black: it emits nothing (as a black light surface)
+            return
+        self.distant_sources.append(DistantSource(ident, axis, math.radians(reals[3]) / 2, luminance,
+                                                  function, inverse, where))
+
+    def sky_function(self, pattern):
+        """``(function, calfile, args)`` and the world-to-pattern rotation of a sky
+        ``brightfunc``, checked: the .cal file must exist (beside the scene or in Radiance's
+        library) and be one the solver evaluates natively."""
+        where = f"{pattern.where}: brightfunc {pattern.name!r}"
+        if len(pattern.strings) < 2:
+            raise BadInputError(f"{where} needs a function and a .cal file")
+        function, calfile = pattern.strings[0], pattern.strings[1]
+        folders = [self.folder_of.get(pattern, self.base), self.base, *_radiance_library()]
+        if not any((Path(f) / calfile).is_file() for f in folders):
+            raise BadInputError(f"{where}: {calfile} not found (beside the scene, on RAYPATH or in "
+                                "Radiance's library)")
+        check_sky_arguments(function, Path(calfile).name, pattern.reals, where)
+        m = pattern.transform.matrix[:3, :3]
+        inverse = None if np.allclose(m, np.eye(3)) else np.linalg.inv(m)
+        return (function, Path(calfile).name, tuple(pattern.reals)), inverse
 
     def mesh(self, modifier, ident, strings, where, transform, folder):
         """A ``mesh`` from the OBJ file it was compiled from (``name.obj`` beside ``name.rtm``),
@@ -760,12 +809,14 @@ class _Reader:
         points = self.luminaires() + self.spotlights()
         if not self.triangles:
             raise BadInputError(f"{name}: the scene has no surfaces")
-        if not self.area_luminaires and not points:
-            raise BadInputError(f"{name}: the scene has no light sources (light, glow or ies2rad luminaires)")
+        if not self.area_luminaires and not points and not self.distant_sources:
+            raise BadInputError(f"{name}: the scene has no light sources (light, glow, ies2rad luminaires "
+                                "or distant sources)")
         return Scene(np.concatenate(self.triangles), np.concatenate(self.material), self.names,
                      np.asarray(self.rho), np.concatenate(self.emitter), self.area_luminaires, points,
                      views, name=Path(name).stem, source={"radiance": name},
-                     surface_materials=None if all(m.is_lambertian for m in self.models) else self.models)
+                     surface_materials=None if all(m.is_lambertian for m in self.models) else self.models,
+                     distant_sources=self.distant_sources)
 
     # brightdata luminaires
     def luminaires(self):
@@ -1001,6 +1052,27 @@ def _angle_grid(top, step, node_sets, cuts):
     parts += [np.array([c - tiny, c + tiny]) for c in cuts]
     grid = np.unique(np.clip(np.concatenate(parts), 0.0, top).round(9))
     return grid
+
+
+def _check_glow_radius(material, where, what):
+    """A ``glow`` with a negative radius of influence lights nothing in Radiance (it is only
+    seen), which no emitter of the solver does: refused. A positive radius only decides where
+    Radiance samples the glow as a light source (shadow rays within it, interreflection
+    beyond); both estimate the same light, so the solver takes it as a plain emitter."""
+    if material.kind == "glow" and material.reals[3] < 0:
+        raise BadInputError(
+            f"{where}: {what}: glow {material.name!r} ({material.where}) has a negative radius of influence "
+            f"({material.reals[3]:g}): Radiance then shows it but lets it light nothing, which no "
+            "emitter does; use 0 or a positive radius (the same light) or a light")
+
+
+def _radiance_library():
+    """Folders where Radiance looks for .cal files: RAYPATH, then the pyradiance library."""
+    folders = [p for p in os.environ.get("RAYPATH", "").split(os.pathsep) if p]
+    programs = radiance_programs()
+    if programs is not None:
+        folders.append(str(programs.parent / "lib"))
+    return folders
 
 
 def _areas(tris):

@@ -23,6 +23,7 @@ from ...errors import BadInputError, SolverWarning
 from ...geometry.base import Projection
 from ...luminance_map import LuminanceMap
 from .._sampling import cosine_directions
+from ..sky import background_luminance
 
 __all__ = ["PIXEL_BLOCK", "ChunkHits", "check_pose", "chunk_hits", "chunk_size", "emitted_luminance", "luminance_map_from_batches",
            "luminous_openings", "near_step", "primary_rays", "run_chunks", "view_pose",
@@ -145,9 +146,14 @@ def luminous_openings(scene, position, d, dist):
     luminance towards the eye is L = I(−d̂)/(A·|cos γ|), the radiance of emission points
     uniform on the rectangle that each emit I/A (the chains' emission model). NaN where
     no opening is seen (or it emits nothing towards the eye); the nearest opening wins.
+    Rays that hit nothing see the distant sources (:func:`~lsadphoto.solver.sky.background_luminance`).
     """
     out = np.full(len(d), np.nan)
     best = np.asarray(dist, float).copy()
+    if scene.distant_sources:  # rays that leave the scene see the sun and the sky
+        away = np.flatnonzero(~np.isfinite(best))
+        sky = background_luminance(scene, d[away])
+        out[away[sky > 0]] = sky[sky > 0]
     for lum in scene.point_luminaires:
         length, width = lum.extent
         if not (length > 0 and width > 0):

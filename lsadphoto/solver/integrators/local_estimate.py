@@ -55,6 +55,8 @@ from .._sampling import GroupStreams, stream
 from ..engine import engine_for
 from ..materials import KINDS, shadow_transmittance
 from ..scene import Scene
+from ..sky import (GATHER_DISTANT_SAMPLES, background_luminance, distant_illuminance, distant_reflection,
+                   distant_uniforms, stratified)
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance,
                   luminance_map_from_batches, luminous_openings, near_step, primary_rays,
@@ -97,6 +99,7 @@ class _Gatherer:
         self.per_pixel = per_pixel
         self.seed = seed
         self.tiny = 1e-9 * store.scene.size
+        self.n_b = store.chains_per_batch
         order = np.argsort(store.batch, kind="stable")
         bounds = np.searchsorted(store.batch[order], np.arange(store.batches + 1))
         self.batch_nodes = [order[bounds[b]:bounds[b + 1]] for b in range(store.batches)]
@@ -206,11 +209,11 @@ class _Gatherer:
         """
         P = len(points)
         idx_all = self.batch_nodes[batch]
+        total = self._distant(points, normals, batch, block_ids)
         if P == 0 or idx_all.size == 0:
-            return np.zeros(P)
+            return total
         origins = points + self.engine.epsilon * normals
         if self.per_pixel is not None:
-            total = np.zeros(P)
             for stratum, k in zip(self.strata[batch], self.stratum_draws[batch]):
                 if k == 0:
                     continue
@@ -241,7 +244,16 @@ class _Gatherer:
                                              lambda sel, K=K: sel // K, origins)
             if sel.size:
                 out += np.bincount(sel // K, weights=terms, minlength=P)
-        return out
+        return out + total
+
+    def _distant(self, points, normals, batch, block_ids):
+        """E·N_b [lm·m⁻²·chains] of the distant sources at ``points``, next-event estimated
+        (:func:`~lsadphoto.solver.sky.distant_illuminance`: they leave no source nodes)."""
+        if not self.scene.distant_sources or len(points) == 0:
+            return np.zeros(len(points))
+        blocks = np.zeros(len(points), np.int64) if block_ids is None else block_ids
+        u = distant_uniforms(self.scene, self.seed, (1, batch), blocks, GATHER_DISTANT_SAMPLES, self._gens)
+        return distant_illuminance(self.scene, self.engine, points, normals, u)[0] * self.n_b
 
 
 def _near_field_terms(scene, engine, gatherer, points, normals, rho, batch, block_ids, seed,
@@ -477,6 +489,11 @@ class _MaterialGatherer:
         total = np.zeros((2, P))
         if not P:
             return total
+        sky = 0.0
+        if self.scene.distant_sources:  # next-event estimated: distant sources leave no nodes
+            rng.counts = np.bincount(batch, minlength=len(rng.gens))
+            u = stratified(rng.random((P, len(self.scene.distant_sources), GATHER_DISTANT_SAMPLES, 2)))
+            sky = distant_reflection(self.scene, self.engine, x, n, wo, mat, u)
         B = len(self.strata)
         draws = self.draws(self.k if primary else self.k_secondary)
         counts = np.bincount(batch, minlength=B)
@@ -497,7 +514,7 @@ class _MaterialGatherer:
             scale = np.where(k_row > 0, size[batch] / np.maximum(k_row, 1), 0.0)
             for c in (0, 1):
                 total[c] += np.bincount(owner, weights=val[c], minlength=P) * scale
-        return total / self.n_b
+        return total / self.n_b + sky
 
     def _terms(self, pick, owner, x, n, wo, mat, batch, parts, primary):
         """Connection terms f_p·|cos θ_p|·I_n/r²·T of the pairs (point ``owner``, node ``pick``),
@@ -654,6 +671,8 @@ def _material_paths(scene, engine, gatherer, rng, x, n, front, tri, wo, batch, n
             break
         prim, dist = engine.closest_hit(x + eps * side * n, d)
         hit = prim >= 0
+        if scene.distant_sources:  # the sky seen through glass or in a mirror
+            np.add.at(total, idx[~hit], weight[~hit] * background_luminance(scene, d[~hit]))
         idx, x, n, d, side, prim, dist, batch, weight = (idx[hit], x[hit], n[hit], d[hit], side[hit], prim[hit],
                                                          dist[hit], batch[hit], weight[hit])
         x = x + eps * side * n + dist[:, None] * d
@@ -699,14 +718,18 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     # the triangle of each vertex (−1 at the first), and whether a non-delta ray reached it
     tri = np.full(len(x), -1, np.int64)
     arrived = np.zeros(len(x), bool)
+    # weight of the distant sources' radiance, which the connections' next-event estimate
+    # covers except after delta reflections (and straight transmissions after those)
+    beta_s = np.zeros(len(x))
     first = True
     while idx.size:
         u = _uniforms(rng, batch, 4)
         wi, w, delta, _ = bsdf.sample(mat, n, wo, u[:, :3], front)
         keep = (w > 0) & ~(delta & first)
-        (idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u, batch, e_near, e_far, pdf_v, primary_v, travelled,
-         through, tri, arrived) = (a[keep] for a in (idx, beta, beta_f, x, n, wi, w, delta, wo, mat, u, batch, e_near,
-                                                     e_far, pdf_v, primary_v, travelled, through, tri, arrived))
+        (idx, beta, beta_f, beta_s, x, n, wi, w, delta, wo, mat, u, batch, e_near, e_far, pdf_v, primary_v,
+         travelled, through, tri, arrived) = (a[keep] for a in (idx, beta, beta_f, beta_s, x, n, wi, w, delta, wo,
+                                                                mat, u, batch, e_near, e_far, pdf_v, primary_v,
+                                                                travelled, through, tri, arrived))
         front = np.asarray(front)[keep]
         if not idx.size:
             break
@@ -746,11 +769,15 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
         hit = prim >= 0
         if hit.any():
             total[idx[hit]] += be[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
+        bs = np.where(delta, np.where(reflected, beta_f, beta_s), 0.0) * w
+        away = np.flatnonzero(~hit & (bs > 0))
+        if away.size and scene.distant_sources:
+            total[idx[away]] += bs[away] * background_luminance(scene, wi[away])
         q = np.ones(idx.size) if first else np.minimum(w, 1.0)
         go = hit & ((b > 0) | (bf > 0)) & (u[:, 3] < q)
-        (idx, beta, beta_f, x, n, wi, side, prim, dist, batch, e_near, e_far, pdf_v, primary_v, travelled,
-         through, arrived) = (a[go] for a in (idx, b / q, bf / q, x, n, wi, side, prim, dist, batch, e_near / q,
-                                              e_far / q, pdf_v, primary_v, travelled, through, ~delta))
+        (idx, beta, beta_f, beta_s, x, n, wi, side, prim, dist, batch, e_near, e_far, pdf_v, primary_v, travelled,
+         through, arrived) = (a[go] for a in (idx, b / q, bf / q, bs / q, x, n, wi, side, prim, dist, batch,
+                                              e_near / q, e_far / q, pdf_v, primary_v, travelled, through, ~delta))
         tri = prim
         if not idx.size:
             break

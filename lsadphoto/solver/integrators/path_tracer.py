@@ -17,10 +17,11 @@ import numpy as np
 
 from ...errors import BadInputError
 from .._sampling import GroupStreams, cosine_directions, stream
-from ..chains import EmissionSampler
+from ..chains import KIND_DISTANT, EmissionSampler
 from ..engine import engine_for
 from ..materials import shadow_transmittance
 from ..scene import Scene
+from ..sky import background_luminance
 from ..store import KIND_COSINE, KIND_POINT
 from .eye import (PIXEL_BLOCK, check_pose, chunk_hits, chunk_size, emitted_luminance,
                   luminance_map_from_batches, luminous_openings, primary_rays, run_chunks,
@@ -137,7 +138,8 @@ def _light_sample(sampler, streams, x, nx):
     the source nodes, the unit direction w towards them, the squared distance r2 [m²],
     cos θ at the vertex (n·w), whether each is a cosine (Lambertian) emitter, and the
     emitter's factor g — cos θ at a Lambertian emitter, the intensity [cd] of a point
-    luminaire towards the vertex."""
+    luminaire towards the vertex, the weight L/(p·K) of a distant source's direction (then
+    r2 = 1 and the node's position is a far point along it)."""
     src = sampler.sample(streams, len(x))
     v = src["position"] - x
     r2 = np.einsum("ij,ij->i", v, v)
@@ -148,6 +150,15 @@ def _light_sample(sampler, streams, x, nx):
     pt = np.flatnonzero(src["kind"] == KIND_POINT)
     if pt.size:
         g[pt] = sampler.point_intensity(src["luminaire"][pt], -w[pt])
+    far = np.flatnonzero(src["kind"] == KIND_DISTANT)
+    if far.size:
+        # a direction ω towards a distant source: no distance (r² = 1), g = L/(p·K), and
+        # the shadow ray's target beyond the bounding sphere along ω
+        w[far] = src["direction"][far]
+        r2[far] = 1.0
+        cos_x[far] = np.einsum("ij,ij->i", w[far], nx[far])
+        g[far] = src["factor"][far]
+        src["position"][far] = x[far] + (4 * sampler.scene.sphere[1] + 1.0) * w[far]
     return src, w, r2, cos_x, is_cos, g
 
 
@@ -197,6 +208,9 @@ def _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, front, 
         side = np.sign(np.einsum("ij,ij->i", wi, nx))[:, None]
         p2, d2 = engine.closest_hit(x + eps * side * nx, wi)
         ok = p2 >= 0
+        gone = np.flatnonzero(~ok & count_emission)
+        if gone.size and scene.distant_sources:  # the sky seen after a delta reflection
+            acc[alive[gone]] += beta[gone] * background_luminance(scene, wi[gone])
         alive, x, nx, wi, p2, d2, beta, count_emission, side = (
             alive[ok], x[ok], nx[ok], wi[ok], p2[ok], d2[ok], beta[ok], count_emission[ok], side[ok])
         x = x + eps * side * nx + d2[:, None] * wi

@@ -66,6 +66,7 @@ from ..cache_grid import PATCH_KERNEL, SurfaceCache, grid_index, patch_neighbour
 from ..direct import (ALL_LUMINAIRES_UP_TO, DIRECT_SAMPLES, LuminaireTable, direct_illuminance,
                       sampled_direct_illuminance)
 from ..engine import engine_for
+from ..sky import DISTANT_RAYS_PER_DIRECT_SAMPLE
 from ..store import LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, luminance_map_from_batches,
                   luminous_openings, near_step, primary_rays, run_chunks, warn_odd_view)
@@ -713,7 +714,8 @@ def render_cached(store, projection, *, position, rotation, cache=None,
             x = c.point[refl]
             e_dir, var = direct_illuminance(scene, engine, x, c.normal[refl],
                                             samples=direct_samples, seed=seed,
-                                            block_ids=c.block[refl])
+                                            block_ids=c.block[refl],
+                                            distant_samples=DISTANT_RAYS_PER_DIRECT_SAMPLE * direct_samples)
             e_ind = cache.interpolate(scene, c.triangle[refl], x, np.where(c.front[refl], 0, 1))
             k = (c.reflectance[refl] / math.pi)[:, None]
             out[refl] += k * (e_dir[:, None] + e_ind)
