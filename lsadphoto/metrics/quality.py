@@ -85,6 +85,7 @@ from .._compiled import njit, prange
 
 from .._validation import check_choice, check_positive
 from ..errors import BadInputError
+from ._filters import correlate_separable, erode_square
 from .adrian import threshold_luminance_difference
 
 __all__ = [
@@ -549,19 +550,16 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
     if box_rows < size or box_cols < size:
         out.reason = f"no pixel has a complete {size}×{size} stencil inside the field"
         return out
-    import cv2  # kept out of import time
-
-    evaluated = cv2.erode(np.ascontiguousarray(field_box).view(np.uint8), np.ones((size, size), np.uint8),
-                          borderType=cv2.BORDER_CONSTANT, borderValue=0).view(bool)
+    evaluated = erode_square(field_box, radius)
     out.evaluated = evaluated
     settings["n_evaluated"] = int(np.count_nonzero(evaluated))
     if settings["n_evaluated"] == 0:
         out.reason = f"no pixel has a complete {size}×{size} stencil inside the field"
         return out
-    # Pixel derivatives of the smoothed map (correlation; kernelX runs along columns). Borders
-    # never reach an evaluated pixel, so the border rule does not matter.
-    lu = cv2.sepFilter2D(filled, cv2.CV_32F, derivative, smooth)
-    lv = cv2.sepFilter2D(filled, cv2.CV_32F, smooth, derivative)
+    # Pixel derivatives of the smoothed map (correlation; kx runs along each row). The border
+    # the filters leave undefined never reaches an evaluated pixel.
+    lu = correlate_separable(filled, derivative, smooth)
+    lv = correlate_separable(filled, smooth, derivative)
 
     # Candidates: evaluated pixels that may pass the smallest cut-off n_min·ΔL_thr. Indices
     # into the box (``local``) and into the whole image (``index``).
@@ -589,7 +587,7 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
     settings["evaluated_solid_angle_sr"] = out.evaluated_solid_angle
 
     if cutoff == "luminance":
-        smoothed = cv2.sepFilter2D(filled, cv2.CV_32F, smooth, smooth)
+        smoothed = correlate_separable(filled, smooth, smooth)
         level = mean + min_cut
         candidates = evaluated & (smoothed >= np.float32(level - 1e-5 * abs(level)))  # float32 margin
         local = np.flatnonzero(candidates)
@@ -838,12 +836,10 @@ def gradient_components(filled, directions, index, *, sigma_px):
     -------
     (a, b) : tuple of ndarray, float64
     """
-    import cv2
-
     smooth, derivative, _ = _kernels(float(sigma_px))
     image = np.ascontiguousarray(filled, dtype=np.float32)
-    lu = cv2.sepFilter2D(image, cv2.CV_32F, derivative, smooth).ravel()[index].astype(np.float64)
-    lv = cv2.sepFilter2D(image, cv2.CV_32F, smooth, derivative).ravel()[index].astype(np.float64)
+    lu = correlate_separable(image, derivative, smooth).ravel()[index].astype(np.float64)
+    lv = correlate_separable(image, smooth, derivative).ravel()[index].astype(np.float64)
     index = np.asarray(index, dtype=np.int64)
     metric = np.empty((index.size, 3))
     _metric_kernel(index, np.asarray(directions).reshape(-1, 3), image.shape[1], metric)
