@@ -93,3 +93,9 @@ def test_q_equals_q_with_opencvs_filters(monkeypatch, size_arcmin):
     assert ours.kept_fraction == reference.kept_fraction
     if ours.settings["blur_sigma_px"] == 0:  # central differences: every sum is exact
         assert ours.q == reference.q
+
+
+def test_separable_correlation_takes_symmetric_or_antisymmetric_kernels():
+    with pytest.raises(ValueError, match="symmetric or antisymmetric"):
+        _filters.correlate_separable(np.ones((9, 9), np.float32), np.array([1.0, 2.0, 0.0]),
+                                     np.ones(1))

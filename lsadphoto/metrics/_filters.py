@@ -9,8 +9,10 @@ at 786² (docs/performance.md), so the two operations are the project's own kern
 
 * :func:`correlate_separable`: ``out[i, j] = Σ_a Σ_b ky[a]·kx[b]·x[i + a − ry, j + b − rx]``
   (correlation, each kernel centred on its middle tap: OpenCV's convention with the default
-  anchor), the row pass first, both passes summed in float64 from exact float64 products of
-  the float32 inputs, the result rounded once to float32. Only pixels whose whole stencil
+  anchor) for kernels that are symmetric or antisymmetric (Q's Gaussian and its
+  derivative), the taps at ±b sharing one product; the row pass first, both passes summed
+  in float64 (the float32 inputs and taps are exact in it), the result rounded once to
+  float32. Only pixels whose whole stencil
   lies in the image are computed; the border of ``ry`` rows and ``rx`` columns is NaN (Q
   reads none of it: its evaluated pixels are eroded by the stencil). OpenCV sums in float32
   (with fused multiply–adds in its SIMD lanes, without in the row tails), so the two agree to
@@ -32,13 +34,36 @@ _OPTIONS = {"cache": True, "error_model": "numpy", "nogil": True}
 _BAND_ROWS = 64
 
 
+@njit(inline="always", **_OPTIONS)
+def _taps(out, x, k, centre, parity, n):
+    """out[j] (+)= Σ_b k[centre + b]·x[centre + j + b] over |b| ≤ centre for j < n, the
+    kernel symmetric (``parity`` 1) or antisymmetric (−1): the pairs x[j + b] ± x[j − b]
+    share one product."""
+    c = k[centre]
+    xc = x[centre:centre + n]
+    for j in range(n):
+        out[j] = c * np.float64(xc[j])
+    for b in range(1, centre + 1):
+        t = k[centre + b]
+        xp = x[centre + b:centre + b + n]
+        xm = x[centre - b:centre - b + n]
+        if parity > 0:
+            for j in range(n):
+                out[j] += t * (np.float64(xp[j]) + np.float64(xm[j]))
+        else:
+            for j in range(n):
+                out[j] += t * (np.float64(xp[j]) - np.float64(xm[j]))
+
+
 @njit(parallel=True, **_OPTIONS,
-      aot="void(float32[:, ::1], float64[::1], float64[::1], int64, float32[:, ::1])")
-def _correlate(image, kx, ky, band_rows, out):
+      aot=("void(float32[:, ::1], float64[::1], float64[::1], int64, int64, int64, "
+           "float32[:, ::1])"))
+def _correlate(image, kx, ky, parity_x, parity_y, band_rows, out):
     """:func:`correlate_separable` into ``out`` (kernels as float64 copies of the float32
-    taps). Each band of output rows keeps its row-filtered input rows in a ring of
-    2·ry + 1 float64 rows; every output value is the same sum in the same order whatever the
-    bands, so the result does not depend on them or on the threads."""
+    taps, each symmetric or antisymmetric: ``parity_x``, ``parity_y`` ±1). Each band of
+    output rows keeps its row-filtered input rows in a ring of 2·ry + 1 float64 rows; every
+    output value is the same sum in the same order whatever the bands, so the result does
+    not depend on them or on the threads."""
     rows, cols = image.shape
     nx, ny = kx.size, ky.size
     rx, ry = nx // 2, ny // 2
@@ -61,39 +86,56 @@ def _correlate(image, kx, ky, band_rows, out):
         acc = np.empty(inner)
         for src in range(r0 - ry, r1 + ry):
             # The row pass of input row ``src`` into its slot of the ring.
-            slot = ring[src % ny]
-            x = image[src]
-            for j in range(inner):
-                slot[j] = 0.0
-            for b in range(nx):
-                k = kx[b]
-                xs = x[b:b + inner]
-                for j in range(inner):
-                    slot[j] += k * np.float64(xs[j])
+            _taps(ring[src % ny], image[src], kx, rx, parity_x, inner)
             i = src - ry  # the output row whose stencil this input row completes
             if i < r0:
                 continue
-            for j in range(inner):
-                acc[j] = 0.0
-            for a in range(ny):
-                k = ky[a]
-                h = ring[(i - ry + a) % ny]
-                for j in range(inner):
-                    acc[j] += k * h[j]
+            _column_taps(acc, ring, i, ky, ry, parity_y, inner)
             o = out[i, rx:rx + inner]
             for j in range(inner):
                 o[j] = np.float32(acc[j])
 
 
+@njit(inline="always", **_OPTIONS)
+def _column_taps(out, ring, i, k, centre, parity, n):
+    """out[j] = Σ_a k[centre + a]·(row i + a)[j] over |a| ≤ centre, input row m kept in
+    ``ring[m % len(ring)]``, paired as in :func:`_taps`."""
+    size = ring.shape[0]
+    c = k[centre]
+    rc = ring[i % size]
+    for j in range(n):
+        out[j] = c * rc[j]
+    for a in range(1, centre + 1):
+        t = k[centre + a]
+        hp, hm = ring[(i + a) % size], ring[(i - a) % size]
+        if parity > 0:
+            for j in range(n):
+                out[j] += t * (hp[j] + hm[j])
+        else:
+            for j in range(n):
+                out[j] += t * (hp[j] - hm[j])
+
+
+def _parity(kernel):
+    """1 for a symmetric kernel, −1 for an antisymmetric one (Q's smoothing and derivative
+    kernels are exactly one or the other)."""
+    if np.array_equal(kernel, kernel[::-1]):
+        return 1
+    if np.array_equal(kernel, -kernel[::-1]):
+        return -1
+    raise ValueError("correlate_separable takes symmetric or antisymmetric kernels")
+
+
 def correlate_separable(image, kx, ky):
     """The separable correlation of a float32 ``image`` with the column kernel ``kx`` (along
-    each row) and the row kernel ``ky`` (along each column), odd lengths, as float32; NaN on
-    the border where the stencil leaves the image (see the module's docstring)."""
+    each row) and the row kernel ``ky`` (along each column), odd lengths, each symmetric or
+    antisymmetric, as float32; NaN on the border where the stencil leaves the image (see the
+    module's docstring)."""
     image = np.ascontiguousarray(image, dtype=np.float32)
     kx = np.asarray(kx, dtype=np.float32).reshape(-1).astype(np.float64)
     ky = np.asarray(ky, dtype=np.float32).reshape(-1).astype(np.float64)
     out = np.empty(image.shape, dtype=np.float32)
-    _correlate(image, kx, ky, _BAND_ROWS, out)
+    _correlate(image, kx, ky, _parity(kx), _parity(ky), _BAND_ROWS, out)
     return out
 
 
