@@ -47,6 +47,7 @@ __all__ = [
     "POSITION_INDEX_METHODS",
     "atan2_nonnegative",
     "exp_bounded",
+    "fisheye_directions",
     "fisheye_geometry",
     "quad_solid_angle_grid",
     "tan_half_range",
@@ -383,15 +384,51 @@ def _corner_row(model, p, table, row, j0, j1, corners):
         _ideal_row(p, row, j0 - 0.5, cx, cy, cz, True)
 
 
+@njit(**_OPTIONS)
+def _centre_row(model, p, table, row, col_offset, ox, oy, oz):
+    """Directions of the pixel centres (row, col_offset + j), j < len(ox): the projection's
+    per-pixel function, which every kernel that needs a direction calls (the maps of
+    :func:`fisheye_geometry`, :func:`fisheye_directions`, :func:`visual_field_maps`). Each
+    value is a pure function of its pixel's coordinates."""
+    if model == OPENCV_FISHEYE:
+        _kb_row(p, table, row, col_offset, ox, oy, oz)
+    else:
+        _ideal_row(p, row, col_offset, ox, oy, oz, False)
+
+
 @njit(parallel=True, **_OPTIONS,
-      aot=("void(int64, float64[::1], float64[::1], int64, float64[:, :, ::1], "
+      aot=("void(int64, float64[::1], float64[::1], boolean[:, ::1], int64[::1], int64[::1], "
+           "int64[::1], int64[::1], float64[:, ::1])"))
+def fisheye_directions(model, p, table, valid, seg_row, seg_col, seg_length, seg_start, out):
+    """Centre directions of row segments: segment k is the pixels (seg_row[k], seg_col[k] + j),
+    j < seg_length[k], inside the image, written to ``out[seg_start[k] + j]``; NaN where the
+    pixel is not ``valid`` — the values of :func:`fisheye_geometry`'s ``directions`` map bit
+    for bit, without the map."""
+    for k in prange(seg_row.size):
+        n = seg_length[k]
+        r, c0, o = seg_row[k], seg_col[k], seg_start[k]
+        centres = np.empty((3, n))
+        _centre_row(model, p, table, float(r), float(c0), centres[0], centres[1], centres[2])
+        ok = valid[r, c0:c0 + n]
+        for j in range(n):
+            good = ok[j]
+            out[o + j, 0] = centres[0, j] if good else np.nan
+            out[o + j, 1] = centres[1, j] if good else np.nan
+            out[o + j, 2] = centres[2, j] if good else np.nan
+
+
+@njit(parallel=True, **_OPTIONS,
+      aot=("void(int64, float64[::1], float64[::1], int64, boolean, float64[:, :, ::1], "
            "float64[:, ::1], boolean[:, ::1])"))
-def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid):
+def fisheye_geometry(model, p, table, band_rows, store_directions, directions, solid_angle,
+                     valid):
     """Fill ``directions`` (rows, cols, 3), ``solid_angle`` and ``valid`` (rows, cols).
 
     ``model`` is :data:`IDEAL_FISHEYE` (``p`` = cx, cy, kind code, radial coefficient,
     R·(1 + 1e-12)) or :data:`OPENCV_FISHEYE` (``p`` = cx, cy, fx, fy, k1…k4, θmax, ρmax, table
-    step; ``table`` θ on a uniform grid of ρ). Bands of ``band_rows`` rows are shared out
+    step; ``table`` θ on a uniform grid of ρ). ``directions`` is written only where
+    ``store_directions`` (else it may be any array: the metrics compute directions from the
+    model where they need them, :func:`fisheye_directions`, 24 bytes per pixel not stored). Bands of ``band_rows`` rows are shared out
     among the threads (one parallel region); a band walks down its rows keeping two rows of
     corner directions (above and below the current pixel row, a few hundred kB), so that
     every corner is computed once, except the top row of each band, which the band above
@@ -422,12 +459,12 @@ def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
             bottom = 1 - top
             _corner_row(model, p, table, r + 0.5, min(j0, below[0]), max(j1, below[1]) + 1,
                         corners[bottom])
-            d = directions[r]
             w = solid_angle[r]
             ok = valid[r]
             # Outside the span: invalid, without computing anything.
-            d[:j0] = np.nan
-            d[j1:] = np.nan
+            if store_directions:
+                directions[r, :j0] = np.nan
+                directions[r, j1:] = np.nan
             w[:j0] = 0.0
             w[j1:] = 0.0
             ok[:j0] = False
@@ -435,15 +472,12 @@ def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
             # The span as arrays of its own: loops over range(n) index from 0, which the
             # compiler knows to be non-negative (no wraparound select) and vectorises.
             n = j1 - j0
-            d, w, ok = d[j0:j1], w[j0:j1], ok[j0:j1]
+            w, ok = w[j0:j1], ok[j0:j1]
             x0, y0, z0 = corners[top, 0, j0:j1 + 1], corners[top, 1, j0:j1 + 1], corners[top, 2, j0:j1 + 1]
             x1, y1, z1 = corners[bottom, 0, j0:j1 + 1], corners[bottom, 1, j0:j1 + 1], \
                 corners[bottom, 2, j0:j1 + 1]
             cx, cy, cz = centres[0, :n], centres[1, :n], centres[2, :n]
-            if model == OPENCV_FISHEYE:
-                _kb_row(p, table, float(r), float(j0), cx, cy, cz)
-            else:
-                _ideal_row(p, float(r), float(j0), cx, cy, cz, False)
+            _centre_row(model, p, table, float(r), float(j0), cx, cy, cz)
             # Solid angles by the series on SIMD lanes (−1 where it does not apply)...
             for j in range(n):
                 w[j] = _quad_series(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
@@ -458,11 +492,15 @@ def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
                 omega = w[j]
                 good = ((omega > 0) & (abs(omega) < np.inf) & (abs(cx[j]) < np.inf)
                         & (abs(cy[j]) < np.inf) & (abs(cz[j]) < np.inf))
-                d[j, 0] = cx[j] if good else np.nan
-                d[j, 1] = cy[j] if good else np.nan
-                d[j, 2] = cz[j] if good else np.nan
                 w[j] = omega if good else 0.0
                 ok[j] = good
+            if store_directions:
+                d = directions[r, j0:j1]
+                for j in range(n):
+                    good = ok[j]
+                    d[j, 0] = cx[j] if good else np.nan
+                    d[j, 1] = cy[j] if good else np.nan
+                    d[j, 2] = cz[j] if good else np.nan
             top = bottom
 
 
@@ -532,14 +570,17 @@ def _guth_exponent(s, t):
 
 
 @njit(parallel=True, **_OPTIONS,
-      aot=("void(float64[:, :, ::1], boolean[:, ::1], float64[::1], float64[::1], "
-           "float64[::1], int64, float64, boolean, boolean, float64[:, ::1], float64[:, ::1], "
-           "float64[:, ::1], float64[:, ::1])"))
-def visual_field_maps(directions, valid, v, u, h, method, cap, angles, field, sigma, tau,
-                      position_index, cos_sigma):
+      aot=("void(float64[:, :, ::1], boolean[:, ::1], int64, float64[::1], float64[::1], "
+           "float64[::1], float64[::1], float64[::1], int64, float64, boolean, boolean, "
+           "float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, ::1])"))
+def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, angles, field,
+                      sigma, tau, position_index, cos_sigma):
     """σ, τ [rad], position index and cos σ of every pixel (see field.visual_field).
 
-    ``v, u, h``: line of sight, up and side axes; ``method`` a code of
+    The pixel directions are read from the ``directions`` map where ``model`` is negative;
+    otherwise they are computed per row from the fisheye ``model`` (``p``, ``table`` as in
+    :func:`fisheye_geometry`, NaN where not ``valid``: the map's values bit for bit) and
+    ``directions`` may be any array. ``v, u, h``: line of sight, up and side axes; ``method`` a code of
     :data:`POSITION_INDEX_METHODS`; ``cap`` the Guth/Iwata cap. Only the maps asked for are
     written: σ and τ where ``angles``, the position index and cos σ where ``field``; the others
     are computed into a scratch row per image row (the arrays passed for them are not touched
@@ -554,7 +595,8 @@ def visual_field_maps(directions, valid, v, u, h, method, cap, angles, field, si
     """
     rows, cols = valid.shape
     half_pi = 0.5 * math.pi
-    flat = directions.reshape(rows, 3 * cols)  # flat rows: the loads vectorise (interleaved)
+    # Flat rows: the loads vectorise (interleaved). (A map of any shape where it is not read.)
+    flat = directions.reshape(rows, 3 * cols) if model < 0 else directions.reshape(1, -1)
     v0, v1, v2, u0, u1, u2, h0, h1, h2 = v[0], v[1], v[2], u[0], u[1], u[2], h[0], h[1], h[2]
     iwata = method == 0
     for i in prange(rows):
@@ -567,7 +609,18 @@ def visual_field_maps(directions, valid, v, u, h, method, cap, angles, field, si
         # The span as arrays of its own: loops over range(n) index from 0, which the compiler
         # knows to be non-negative (no wraparound select) and vectorises.
         n = j1 - j0
-        d = flat[i, 3 * j0:3 * j1]
+        if model < 0:
+            d = flat[i, 3 * j0:3 * j1]
+        else:
+            centres = np.empty((3, n))
+            _centre_row(model, p, table, float(i), float(j0), centres[0], centres[1], centres[2])
+            d = np.empty(3 * n)
+            span = ok[j0:j1]
+            for j in range(n):
+                good = span[j]
+                d[3 * j] = centres[0, j] if good else np.nan
+                d[3 * j + 1] = centres[1, j] if good else np.nan
+                d[3 * j + 2] = centres[2, j] if good else np.nan
         if angles:
             sigma[i, :j0] = np.nan
             sigma[i, j1:] = np.nan

@@ -39,6 +39,7 @@ import numpy as np
 from .._compiled import njit
 
 from .._validation import check_positive
+from ..geometry.field import directions_block
 
 __all__ = ["GlareSource", "group_sources_evalglare", "position_pixel_evalglare",
            "SOURCE_POSITIONS", "DEFAULT_SEARCH_ANGLE", "DEFAULT_PEAK_LUMINANCE"]
@@ -339,8 +340,10 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
     ----------
     luminance : ndarray, shape (rows, cols)
         L [cd·m⁻²].
-    directions : ndarray, shape (rows, cols, 3)
-        Unit pixel directions.
+    directions : ndarray, shape (rows, cols, 3), or PixelGeometry
+        Unit pixel directions, or the :class:`~lsadphoto.geometry.PixelGeometry` that gives
+        them (the directions of the sources' bounding box are then computed from the camera
+        model, without a map of the whole picture).
     solid_angle : ndarray, shape (rows, cols)
         ω [sr].
     source_mask : ndarray of bool, shape (rows, cols)
@@ -367,7 +370,7 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
     box = (slice(rows_any[0], rows_any[-1] + 1), slice(cols_any[0], cols_any[-1] + 1))
     mask = full_mask[box]
     luminance = np.asarray(luminance)[box]
-    directions = np.asarray(directions)[box]
+    directions = directions_block(directions, box)
     solid_angle = np.asarray(solid_angle)[box]
     labels, n = _link(mask, directions, separation)
     peak_flags = [False] * n
