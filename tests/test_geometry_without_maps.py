@@ -3,7 +3,7 @@ the map-based path as the reference (docs/performance.md, "Directions from the c
 
 For the ideal and the OpenCV fisheye, :func:`pixel_geometry` stores no direction map: the
 visual-field kernel, Q, the grouping and the sources' position pixels compute directions from
-the model (``PixelGeometry.directions_at``, ``directions_block``, ``stencil_directions``). The
+the model (``PixelGeometry.directions_at``, ``stencil_directions``). The
 reference is the same geometry with its map made (``geometry.directions``, which every
 consumer then reads, as before this change), and a geometry of the map alone (``model=None``):
 each value is the same function of the pixel's coordinates, so the results are equal bit for
@@ -60,13 +60,11 @@ def test_directions_from_the_model_equal_the_map(name):
     rows, cols = cam.shape
     r, c = rng.integers(0, rows, 500), rng.integers(0, cols, 500)
     at = geometry.directions_at(r, c)
-    block = geometry.directions_block((slice(20, 90), slice(35, 160)))
     sample = rng.integers(1, rows - 1, 300) * cols + rng.integers(1, cols - 1, 300)  # interior
     flat, i, step = geometry.stencil_directions(sample)  # 5 per stencil < the image: no map
     assert geometry._directions is None and step == 2
     full = geometry.directions  # the map, made now: the reference
     np.testing.assert_array_equal(at, full[r, c])
-    np.testing.assert_array_equal(block, full[20:90, 35:160])
     reference = full.reshape(-1, 3)
     for offset, image_offset in ((-1, -1), (1, 1), (-step, -cols), (step, cols)):
         np.testing.assert_array_equal(flat[i + offset], reference[sample + image_offset])

@@ -75,6 +75,8 @@ _KB_NEWTON_STEPS = 1
 #: Columns added on each side of the computed span of possibly valid pixel centres of a row
 #: (:func:`_centre_span`): far more than the rounding of its bounds (≪ 10⁻³ px).
 _SPAN_MARGIN = 2
+#: Segments per chunk of :func:`fisheye_directions` (chunks are shared out among the threads).
+_SEGMENT_CHUNK = 256
 
 
 # --- solid angle of one pixel ---------------------------------------------------------------
@@ -404,17 +406,24 @@ def fisheye_directions(model, p, table, valid, seg_row, seg_col, seg_length, seg
     j < seg_length[k], inside the image, written to ``out[seg_start[k] + j]``; NaN where the
     pixel is not ``valid`` — the values of :func:`fisheye_geometry`'s ``directions`` map bit
     for bit, without the map."""
-    for k in prange(seg_row.size):
-        n = seg_length[k]
-        r, c0, o = seg_row[k], seg_col[k], seg_start[k]
-        centres = np.empty((3, n))
-        _centre_row(model, p, table, float(r), float(c0), centres[0], centres[1], centres[2])
-        ok = valid[r, c0:c0 + n]
-        for j in range(n):
-            good = ok[j]
-            out[o + j, 0] = centres[0, j] if good else np.nan
-            out[o + j, 1] = centres[1, j] if good else np.nan
-            out[o + j, 2] = centres[2, j] if good else np.nan
+    n_segments = seg_row.size
+    longest = 0
+    for k in range(n_segments):
+        longest = max(longest, seg_length[k])
+    n_chunks = (n_segments + _SEGMENT_CHUNK - 1) // _SEGMENT_CHUNK
+    for chunk in prange(n_chunks):
+        scratch = np.empty((3, longest))  # one per chunk of segments, not per segment
+        for k in range(chunk * _SEGMENT_CHUNK, min(n_segments, (chunk + 1) * _SEGMENT_CHUNK)):
+            n = seg_length[k]
+            r, c0, o = seg_row[k], seg_col[k], seg_start[k]
+            cx, cy, cz = scratch[0, :n], scratch[1, :n], scratch[2, :n]
+            _centre_row(model, p, table, float(r), float(c0), cx, cy, cz)
+            ok = valid[r, c0:c0 + n]
+            for j in range(n):
+                good = ok[j]
+                out[o + j, 0] = cx[j] if good else np.nan
+                out[o + j, 1] = cy[j] if good else np.nan
+                out[o + j, 2] = cz[j] if good else np.nan
 
 
 @njit(parallel=True, **_OPTIONS,

@@ -56,7 +56,7 @@ __all__ = [
     "VisualField",
     "clear_geometry_cache",
     "direction_map",
-    "directions_block",
+    "directions_at",
     "pixel_geometry",
     "quad_solid_angle_components",
     "visual_field",
@@ -206,7 +206,14 @@ class PixelGeometry:
             return np.asarray(self.directions)[rows, cols]
         shape = rows.shape
         rows, cols = rows.reshape(-1), cols.reshape(-1)
-        return self._segments(rows, cols, np.ones(rows.size, np.int64)).reshape(shape + (3,))
+        if rows.size == 0:
+            return np.empty(shape + (3,))
+        # Pixels that follow each other along a row form one segment (row-major input, as
+        # np.nonzero gives, is computed in runs).
+        starts = np.flatnonzero(np.r_[True, (rows[1:] != rows[:-1]) | (cols[1:] != cols[:-1] + 1)])
+        lengths = np.diff(np.r_[starts, rows.size])
+        d = self._segments(rows[starts], cols[starts], lengths)
+        return d.reshape(shape + (3,))
 
     def stencil_directions(self, index):
         """Directions around the flat pixels ``index`` (each with its four neighbours in the
@@ -226,19 +233,6 @@ class PixelGeometry:
         lengths = np.tile(np.array([1, 3, 1], dtype=np.int64), index.size)
         d = self._segments(seg_rows, seg_cols, lengths)
         return d, 5 * np.arange(index.size, dtype=np.int64) + 2, 2
-
-    def directions_block(self, box):
-        """``directions[box]`` for a box of two slices with unit steps, computed from the model
-        without the map where the geometry has a model and the map was not made."""
-        if self.model is None or self._directions is not None:
-            return np.asarray(self.directions)[box]
-        rows, cols = self.valid.shape
-        r0, r1, _ = box[0].indices(rows)
-        c0, c1, _ = box[1].indices(cols)
-        n_rows, n_cols = max(r1 - r0, 0), max(c1 - c0, 0)
-        d = self._segments(np.arange(r0, r0 + n_rows, dtype=np.int64),
-                           np.full(n_rows, c0, np.int64), np.full(n_rows, n_cols, np.int64))
-        return d.reshape(n_rows, n_cols, 3)
 
 
 def _fisheye_kernel_parameters(projection):
@@ -393,12 +387,12 @@ def direction_map(directions):
     return directions.directions if isinstance(directions, PixelGeometry) else directions
 
 
-def directions_block(directions, box):
-    """``directions[box]`` of a direction map or of a :class:`PixelGeometry` (computed from its
-    model where it stores no map): what the metrics that take ``directions`` call."""
+def directions_at(directions, rows, cols):
+    """``directions[rows, cols]`` of a direction map or of a :class:`PixelGeometry` (computed
+    from its model where it stores no map): what the metrics that take ``directions`` call."""
     if isinstance(directions, PixelGeometry):
-        return directions.directions_block(box)
-    return np.asarray(directions)[box]
+        return directions.directions_at(rows, cols)
+    return np.asarray(directions)[rows, cols]
 
 
 # --- visual field ---------------------------------------------------------------------------

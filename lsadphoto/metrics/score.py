@@ -585,7 +585,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         zones, labels, parent, source_zones = zone_split(
             labels, directions=geometry.directions, valid=valid, projection=lmap.projection,
             zone_centre=zone_centre, zone_opening_deg=zone_opening_deg)
-        groups = describe_sources(labels, len(parent), luminance, geometry.directions, omega,
+        groups = describe_sources(labels, len(parent), luminance, geometry, omega,
                                   [groups[k].peak for k in parent])
         sources = _scored_sources(groups, geometry, frame,
                                   position_index_method=position_index_method,
