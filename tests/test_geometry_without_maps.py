@@ -25,6 +25,7 @@ from lsadphoto.geometry import (
     pixel_geometry,
     visual_field,
 )
+from lsadphoto.geometry import field as field_module
 from lsadphoto.geometry.field import PixelGeometry
 from lsadphoto.luminance_map import LuminanceMap
 from lsadphoto.metrics.grouping import group_sources_evalglare
@@ -40,10 +41,27 @@ CAMERAS = {
 
 
 @pytest.fixture(autouse=True)
-def _fresh_cache():
+def _fresh_cache(monkeypatch):
+    # These pictures are small: without this their geometry would store the map (it does up
+    # to DIRECTION_MAP_MAX_PIXELS), and nothing below would compute directions from a model.
+    monkeypatch.setattr(field_module, "DIRECTION_MAP_MAX_PIXELS", 0)
     clear_geometry_cache()
     yield
     clear_geometry_cache()
+
+
+def test_small_pictures_store_the_map_and_large_ones_do_not(monkeypatch):
+    cam = CAMERAS["equidistant"]
+    monkeypatch.setattr(field_module, "DIRECTION_MAP_MAX_PIXELS", cam.shape[0] * cam.shape[1])
+    stored = pixel_geometry(cam)
+    assert stored._directions is not None
+    clear_geometry_cache()
+    monkeypatch.setattr(field_module, "DIRECTION_MAP_MAX_PIXELS", cam.shape[0] * cam.shape[1] - 1)
+    computed = pixel_geometry(cam)
+    assert computed._directions is None
+    np.testing.assert_array_equal(computed.directions, stored.directions)
+    np.testing.assert_array_equal(computed.solid_angle, stored.solid_angle)
+    np.testing.assert_array_equal(computed.valid, stored.valid)
 
 
 def _map_only(geometry):

@@ -3,7 +3,10 @@
 One pass over the image computes, per pixel, what the numpy reference methods compute in
 many full-frame passes: the direction of its centre, the directions of its corners (each
 corner once, shared by the four pixels that meet there), its solid angle and validity; a
-second pass gives σ, τ, cos σ and the position index. Rows are distributed over threads
+second pass gives σ, τ, cos σ and the position index, computing the centre directions again
+from the model (:func:`_centre_row`, the one per-pixel projection function) rather than
+reading a stored map, as :func:`fisheye_directions` does for the pixels the metrics ask
+for (the map is written only on request). Rows are distributed over threads
 (``prange``); the kernels are compiled on first use and cached on disk (``cache=True``).
 Only the span of a row that can hold valid pixels is computed — the chord of the image
 circle (ideal fisheye) or of the ellipse ρ < ρmax (OpenCV) plus a margin of two pixels, in

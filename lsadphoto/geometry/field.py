@@ -22,10 +22,11 @@ How the maps are computed (FORMULAS.md §2.4.2):
   numba, rows on all CPUs), and cos σ and the position index in a second one (σ and τ in
   the same kernel, only when they are read: the metrics do not need them), each over the
   part of every row that can hold valid pixels (the rest is set invalid directly); IEEE
-  float64, no fast-math. No direction map is stored: the second pass, Q, the grouping and
-  the sources compute the directions they need from the model's parameters with the same
-  per-pixel function (``_kernels._centre_row``; :meth:`PixelGeometry.directions_at`), and
-  ``directions`` makes the whole map only when it is read. The ideal fisheye's maps equal
+  float64, no fast-math. Above 2²⁰ pixels no direction map is stored: the second pass, Q,
+  the grouping and the sources compute the directions they need from the model's
+  parameters with the same per-pixel function (``_kernels._centre_row``;
+  :meth:`PixelGeometry.directions_at`), and ``directions`` makes the whole map only when it
+  is read. The ideal fisheye's maps equal
   its methods bit for bit (where numpy's tan is libm's). Other models evaluate
   their own (numpy) ``directions`` in blocks of rows on threads, with the compiled
   solid-angle kernel.
@@ -67,6 +68,11 @@ CACHE_SIZE = 4
 #: Pixels per block of work: 192 kB per float64 temporary, so a block's working set stays
 #: in the L2 cache (measured best of 2¹²…2¹⁷ on the 2-core test machine).
 _BLOCK_PIXELS = 24_000
+#: The fisheye models store their direction map with the geometry up to this many pixels:
+#: Q evaluates every pixel of such a picture (it screens only larger ones, quality.py), so its
+#: stencils would make the map anyway, and the visual field reads it instead of computing the
+#: directions again. Larger pictures store none (24 bytes per pixel of fresh memory).
+DIRECTION_MAP_MAX_PIXELS = 1 << 20
 #: Pixels per band of rows of the compiled fisheye kernel (bands are shared out among the
 #: threads; each recomputes the row of corners above it: 21-row bands at 6000 columns,
 #: 5 % more corner directions).
@@ -149,9 +155,10 @@ class PixelGeometry:
     Compared by identity (the cache hands out one object per model and image size).
 
     For the fisheye models with a compiled kernel (the ideal fisheye, the OpenCV fisheye)
-    the directions are not stored with the object: the metrics compute the directions they
-    need from the model's parameters (:meth:`directions_at`, and inside the visual-field
-    kernel), which spares a score 24 bytes per pixel of fresh memory (docs/performance.md);
+    pictures of more than :data:`DIRECTION_MAP_MAX_PIXELS` have no stored direction map: the
+    metrics compute the directions they need from the model's parameters
+    (:meth:`directions_at`, :meth:`stencil_directions`, and inside the visual-field kernel),
+    which spares a score 24 bytes per pixel of fresh memory (docs/performance.md);
     :attr:`directions` computes the whole map on first access (the same values bit for bit).
 
     Attributes
@@ -302,9 +309,11 @@ def _compute_pixel_geometry(projection):
     if compiled is not None:
         model, p, table = compiled
         band_rows = max(1, min(rows, _KERNEL_BLOCK_PIXELS // max(cols, 1)))
-        _kernels.fisheye_geometry(model, p, table, band_rows, False, np.empty((1, 1, 3)),
-                                  solid_angle, valid)
-        return PixelGeometry(None, _read_only(solid_angle), _read_only(valid), model=compiled)
+        store = rows * cols <= DIRECTION_MAP_MAX_PIXELS
+        directions = np.empty((rows, cols, 3) if store else (1, 1, 3))
+        _kernels.fisheye_geometry(model, p, table, band_rows, store, directions, solid_angle, valid)
+        return PixelGeometry(_read_only(directions) if store else None, _read_only(solid_angle),
+                             _read_only(valid), model=compiled)
 
     # Other models: their own (numpy) directions on the corner and centre grids, in blocks on
     # threads; the solid-angle kernel releases the GIL.
@@ -452,8 +461,8 @@ def _visual_field_maps(geometry, axes, method, *, angles):
     unused = np.empty((1, 1))
     out = [np.empty(shape), np.empty(shape)]
     maps = (out + [unused, unused]) if angles else ([unused, unused] + out)
-    # The directions from the fisheye model inside the kernel (no map), else the stored map.
-    if geometry.model is not None:
+    # The directions from the fisheye model inside the kernel where no map is stored.
+    if geometry.model is not None and geometry._directions is None:
         directions, model = np.empty((1, 1, 3)), geometry.model
     else:
         directions, model = geometry.directions, (-1, np.empty(0), np.empty(0))
