@@ -178,3 +178,25 @@ def test_score_without_the_map_equals_the_score_with_it(options):
     with_map = score_map(lmap, **options).to_dict()
     without.pop("provenance"), with_map.pop("provenance")
     assert without["n_sources"] == 2 and without == with_map
+
+
+@pytest.mark.parametrize("name", CAMERAS)
+@pytest.mark.parametrize("method", ["evalglare", "Guth", "Kim2011"])
+def test_geometry_and_field_in_one_pass_equal_the_map_path(name, method):
+    # With neither cached, visual_field computes the geometry and its own maps in one pass of
+    # fisheye_geometry (each centre direction once); the reference is the separate passes
+    # from a stored map.
+    cam = CAMERAS[name]
+    frame = ObserverFrame((0.1, -0.2, 0.97), (0.0, -1.0, 0.0))
+    field = visual_field(cam, frame, position_index_method=method)
+    geometry = pixel_geometry(cam)
+    assert field._inputs[0] is geometry and geometry._directions is None
+    from lsadphoto.geometry.field import VisualField
+
+    clear_geometry_cache()
+    separate = pixel_geometry(cam)
+    reference = VisualField(_map_only(separate), frame.axes(), method)
+    np.testing.assert_array_equal(geometry.solid_angle, separate.solid_angle)
+    np.testing.assert_array_equal(geometry.valid, separate.valid)
+    for name_ in ("position_index", "cos_sigma", "sigma", "tau"):
+        np.testing.assert_array_equal(getattr(field, name_), getattr(reference, name_))

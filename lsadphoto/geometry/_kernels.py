@@ -429,11 +429,84 @@ def fisheye_directions(model, p, table, valid, seg_row, seg_col, seg_length, seg
                 out[o + j, 2] = cz[j] if good else np.nan
 
 
+@njit(inline="always", **_OPTIONS)
+def _field_row(d, ok, n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row):
+    """σ, τ, cos σ (0 where not ``ok``) and, where ``field``, the position index of the ``n``
+    interleaved directions ``d`` of one row's span (see :func:`visual_field_maps`)."""
+    half_pi = 0.5 * math.pi
+    v0, v1, v2, u0, u1, u2, h0, h1, h2 = v[0], v[1], v[2], u[0], u[1], u[2], h[0], h[1], h[2]
+    iwata = method == 0
+    for j in range(n):
+        dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
+        forward = dx * v0 + dy * v1 + dz * v2
+        up = dx * u0 + dy * u1 + dz * u2
+        side = dx * h0 + dy * h1 + dz * h2
+        lateral = math.sqrt(up * up + side * side)
+        s_row[j] = atan2_nonnegative(lateral, forward)
+        t = atan2_nonnegative(abs(side), up)
+        # On the line of sight τ is undefined: 0 where the lateral part is at rounding
+        # level (as field._angles did).
+        t_row[j] = 0.0 if lateral < 1e-15 else t
+        c_row[j] = forward if ok[j] else 0.0
+        if iwata:
+            p_row[j] = atan2_nonnegative(math.sqrt(side * side + 1.3225 * (up * up)), forward)
+    if not field:
+        return
+    if method == 2:  # Kim2011
+        for j in range(n):
+            s = s_row[j] * _DEGREES
+            t = t_row[j] * _DEGREES
+            centre = -9e-6 * t ** 3 + 0.0014 * t ** 2 + 0.0866 * t + 21.633
+            width = -9e-6 * t ** 3 + 0.0013 * t ** 2 + 0.0853 * t + 8.772
+            p_row[j] = exp_bounded((s - centre) / width)
+        return
+    for j in range(n):
+        exponent = _guth_exponent(s_row[j] * _DEGREES, t_row[j] * _DEGREES)
+        if iwata:  # evalglare: Iwata below the line of sight
+            b = p_row[j] * _DEGREES
+            exponent = 6.49e-3 * b + 21e-5 * b * b if t_row[j] > half_pi else exponent
+        value = exp_bounded(exponent)
+        p_row[j] = cap if value > cap else value  # noqa: FURB136 (NaN stays NaN, as np.minimum)
+
+
+@njit(inline="always", **_OPTIONS)
+def _valid_span(ok, cols):
+    """First and last + 1 valid column of a row (equal where none is valid)."""
+    j0, j1 = 0, cols
+    while j0 < j1 and not ok[j0]:
+        j0 += 1
+    while j1 > j0 and not ok[j1 - 1]:
+        j1 -= 1
+    return j0, j1
+
+
+@njit(inline="always", **_OPTIONS)
+def _masked_interleaved(cx, cy, cz, ok, n):
+    """The directions (cx, cy, cz) of a span interleaved, NaN where not ``ok``: the values of
+    the stored map."""
+    d = np.empty(3 * n)
+    for j in range(n):
+        good = ok[j]
+        d[3 * j] = cx[j] if good else np.nan
+        d[3 * j + 1] = cy[j] if good else np.nan
+        d[3 * j + 2] = cz[j] if good else np.nan
+    return d
+
+
+@njit(inline="always", **_OPTIONS)
+def _field_outputs(i, j0, j1, rows_out, fill):
+    """The span [j0, j1) of row ``i`` of ``rows_out`` (the rest set to ``fill``)."""
+    rows_out[i, :j0] = fill
+    rows_out[i, j1:] = fill
+    return rows_out[i, j0:j1]
+
+
 @njit(parallel=True, **_OPTIONS,
       aot=("void(int64, float64[::1], float64[::1], int64, boolean, float64[:, :, ::1], "
-           "float64[:, ::1], boolean[:, ::1])"))
+           "float64[:, ::1], boolean[:, ::1], boolean, float64[::1], float64[::1], "
+           "float64[::1], int64, float64, float64[:, ::1], float64[:, ::1])"))
 def fisheye_geometry(model, p, table, band_rows, store_directions, directions, solid_angle,
-                     valid):
+                     valid, field, v, u, h, method, cap, position_index, cos_sigma):
     """Fill ``directions`` (rows, cols, 3), ``solid_angle`` and ``valid`` (rows, cols).
 
     ``model`` is :data:`IDEAL_FISHEYE` (``p`` = cx, cy, kind code, radial coefficient,
@@ -448,6 +521,9 @@ def fisheye_geometry(model, p, table, band_rows, store_directions, directions, s
     corners over the union of the spans of the two rows that share them); pixels outside it
     are set invalid directly. Each corner and pixel is a pure function of its coordinates
     (the spans too): the result does not depend on the bands or the number of threads.
+    Where ``field``, the visual field's position index and cos σ (:func:`visual_field_maps`'s
+    arguments ``v, u, h, method, cap``) are computed in the same pass from the same centre
+    directions, equal bit for bit to that kernel's.
     """
     rows, cols = valid.shape
     n_bands = (rows + band_rows - 1) // band_rows
@@ -513,6 +589,15 @@ def fisheye_geometry(model, p, table, band_rows, store_directions, directions, s
                     d[j, 0] = cx[j] if good else np.nan
                     d[j, 1] = cy[j] if good else np.nan
                     d[j, 2] = cz[j] if good else np.nan
+            if field:  # the visual field over the row's valid span, as visual_field_maps
+                a, b = _valid_span(valid[r], cols)
+                m = b - a
+                d = _masked_interleaved(cx[a - j0:b - j0], cy[a - j0:b - j0], cz[a - j0:b - j0],
+                                        valid[r, a:b], m)
+                p_row = _field_outputs(r, a, b, position_index, np.nan)
+                c_row = _field_outputs(r, a, b, cos_sigma, 0.0)
+                _field_row(d, valid[r, a:b], m, v, u, h, method, cap, True, np.empty(m),
+                           np.empty(m), p_row, c_row)
             top = bottom
 
 
@@ -606,18 +691,11 @@ def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, 
     get NaN σ, τ and position index and 0 cos σ — outside that span directly.
     """
     rows, cols = valid.shape
-    half_pi = 0.5 * math.pi
     # Flat rows: the loads vectorise (interleaved). (A map of any shape where it is not read.)
     flat = directions.reshape(rows, 3 * cols) if model < 0 else directions.reshape(1, -1)
-    v0, v1, v2, u0, u1, u2, h0, h1, h2 = v[0], v[1], v[2], u[0], u[1], u[2], h[0], h[1], h[2]
-    iwata = method == 0
     for i in prange(rows):
         ok = valid[i]
-        j0, j1 = 0, cols
-        while j0 < j1 and not ok[j0]:
-            j0 += 1
-        while j1 > j0 and not ok[j1 - 1]:
-            j1 -= 1
+        j0, j1 = _valid_span(ok, cols)
         # The span as arrays of its own: loops over range(n) index from 0, which the compiler
         # knows to be non-negative (no wraparound select) and vectorises.
         n = j1 - j0
@@ -626,58 +704,15 @@ def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, 
         else:
             centres = np.empty((3, n))
             _centre_row(model, p, table, float(i), float(j0), centres[0], centres[1], centres[2])
-            d = np.empty(3 * n)
-            span = ok[j0:j1]
-            for j in range(n):
-                good = span[j]
-                d[3 * j] = centres[0, j] if good else np.nan
-                d[3 * j + 1] = centres[1, j] if good else np.nan
-                d[3 * j + 2] = centres[2, j] if good else np.nan
+            d = _masked_interleaved(centres[0], centres[1], centres[2], ok[j0:j1], n)
         if angles:
-            sigma[i, :j0] = np.nan
-            sigma[i, j1:] = np.nan
-            tau[i, :j0] = np.nan
-            tau[i, j1:] = np.nan
-            s_row, t_row = sigma[i, j0:j1], tau[i, j0:j1]
+            s_row = _field_outputs(i, j0, j1, sigma, np.nan)
+            t_row = _field_outputs(i, j0, j1, tau, np.nan)
         else:
             s_row, t_row = np.empty(n), np.empty(n)
         if field:
-            position_index[i, :j0] = np.nan
-            position_index[i, j1:] = np.nan
-            cos_sigma[i, :j0] = 0.0
-            cos_sigma[i, j1:] = 0.0
-            p_row, c_row = position_index[i, j0:j1], cos_sigma[i, j0:j1]
+            p_row = _field_outputs(i, j0, j1, position_index, np.nan)
+            c_row = _field_outputs(i, j0, j1, cos_sigma, 0.0)
         else:
             p_row, c_row = np.empty(n), np.empty(n)
-        ok = ok[j0:j1]
-        for j in range(n):
-            dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
-            forward = dx * v0 + dy * v1 + dz * v2
-            up = dx * u0 + dy * u1 + dz * u2
-            side = dx * h0 + dy * h1 + dz * h2
-            lateral = math.sqrt(up * up + side * side)
-            s_row[j] = atan2_nonnegative(lateral, forward)
-            t = atan2_nonnegative(abs(side), up)
-            # On the line of sight τ is undefined: 0 where the lateral part is at rounding
-            # level (as field._angles did).
-            t_row[j] = 0.0 if lateral < 1e-15 else t
-            c_row[j] = forward if ok[j] else 0.0
-            if iwata:
-                p_row[j] = atan2_nonnegative(math.sqrt(side * side + 1.3225 * (up * up)), forward)
-        if not field:
-            continue
-        if method == 2:  # Kim2011
-            for j in range(n):
-                s = s_row[j] * _DEGREES
-                t = t_row[j] * _DEGREES
-                centre = -9e-6 * t ** 3 + 0.0014 * t ** 2 + 0.0866 * t + 21.633
-                width = -9e-6 * t ** 3 + 0.0013 * t ** 2 + 0.0853 * t + 8.772
-                p_row[j] = exp_bounded((s - centre) / width)
-            continue
-        for j in range(n):
-            exponent = _guth_exponent(s_row[j] * _DEGREES, t_row[j] * _DEGREES)
-            if iwata:  # evalglare: Iwata below the line of sight
-                b = p_row[j] * _DEGREES
-                exponent = 6.49e-3 * b + 21e-5 * b * b if t_row[j] > half_pi else exponent
-            value = exp_bounded(exponent)
-            p_row[j] = cap if value > cap else value  # noqa: FURB136 (NaN stays NaN, as np.minimum)
+        _field_row(d, ok[j0:j1], n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row)

@@ -299,7 +299,10 @@ def _kannala_brandt_table(cam, n=1 << 16):
     return table, rho_max / n
 
 
-def _compute_pixel_geometry(projection):
+def _compute_pixel_geometry(projection, field=None):
+    """The :class:`PixelGeometry` of ``projection``; with ``field`` = (axes, method), for a
+    fisheye model, also the visual field's position index and cos σ from the same pass:
+    (geometry, (P, cos σ))."""
     from . import _kernels
 
     rows, cols = projection.shape
@@ -311,9 +314,14 @@ def _compute_pixel_geometry(projection):
         band_rows = max(1, min(rows, _KERNEL_BLOCK_PIXELS // max(cols, 1)))
         store = rows * cols <= DIRECTION_MAP_MAX_PIXELS
         directions = np.empty((rows, cols, 3) if store else (1, 1, 3))
-        _kernels.fisheye_geometry(model, p, table, band_rows, store, directions, solid_angle, valid)
-        return PixelGeometry(_read_only(directions) if store else None, _read_only(solid_angle),
-                             _read_only(valid), model=compiled)
+        field_args = _field_arguments(field, (rows, cols))
+        _kernels.fisheye_geometry(model, p, table, band_rows, store, directions, solid_angle, valid,
+                                  field is not None, *field_args)
+        geometry = PixelGeometry(_read_only(directions) if store else None,
+                                 _read_only(solid_angle), _read_only(valid), model=compiled)
+        if field is None:
+            return geometry
+        return geometry, tuple(_read_only(a) for a in field_args[-2:])
 
     # Other models: their own (numpy) directions on the corner and centre grids, in blocks on
     # threads; the solid-angle kernel releases the GIL.
@@ -343,6 +351,21 @@ def _compute_pixel_geometry(projection):
 
     _run(task, _blocks(rows, cols))
     return PixelGeometry(_read_only(directions), _read_only(solid_angle), _read_only(valid))
+
+
+def _field_arguments(field, shape):
+    """(v, u, h, method code, cap, P, cos σ) of the visual-field kernels for ``field`` =
+    (axes, method), fresh maps of ``shape``; placeholders for None."""
+    from . import _kernels
+    from .position_index import POSITION_INDEX_CAP
+
+    if field is None:
+        unused = np.empty((1, 1))
+        return np.zeros(3), np.zeros(3), np.zeros(3), 0, 0.0, unused, unused
+    axes, method = field
+    v, u, h = (np.ascontiguousarray(a, dtype=np.float64) for a in axes)
+    return (v, u, h, _kernels.POSITION_INDEX_METHODS.index(method), POSITION_INDEX_CAP,
+            np.empty(shape), np.empty(shape))
 
 
 def pixel_geometry(projection):
@@ -430,11 +453,12 @@ class VisualField:
         0 where invalid, so that sums over the image need no mask. Read-only.
     """
 
-    def __init__(self, geometry, axes, method):
+    def __init__(self, geometry, axes, method, maps=None):
         self._inputs = (geometry, axes, method)
         self._angles = None
         self._lock = threading.Lock()
-        self.position_index, self.cos_sigma = _visual_field_maps(*self._inputs, angles=False)
+        self.position_index, self.cos_sigma = \
+            _visual_field_maps(*self._inputs, angles=False) if maps is None else maps
 
     def _angle_maps(self):
         with self._lock:
@@ -512,6 +536,16 @@ def visual_field(projection, frame, *, position_index_method="evalglare"):
     key = json.dumps([_projection_key(projection), [a.tolist() for a in axes], position_index_method])
     cached = _FIELD_CACHE.get(key)
     if cached is None:
-        cached = VisualField(pixel_geometry(projection), axes, position_index_method)
+        geometry_key = _projection_key(projection)
+        rows, cols = projection.shape
+        if (_GEOMETRY_CACHE.get(geometry_key) is None and rows * cols > DIRECTION_MAP_MAX_PIXELS
+                and _fisheye_kernel_parameters(projection) is not None):
+            # No geometry yet and no map to store: the geometry and this field in one pass,
+            # which computes each centre direction once (the same values).
+            geometry, maps = _compute_pixel_geometry(projection, (axes, position_index_method))
+            _GEOMETRY_CACHE.put(geometry_key, geometry)
+            cached = VisualField(geometry, axes, position_index_method, maps)
+        else:
+            cached = VisualField(pixel_geometry(projection), axes, position_index_method)
         _FIELD_CACHE.put(key, cached)
     return cached

@@ -521,8 +521,9 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if guth_field not in (None, 1, 2):
         raise BadInputError(f"guth_field must be 1, 2 or None, got {guth_field!r}")
     frame = _frame(lmap, line_of_sight, up)
-    geometry = pixel_geometry(lmap.projection)
+    # The field first: a fisheye's geometry and field come from one pass where neither is cached.
     vf = visual_field(lmap.projection, frame, position_index_method=position_index_method)
+    geometry = pixel_geometry(lmap.projection)
     if guth_field is None:
         evaluated = geometry.valid
     else:
