@@ -26,7 +26,9 @@ How the maps are computed (FORMULAS.md §2.4.2):
   the grouping and the sources compute the directions they need from the model's
   parameters with the same per-pixel function (``_kernels._centre_row``;
   :meth:`PixelGeometry.directions_at`), and ``directions`` makes the whole map only when it
-  is read. The ideal fisheye's maps equal
+  is read. There, :func:`visual_field` called before the geometry is cached (as
+  :func:`~lsadphoto.metrics.score.score_map` does) computes both in one pass, each centre
+  direction once. The ideal fisheye's maps equal
   its methods bit for bit (where numpy's tan is libm's). Other models evaluate
   their own (numpy) ``directions`` in blocks of rows on threads, with the compiled
   solid-angle kernel.
