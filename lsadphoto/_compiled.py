@@ -73,6 +73,7 @@ MODULES = (
     "lsadphoto.metrics.score",
     "lsadphoto.metrics.grouping",
     "lsadphoto.metrics.statistics",
+    "lsadphoto.metrics._filters",
     "lsadphoto.metrics.quality",
     "lsadphoto.metrics.grouping_options",
 )

@@ -27,8 +27,8 @@ from .conftest import skip_without_ahead_of_time_kernels
 #: metadata readers, OpenEXR (the input is HDR), plotting, SciPy (numba loaded
 #: scipy.linalg for its BLAS bindings), survey executors, and the package's own stages that
 #: scoring does not touch, nor what only other camera models use (thread pools, numpy's
-#: polynomials: 7 and 5 ms to import).
-UNUSED = ["concurrent.futures", "numpy.polynomial", "numba", "llvmlite", "scipy", "rawpy", "tifffile", "exifread", "OpenEXR",
+#: polynomials: 7 and 5 ms to import), nor OpenCV (0.03–0.07 s; Q has its own filters).
+UNUSED = ["cv2", "concurrent.futures", "numpy.polynomial", "numba", "llvmlite", "scipy", "rawpy", "tifffile", "exifread", "OpenEXR",
           "matplotlib", "PIL", "colour", "dask", "pandas", "lsadphoto.raw.decode",
           "lsadphoto.calibrate", "lsadphoto.report", "lsadphoto.solver", "lsadphoto.study",
           "lsadphoto.survey", "lsadphoto.luminance", "lsadphoto.datasets", "lsadphoto.io.exr"]

@@ -3,7 +3,10 @@
 One pass over the image computes, per pixel, what the numpy reference methods compute in
 many full-frame passes: the direction of its centre, the directions of its corners (each
 corner once, shared by the four pixels that meet there), its solid angle and validity; a
-second pass gives σ, τ, cos σ and the position index. Rows are distributed over threads
+second pass gives σ, τ, cos σ and the position index, computing the centre directions again
+from the model (:func:`_centre_row`, the one per-pixel projection function) rather than
+reading a stored map, as :func:`fisheye_directions` does for the pixels the metrics ask
+for (the map is written only on request). Rows are distributed over threads
 (``prange``); the kernels are compiled on first use and cached on disk (``cache=True``).
 Only the span of a row that can hold valid pixels is computed — the chord of the image
 circle (ideal fisheye) or of the ellipse ρ < ρmax (OpenCV) plus a margin of two pixels, in
@@ -47,6 +50,7 @@ __all__ = [
     "POSITION_INDEX_METHODS",
     "atan2_nonnegative",
     "exp_bounded",
+    "fisheye_directions",
     "fisheye_geometry",
     "quad_solid_angle_grid",
     "tan_half_range",
@@ -74,6 +78,8 @@ _KB_NEWTON_STEPS = 1
 #: Columns added on each side of the computed span of possibly valid pixel centres of a row
 #: (:func:`_centre_span`): far more than the rounding of its bounds (≪ 10⁻³ px).
 _SPAN_MARGIN = 2
+#: Segments per chunk of :func:`fisheye_directions` (chunks are shared out among the threads).
+_SEGMENT_CHUNK = 256
 
 
 # --- solid angle of one pixel ---------------------------------------------------------------
@@ -383,15 +389,131 @@ def _corner_row(model, p, table, row, j0, j1, corners):
         _ideal_row(p, row, j0 - 0.5, cx, cy, cz, True)
 
 
+@njit(**_OPTIONS)
+def _centre_row(model, p, table, row, col_offset, ox, oy, oz):
+    """Directions of the pixel centres (row, col_offset + j), j < len(ox): the projection's
+    per-pixel function, which every kernel that needs a direction calls (the maps of
+    :func:`fisheye_geometry`, :func:`fisheye_directions`, :func:`visual_field_maps`). Each
+    value is a pure function of its pixel's coordinates."""
+    if model == OPENCV_FISHEYE:
+        _kb_row(p, table, row, col_offset, ox, oy, oz)
+    else:
+        _ideal_row(p, row, col_offset, ox, oy, oz, False)
+
+
 @njit(parallel=True, **_OPTIONS,
-      aot=("void(int64, float64[::1], float64[::1], int64, float64[:, :, ::1], "
-           "float64[:, ::1], boolean[:, ::1])"))
-def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid):
+      aot=("void(int64, float64[::1], float64[::1], boolean[:, ::1], int64[::1], int64[::1], "
+           "int64[::1], int64[::1], float64[:, ::1])"))
+def fisheye_directions(model, p, table, valid, seg_row, seg_col, seg_length, seg_start, out):
+    """Centre directions of row segments: segment k is the pixels (seg_row[k], seg_col[k] + j),
+    j < seg_length[k], inside the image, written to ``out[seg_start[k] + j]``; NaN where the
+    pixel is not ``valid`` — the values of :func:`fisheye_geometry`'s ``directions`` map bit
+    for bit, without the map."""
+    n_segments = seg_row.size
+    longest = 0
+    for k in range(n_segments):
+        longest = max(longest, seg_length[k])
+    n_chunks = (n_segments + _SEGMENT_CHUNK - 1) // _SEGMENT_CHUNK
+    for chunk in prange(n_chunks):
+        scratch = np.empty((3, longest))  # one per chunk of segments, not per segment
+        for k in range(chunk * _SEGMENT_CHUNK, min(n_segments, (chunk + 1) * _SEGMENT_CHUNK)):
+            n = seg_length[k]
+            r, c0, o = seg_row[k], seg_col[k], seg_start[k]
+            cx, cy, cz = scratch[0, :n], scratch[1, :n], scratch[2, :n]
+            _centre_row(model, p, table, float(r), float(c0), cx, cy, cz)
+            ok = valid[r, c0:c0 + n]
+            for j in range(n):
+                good = ok[j]
+                out[o + j, 0] = cx[j] if good else np.nan
+                out[o + j, 1] = cy[j] if good else np.nan
+                out[o + j, 2] = cz[j] if good else np.nan
+
+
+@njit(inline="always", **_OPTIONS)
+def _field_row(d, ok, n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row):
+    """σ, τ, cos σ (0 where not ``ok``) and, where ``field``, the position index of the ``n``
+    interleaved directions ``d`` of one row's span (see :func:`visual_field_maps`)."""
+    half_pi = 0.5 * math.pi
+    v0, v1, v2, u0, u1, u2, h0, h1, h2 = v[0], v[1], v[2], u[0], u[1], u[2], h[0], h[1], h[2]
+    iwata = method == 0
+    for j in range(n):
+        dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
+        forward = dx * v0 + dy * v1 + dz * v2
+        up = dx * u0 + dy * u1 + dz * u2
+        side = dx * h0 + dy * h1 + dz * h2
+        lateral = math.sqrt(up * up + side * side)
+        s_row[j] = atan2_nonnegative(lateral, forward)
+        t = atan2_nonnegative(abs(side), up)
+        # On the line of sight τ is undefined: 0 where the lateral part is at rounding
+        # level (as field._angles did).
+        t_row[j] = 0.0 if lateral < 1e-15 else t
+        c_row[j] = forward if ok[j] else 0.0
+        if iwata:
+            p_row[j] = atan2_nonnegative(math.sqrt(side * side + 1.3225 * (up * up)), forward)
+    if not field:
+        return
+    if method == 2:  # Kim2011
+        for j in range(n):
+            s = s_row[j] * _DEGREES
+            t = t_row[j] * _DEGREES
+            centre = -9e-6 * t ** 3 + 0.0014 * t ** 2 + 0.0866 * t + 21.633
+            width = -9e-6 * t ** 3 + 0.0013 * t ** 2 + 0.0853 * t + 8.772
+            p_row[j] = exp_bounded((s - centre) / width)
+        return
+    for j in range(n):
+        exponent = _guth_exponent(s_row[j] * _DEGREES, t_row[j] * _DEGREES)
+        if iwata:  # evalglare: Iwata below the line of sight
+            b = p_row[j] * _DEGREES
+            exponent = 6.49e-3 * b + 21e-5 * b * b if t_row[j] > half_pi else exponent
+        value = exp_bounded(exponent)
+        p_row[j] = cap if value > cap else value  # noqa: FURB136 (NaN stays NaN, as np.minimum)
+
+
+@njit(inline="always", **_OPTIONS)
+def _valid_span(ok, cols):
+    """First and last + 1 valid column of a row (equal where none is valid)."""
+    j0, j1 = 0, cols
+    while j0 < j1 and not ok[j0]:
+        j0 += 1
+    while j1 > j0 and not ok[j1 - 1]:
+        j1 -= 1
+    return j0, j1
+
+
+@njit(inline="always", **_OPTIONS)
+def _masked_interleaved(cx, cy, cz, ok, n):
+    """The directions (cx, cy, cz) of a span interleaved, NaN where not ``ok``: the values of
+    the stored map."""
+    d = np.empty(3 * n)
+    for j in range(n):
+        good = ok[j]
+        d[3 * j] = cx[j] if good else np.nan
+        d[3 * j + 1] = cy[j] if good else np.nan
+        d[3 * j + 2] = cz[j] if good else np.nan
+    return d
+
+
+@njit(inline="always", **_OPTIONS)
+def _field_outputs(i, j0, j1, rows_out, fill):
+    """The span [j0, j1) of row ``i`` of ``rows_out`` (the rest set to ``fill``)."""
+    rows_out[i, :j0] = fill
+    rows_out[i, j1:] = fill
+    return rows_out[i, j0:j1]
+
+
+@njit(parallel=True, **_OPTIONS,
+      aot=("void(int64, float64[::1], float64[::1], int64, boolean, float64[:, :, ::1], "
+           "float64[:, ::1], boolean[:, ::1], boolean, float64[::1], float64[::1], "
+           "float64[::1], int64, float64, float64[:, ::1], float64[:, ::1])"))
+def fisheye_geometry(model, p, table, band_rows, store_directions, directions, solid_angle,
+                     valid, field, v, u, h, method, cap, position_index, cos_sigma):
     """Fill ``directions`` (rows, cols, 3), ``solid_angle`` and ``valid`` (rows, cols).
 
     ``model`` is :data:`IDEAL_FISHEYE` (``p`` = cx, cy, kind code, radial coefficient,
     R·(1 + 1e-12)) or :data:`OPENCV_FISHEYE` (``p`` = cx, cy, fx, fy, k1…k4, θmax, ρmax, table
-    step; ``table`` θ on a uniform grid of ρ). Bands of ``band_rows`` rows are shared out
+    step; ``table`` θ on a uniform grid of ρ). ``directions`` is written only where
+    ``store_directions`` (else it may be any array: the metrics compute directions from the
+    model where they need them, :func:`fisheye_directions`, 24 bytes per pixel not stored). Bands of ``band_rows`` rows are shared out
     among the threads (one parallel region); a band walks down its rows keeping two rows of
     corner directions (above and below the current pixel row, a few hundred kB), so that
     every corner is computed once, except the top row of each band, which the band above
@@ -399,6 +521,9 @@ def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
     corners over the union of the spans of the two rows that share them); pixels outside it
     are set invalid directly. Each corner and pixel is a pure function of its coordinates
     (the spans too): the result does not depend on the bands or the number of threads.
+    Where ``field``, the visual field's position index and cos σ (:func:`visual_field_maps`'s
+    arguments ``v, u, h, method, cap``) are computed in the same pass from the same centre
+    directions, equal bit for bit to that kernel's.
     """
     rows, cols = valid.shape
     n_bands = (rows + band_rows - 1) // band_rows
@@ -422,12 +547,12 @@ def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
             bottom = 1 - top
             _corner_row(model, p, table, r + 0.5, min(j0, below[0]), max(j1, below[1]) + 1,
                         corners[bottom])
-            d = directions[r]
             w = solid_angle[r]
             ok = valid[r]
             # Outside the span: invalid, without computing anything.
-            d[:j0] = np.nan
-            d[j1:] = np.nan
+            if store_directions:
+                directions[r, :j0] = np.nan
+                directions[r, j1:] = np.nan
             w[:j0] = 0.0
             w[j1:] = 0.0
             ok[:j0] = False
@@ -435,15 +560,12 @@ def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
             # The span as arrays of its own: loops over range(n) index from 0, which the
             # compiler knows to be non-negative (no wraparound select) and vectorises.
             n = j1 - j0
-            d, w, ok = d[j0:j1], w[j0:j1], ok[j0:j1]
+            w, ok = w[j0:j1], ok[j0:j1]
             x0, y0, z0 = corners[top, 0, j0:j1 + 1], corners[top, 1, j0:j1 + 1], corners[top, 2, j0:j1 + 1]
             x1, y1, z1 = corners[bottom, 0, j0:j1 + 1], corners[bottom, 1, j0:j1 + 1], \
                 corners[bottom, 2, j0:j1 + 1]
             cx, cy, cz = centres[0, :n], centres[1, :n], centres[2, :n]
-            if model == OPENCV_FISHEYE:
-                _kb_row(p, table, float(r), float(j0), cx, cy, cz)
-            else:
-                _ideal_row(p, float(r), float(j0), cx, cy, cz, False)
+            _centre_row(model, p, table, float(r), float(j0), cx, cy, cz)
             # Solid angles by the series on SIMD lanes (−1 where it does not apply)...
             for j in range(n):
                 w[j] = _quad_series(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
@@ -458,11 +580,24 @@ def fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
                 omega = w[j]
                 good = ((omega > 0) & (abs(omega) < np.inf) & (abs(cx[j]) < np.inf)
                         & (abs(cy[j]) < np.inf) & (abs(cz[j]) < np.inf))
-                d[j, 0] = cx[j] if good else np.nan
-                d[j, 1] = cy[j] if good else np.nan
-                d[j, 2] = cz[j] if good else np.nan
                 w[j] = omega if good else 0.0
                 ok[j] = good
+            if store_directions:
+                d = directions[r, j0:j1]
+                for j in range(n):
+                    good = ok[j]
+                    d[j, 0] = cx[j] if good else np.nan
+                    d[j, 1] = cy[j] if good else np.nan
+                    d[j, 2] = cz[j] if good else np.nan
+            if field:  # the visual field over the row's valid span, as visual_field_maps
+                a, b = _valid_span(valid[r], cols)
+                m = b - a
+                d = _masked_interleaved(cx[a - j0:b - j0], cy[a - j0:b - j0], cz[a - j0:b - j0],
+                                        valid[r, a:b], m)
+                p_row = _field_outputs(r, a, b, position_index, np.nan)
+                c_row = _field_outputs(r, a, b, cos_sigma, 0.0)
+                _field_row(d, valid[r, a:b], m, v, u, h, method, cap, True, np.empty(m),
+                           np.empty(m), p_row, c_row)
             top = bottom
 
 
@@ -532,14 +667,17 @@ def _guth_exponent(s, t):
 
 
 @njit(parallel=True, **_OPTIONS,
-      aot=("void(float64[:, :, ::1], boolean[:, ::1], float64[::1], float64[::1], "
-           "float64[::1], int64, float64, boolean, boolean, float64[:, ::1], float64[:, ::1], "
-           "float64[:, ::1], float64[:, ::1])"))
-def visual_field_maps(directions, valid, v, u, h, method, cap, angles, field, sigma, tau,
-                      position_index, cos_sigma):
+      aot=("void(float64[:, :, ::1], boolean[:, ::1], int64, float64[::1], float64[::1], "
+           "float64[::1], float64[::1], float64[::1], int64, float64, boolean, boolean, "
+           "float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, ::1])"))
+def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, angles, field,
+                      sigma, tau, position_index, cos_sigma):
     """σ, τ [rad], position index and cos σ of every pixel (see field.visual_field).
 
-    ``v, u, h``: line of sight, up and side axes; ``method`` a code of
+    The pixel directions are read from the ``directions`` map where ``model`` is negative;
+    otherwise they are computed per row from the fisheye ``model`` (``p``, ``table`` as in
+    :func:`fisheye_geometry`, NaN where not ``valid``: the map's values bit for bit) and
+    ``directions`` may be any array. ``v, u, h``: line of sight, up and side axes; ``method`` a code of
     :data:`POSITION_INDEX_METHODS`; ``cap`` the Guth/Iwata cap. Only the maps asked for are
     written: σ and τ where ``angles``, the position index and cos σ where ``field``; the others
     are computed into a scratch row per image row (the arrays passed for them are not touched
@@ -553,66 +691,28 @@ def visual_field_maps(directions, valid, v, u, h, method, cap, angles, field, si
     get NaN σ, τ and position index and 0 cos σ — outside that span directly.
     """
     rows, cols = valid.shape
-    half_pi = 0.5 * math.pi
-    flat = directions.reshape(rows, 3 * cols)  # flat rows: the loads vectorise (interleaved)
-    v0, v1, v2, u0, u1, u2, h0, h1, h2 = v[0], v[1], v[2], u[0], u[1], u[2], h[0], h[1], h[2]
-    iwata = method == 0
+    # Flat rows: the loads vectorise (interleaved). (A map of any shape where it is not read.)
+    flat = directions.reshape(rows, 3 * cols) if model < 0 else directions.reshape(1, -1)
     for i in prange(rows):
         ok = valid[i]
-        j0, j1 = 0, cols
-        while j0 < j1 and not ok[j0]:
-            j0 += 1
-        while j1 > j0 and not ok[j1 - 1]:
-            j1 -= 1
+        j0, j1 = _valid_span(ok, cols)
         # The span as arrays of its own: loops over range(n) index from 0, which the compiler
         # knows to be non-negative (no wraparound select) and vectorises.
         n = j1 - j0
-        d = flat[i, 3 * j0:3 * j1]
+        if model < 0:
+            d = flat[i, 3 * j0:3 * j1]
+        else:
+            centres = np.empty((3, n))
+            _centre_row(model, p, table, float(i), float(j0), centres[0], centres[1], centres[2])
+            d = _masked_interleaved(centres[0], centres[1], centres[2], ok[j0:j1], n)
         if angles:
-            sigma[i, :j0] = np.nan
-            sigma[i, j1:] = np.nan
-            tau[i, :j0] = np.nan
-            tau[i, j1:] = np.nan
-            s_row, t_row = sigma[i, j0:j1], tau[i, j0:j1]
+            s_row = _field_outputs(i, j0, j1, sigma, np.nan)
+            t_row = _field_outputs(i, j0, j1, tau, np.nan)
         else:
             s_row, t_row = np.empty(n), np.empty(n)
         if field:
-            position_index[i, :j0] = np.nan
-            position_index[i, j1:] = np.nan
-            cos_sigma[i, :j0] = 0.0
-            cos_sigma[i, j1:] = 0.0
-            p_row, c_row = position_index[i, j0:j1], cos_sigma[i, j0:j1]
+            p_row = _field_outputs(i, j0, j1, position_index, np.nan)
+            c_row = _field_outputs(i, j0, j1, cos_sigma, 0.0)
         else:
             p_row, c_row = np.empty(n), np.empty(n)
-        ok = ok[j0:j1]
-        for j in range(n):
-            dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
-            forward = dx * v0 + dy * v1 + dz * v2
-            up = dx * u0 + dy * u1 + dz * u2
-            side = dx * h0 + dy * h1 + dz * h2
-            lateral = math.sqrt(up * up + side * side)
-            s_row[j] = atan2_nonnegative(lateral, forward)
-            t = atan2_nonnegative(abs(side), up)
-            # On the line of sight τ is undefined: 0 where the lateral part is at rounding
-            # level (as field._angles did).
-            t_row[j] = 0.0 if lateral < 1e-15 else t
-            c_row[j] = forward if ok[j] else 0.0
-            if iwata:
-                p_row[j] = atan2_nonnegative(math.sqrt(side * side + 1.3225 * (up * up)), forward)
-        if not field:
-            continue
-        if method == 2:  # Kim2011
-            for j in range(n):
-                s = s_row[j] * _DEGREES
-                t = t_row[j] * _DEGREES
-                centre = -9e-6 * t ** 3 + 0.0014 * t ** 2 + 0.0866 * t + 21.633
-                width = -9e-6 * t ** 3 + 0.0013 * t ** 2 + 0.0853 * t + 8.772
-                p_row[j] = exp_bounded((s - centre) / width)
-            continue
-        for j in range(n):
-            exponent = _guth_exponent(s_row[j] * _DEGREES, t_row[j] * _DEGREES)
-            if iwata:  # evalglare: Iwata below the line of sight
-                b = p_row[j] * _DEGREES
-                exponent = 6.49e-3 * b + 21e-5 * b * b if t_row[j] > half_pi else exponent
-            value = exp_bounded(exponent)
-            p_row[j] = cap if value > cap else value  # noqa: FURB136 (NaN stays NaN, as np.minimum)
+        _field_row(d, ok[j0:j1], n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row)

@@ -18,11 +18,18 @@ How the maps are computed (FORMULAS.md §2.4.2):
   which keeps full relative precision for tiny pixels; and, for the small pixels of real images (tan(Ω/2) < 10⁻³), the arc
   tangent is its series ``t − t³/3 + t⁵/5`` (relative error < t⁶/7 < 2·10⁻¹⁹).
 * For the fisheye models (:class:`IdealFisheyeProjection`, :class:`OpenCVFisheyeProjection`)
-  everything is computed per pixel in one compiled pass (:mod:`._kernels`, numba, rows on
-  all CPUs), and cos σ and the position index in a second one (σ and τ in the same kernel,
-  only when they are read: the metrics do not need them), each over the part of every row
-  that can hold valid pixels (the rest is set invalid directly); IEEE float64, no
-  fast-math. The ideal fisheye's maps equal its methods bit for bit. Other models evaluate
+  the solid angle and validity are computed per pixel in one compiled pass (:mod:`._kernels`,
+  numba, rows on all CPUs), and cos σ and the position index in a second one (σ and τ in
+  the same kernel, only when they are read: the metrics do not need them), each over the
+  part of every row that can hold valid pixels (the rest is set invalid directly); IEEE
+  float64, no fast-math. Above 2²⁰ pixels no direction map is stored: the second pass, Q,
+  the grouping and the sources compute the directions they need from the model's
+  parameters with the same per-pixel function (``_kernels._centre_row``;
+  :meth:`PixelGeometry.directions_at`), and ``directions`` makes the whole map only when it
+  is read. There, :func:`visual_field` called before the geometry is cached (as
+  :func:`~lsadphoto.metrics.score.score_map` does) computes both in one pass, each centre
+  direction once. The ideal fisheye's maps equal
+  its methods bit for bit (where numpy's tan is libm's). Other models evaluate
   their own (numpy) ``directions`` in blocks of rows on threads, with the compiled
   solid-angle kernel.
 * The kernels are compiled on first use and cached on disk (numba ``cache=True``): the
@@ -40,7 +47,6 @@ import math
 import os
 import threading
 from collections import OrderedDict
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -52,6 +58,8 @@ __all__ = [
     "PixelGeometry",
     "VisualField",
     "clear_geometry_cache",
+    "direction_map",
+    "directions_at",
     "pixel_geometry",
     "quad_solid_angle_components",
     "visual_field",
@@ -62,6 +70,11 @@ CACHE_SIZE = 4
 #: Pixels per block of work: 192 kB per float64 temporary, so a block's working set stays
 #: in the L2 cache (measured best of 2¹²…2¹⁷ on the 2-core test machine).
 _BLOCK_PIXELS = 24_000
+#: The fisheye models store their direction map with the geometry up to this many pixels:
+#: Q evaluates every pixel of such a picture (it screens only larger ones, quality.py), so its
+#: stencils would make the map anyway, and the visual field reads it instead of computing the
+#: directions again. Larger pictures store none (24 bytes per pixel of fresh memory).
+DIRECTION_MAP_MAX_PIXELS = 1 << 20
 #: Pixels per band of rows of the compiled fisheye kernel (bands are shared out among the
 #: threads; each recomputes the row of corners above it: 21-row bands at 6000 columns,
 #: 5 % more corner directions).
@@ -138,11 +151,17 @@ def _read_only(array):
 # --- pixel geometry -------------------------------------------------------------------------
 
 
-@dataclass(frozen=True, eq=False)
 class PixelGeometry:
     """Direction, solid angle and validity of every pixel of an image.
 
     Compared by identity (the cache hands out one object per model and image size).
+
+    For the fisheye models with a compiled kernel (the ideal fisheye, the OpenCV fisheye)
+    pictures of more than :data:`DIRECTION_MAP_MAX_PIXELS` have no stored direction map: the
+    metrics compute the directions they need from the model's parameters
+    (:meth:`directions_at`, :meth:`stencil_directions`, and inside the visual-field kernel),
+    which spares a score 24 bytes per pixel of fresh memory (docs/performance.md);
+    :attr:`directions` computes the whole map on first access (the same values bit for bit).
 
     Attributes
     ----------
@@ -155,9 +174,74 @@ class PixelGeometry:
         True where the pixel has a direction and a positive solid angle. Read-only.
     """
 
-    directions: np.ndarray
-    solid_angle: np.ndarray
-    valid: np.ndarray
+    def __init__(self, directions, solid_angle, valid, model=None):
+        self._directions = directions
+        self.solid_angle = solid_angle
+        self.valid = valid
+        #: (model code, parameters, table) of :func:`._kernels.fisheye_directions`, or None
+        #: where the directions are a stored map.
+        self.model = model
+        self._lock = threading.Lock()
+
+    @property
+    def directions(self):
+        with self._lock:
+            if self._directions is None:
+                rows, cols = self.valid.shape
+                r = np.arange(rows, dtype=np.int64)
+                d = self._segments(r, np.zeros(rows, np.int64), np.full(rows, cols, np.int64))
+                self._directions = _read_only(d.reshape(rows, cols, 3))
+        return self._directions
+
+    def _segments(self, rows, cols, lengths):
+        """Directions of the row segments (rows[k], cols[k] + j), j < lengths[k], one after
+        the other, computed from the model."""
+        from . import _kernels
+
+        starts = np.zeros(rows.size, dtype=np.int64)
+        np.cumsum(lengths[:-1], out=starts[1:])
+        out = np.empty((int(lengths.sum()), 3))
+        _kernels.fisheye_directions(*self.model, self.valid, rows, cols, lengths, starts, out)
+        return out
+
+    def directions_at(self, rows, cols):
+        """Directions of the pixels (``rows``, ``cols``) (integer arrays of one shape, inside
+        the image), shape ``rows.shape + (3,)``: NaN where invalid; equal to
+        ``directions[rows, cols]`` and computed from the model without the map where the
+        geometry has a model and the map was not made."""
+        rows = np.asarray(rows, dtype=np.int64)
+        cols = np.asarray(cols, dtype=np.int64)
+        if self.model is None or self._directions is not None:
+            return np.asarray(self.directions)[rows, cols]
+        shape = rows.shape
+        rows, cols = rows.reshape(-1), cols.reshape(-1)
+        if rows.size == 0:
+            return np.empty(shape + (3,))
+        # Pixels that follow each other along a row form one segment (row-major input, as
+        # np.nonzero gives, is computed in runs).
+        starts = np.flatnonzero(np.r_[True, (rows[1:] != rows[:-1]) | (cols[1:] != cols[:-1] + 1)])
+        lengths = np.diff(np.r_[starts, rows.size])
+        d = self._segments(rows[starts], cols[starts], lengths)
+        return d.reshape(shape + (3,))
+
+    def stencil_directions(self, index):
+        """Directions around the flat pixels ``index`` (each with its four neighbours in the
+        image) for central differences: ``(d, i, step)`` with ``d`` flat (n, 3) such that
+        d[i ∓ 1] are the directions left and right of each pixel and d[i ∓ step] above and
+        below. The whole map (``i = index``, ``step`` = columns) where it exists or where the
+        stencils would cover more pixels than the image has (every pixel of a small image is
+        a stencil's centre); else each stencil's five pixels from the model (up, left,
+        centre, right, down: ``i = 5k + 2``, ``step`` = 2)."""
+        index = np.asarray(index, dtype=np.int64)
+        rows, cols = self.valid.shape
+        if self.model is None or self._directions is not None or 5 * index.size >= rows * cols:
+            return np.asarray(self.directions).reshape(-1, 3), index, cols
+        r, c = np.divmod(index, cols)
+        seg_rows = np.stack([r - 1, r, r + 1], axis=1).reshape(-1)
+        seg_cols = np.stack([c, c - 1, c], axis=1).reshape(-1)
+        lengths = np.tile(np.array([1, 3, 1], dtype=np.int64), index.size)
+        d = self._segments(seg_rows, seg_cols, lengths)
+        return d, 5 * np.arange(index.size, dtype=np.int64) + 2, 2
 
 
 def _fisheye_kernel_parameters(projection):
@@ -217,22 +301,33 @@ def _kannala_brandt_table(cam, n=1 << 16):
     return table, rho_max / n
 
 
-def _compute_pixel_geometry(projection):
+def _compute_pixel_geometry(projection, field=None):
+    """The :class:`PixelGeometry` of ``projection``; with ``field`` = (axes, method), for a
+    fisheye model, also the visual field's position index and cos σ from the same pass:
+    (geometry, (P, cos σ))."""
     from . import _kernels
 
     rows, cols = projection.shape
-    directions = np.empty((rows, cols, 3))
     solid_angle = np.empty((rows, cols))
     valid = np.empty((rows, cols), dtype=bool)
     compiled = _fisheye_kernel_parameters(projection)
     if compiled is not None:
         model, p, table = compiled
         band_rows = max(1, min(rows, _KERNEL_BLOCK_PIXELS // max(cols, 1)))
-        _kernels.fisheye_geometry(model, p, table, band_rows, directions, solid_angle, valid)
-        return PixelGeometry(_read_only(directions), _read_only(solid_angle), _read_only(valid))
+        store = rows * cols <= DIRECTION_MAP_MAX_PIXELS
+        directions = np.empty((rows, cols, 3) if store else (1, 1, 3))
+        field_args = _field_arguments(field, (rows, cols))
+        _kernels.fisheye_geometry(model, p, table, band_rows, store, directions, solid_angle, valid,
+                                  field is not None, *field_args)
+        geometry = PixelGeometry(_read_only(directions) if store else None,
+                                 _read_only(solid_angle), _read_only(valid), model=compiled)
+        if field is None:
+            return geometry
+        return geometry, tuple(_read_only(a) for a in field_args[-2:])
 
     # Other models: their own (numpy) directions on the corner and centre grids, in blocks on
     # threads; the solid-angle kernel releases the GIL.
+    directions = np.empty((rows, cols, 3))
     centre_cols = np.arange(cols, dtype=float)
     corner_cols = np.arange(cols + 1, dtype=float) - 0.5
     grid = projection._grid_direction_components
@@ -258,6 +353,21 @@ def _compute_pixel_geometry(projection):
 
     _run(task, _blocks(rows, cols))
     return PixelGeometry(_read_only(directions), _read_only(solid_angle), _read_only(valid))
+
+
+def _field_arguments(field, shape):
+    """(v, u, h, method code, cap, P, cos σ) of the visual-field kernels for ``field`` =
+    (axes, method), fresh maps of ``shape``; placeholders for None."""
+    from . import _kernels
+    from .position_index import POSITION_INDEX_CAP
+
+    if field is None:
+        unused = np.empty((1, 1))
+        return np.zeros(3), np.zeros(3), np.zeros(3), 0, 0.0, unused, unused
+    axes, method = field
+    v, u, h = (np.ascontiguousarray(a, dtype=np.float64) for a in axes)
+    return (v, u, h, _kernels.POSITION_INDEX_METHODS.index(method), POSITION_INDEX_CAP,
+            np.empty(shape), np.empty(shape))
 
 
 def pixel_geometry(projection):
@@ -305,6 +415,20 @@ def pixel_geometry(projection):
     return cached
 
 
+def direction_map(directions):
+    """The (rows, cols, 3) direction map of a map or of a :class:`PixelGeometry` (made on
+    first use where the geometry stores none)."""
+    return directions.directions if isinstance(directions, PixelGeometry) else directions
+
+
+def directions_at(directions, rows, cols):
+    """``directions[rows, cols]`` of a direction map or of a :class:`PixelGeometry` (computed
+    from its model where it stores no map): what the metrics that take ``directions`` call."""
+    if isinstance(directions, PixelGeometry):
+        return directions.directions_at(rows, cols)
+    return np.asarray(directions)[rows, cols]
+
+
 # --- visual field ---------------------------------------------------------------------------
 
 
@@ -331,11 +455,12 @@ class VisualField:
         0 where invalid, so that sums over the image need no mask. Read-only.
     """
 
-    def __init__(self, geometry, axes, method):
+    def __init__(self, geometry, axes, method, maps=None):
         self._inputs = (geometry, axes, method)
         self._angles = None
         self._lock = threading.Lock()
-        self.position_index, self.cos_sigma = _visual_field_maps(*self._inputs, angles=False)
+        self.position_index, self.cos_sigma = \
+            _visual_field_maps(*self._inputs, angles=False) if maps is None else maps
 
     def _angle_maps(self):
         with self._lock:
@@ -362,7 +487,12 @@ def _visual_field_maps(geometry, axes, method, *, angles):
     unused = np.empty((1, 1))
     out = [np.empty(shape), np.empty(shape)]
     maps = (out + [unused, unused]) if angles else ([unused, unused] + out)
-    _kernels.visual_field_maps(geometry.directions, geometry.valid, v, u, h,
+    # The directions from the fisheye model inside the kernel where no map is stored.
+    if geometry.model is not None and geometry._directions is None:
+        directions, model = np.empty((1, 1, 3)), geometry.model
+    else:
+        directions, model = geometry.directions, (-1, np.empty(0), np.empty(0))
+    _kernels.visual_field_maps(directions, geometry.valid, *model, v, u, h,
                                _kernels.POSITION_INDEX_METHODS.index(method), POSITION_INDEX_CAP,
                                angles, not angles, *maps)
     return tuple(_read_only(array) for array in out)
@@ -408,6 +538,16 @@ def visual_field(projection, frame, *, position_index_method="evalglare"):
     key = json.dumps([_projection_key(projection), [a.tolist() for a in axes], position_index_method])
     cached = _FIELD_CACHE.get(key)
     if cached is None:
-        cached = VisualField(pixel_geometry(projection), axes, position_index_method)
+        geometry_key = _projection_key(projection)
+        rows, cols = projection.shape
+        if (_GEOMETRY_CACHE.get(geometry_key) is None and rows * cols > DIRECTION_MAP_MAX_PIXELS
+                and _fisheye_kernel_parameters(projection) is not None):
+            # No geometry yet and no map to store: the geometry and this field in one pass,
+            # which computes each centre direction once (the same values).
+            geometry, maps = _compute_pixel_geometry(projection, (axes, position_index_method))
+            _GEOMETRY_CACHE.put(geometry_key, geometry)
+            cached = VisualField(geometry, axes, position_index_method, maps)
+        else:
+            cached = VisualField(pixel_geometry(projection), axes, position_index_method)
         _FIELD_CACHE.put(key, cached)
     return cached

@@ -33,6 +33,7 @@ import numpy as np
 
 from .._validation import check_array, check_positive
 from ..errors import BadInputError
+from ..geometry.field import direction_map
 from .contributions import glare_term_sum, source_columns, source_illuminance
 from .regions import (
     band_region,
@@ -108,7 +109,9 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid,
     ----------
     luminance, solid_angle, cos_sigma : ndarray, shape (rows, cols)
         L [cd·m⁻²] (NaN where invalid), ω [sr] (0 where invalid), cos σ [–].
-    directions : ndarray, shape (rows, cols, 3)
+    directions : ndarray, shape (rows, cols, 3), or PixelGeometry
+        The pixel directions, or the geometry that makes them (only if a band or a task
+        needs them: :func:`~lsadphoto.geometry.field.direction_map`).
     valid : ndarray of bool
         The evaluated field.
     projection : Projection
@@ -153,7 +156,8 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid,
         deg = check_positive(band_deg, "band angle")
         if deg > 180.0:
             raise BadInputError(f"band angle must be at most 180°, got {deg:g}°")
-        regions["band"] = band_region(directions, valid, half_width=math.radians(deg))
+        regions["band"] = band_region(direction_map(directions), valid,
+                                      half_width=math.radians(deg))
         record["band"] = region_statistics(luminance, solid_angle, regions["band"])
     if zones is not None:
         record["zones"] = zone_statistics(luminance, solid_angle, cos_sigma, zones)
@@ -161,7 +165,7 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid,
     if task_direction is not None:
         centre = centre_direction(task_direction, projection, "task centre")
         opening = _opening(task_opening_deg, "task opening angle", count=(1,))
-        task = zone_map(directions, valid, centre, opening_angles=opening) == 1
+        task = zone_map(direction_map(directions), valid, centre, opening_angles=opening) == 1
         stats = region_statistics(luminance, solid_angle, task)
         task_l = stats["mean"]
         record["task"] = {"luminance": task_l, "solid_angle": stats["solid_angle"],

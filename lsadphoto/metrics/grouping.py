@@ -39,6 +39,7 @@ import numpy as np
 from .._compiled import njit
 
 from .._validation import check_positive
+from ..geometry.field import directions_at
 
 __all__ = ["GlareSource", "group_sources_evalglare", "position_pixel_evalglare",
            "SOURCE_POSITIONS", "DEFAULT_SEARCH_ANGLE", "DEFAULT_PEAK_LUMINANCE"]
@@ -189,21 +190,23 @@ def _union(parent, a, b):
 
 
 @njit(inline="always", **_OPTIONS)
-def _close(directions, r1, c1, r2, c2, chord):
-    """|d̂₁ − d̂₂| ≤ chord, in float64 (the sum of squares in the order of np.linalg.norm)."""
-    x = np.float64(directions[r1, c1, 0]) - np.float64(directions[r2, c2, 0])
-    y = np.float64(directions[r1, c1, 1]) - np.float64(directions[r2, c2, 1])
-    z = np.float64(directions[r1, c1, 2]) - np.float64(directions[r2, c2, 2])
+def _close(directions, a, b, chord):
+    """|d̂_a − d̂_b| ≤ chord for rows a, b of ``directions`` (n, 3), in float64 (the sum of
+    squares in the order of np.linalg.norm)."""
+    x = directions[a, 0] - directions[b, 0]
+    y = directions[a, 1] - directions[b, 1]
+    z = directions[a, 2] - directions[b, 2]
     return math.sqrt(x * x + y * y + z * z) <= chord
 
 
 @njit(**_OPTIONS,
-      aot=("int64(int32[:, ::1], int64[::1], int64[::1], float64[:, :, :], float64, "
+      aot=("int64(int32[:, ::1], int64[::1], int64[::1], float64[:, ::1], float64, "
            "int64[::1], int64[::1], int64[:, ::1])"))
 def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, labels):
-    """Union–find over the nodes: neighbouring pixels (right, down, down-right, down-left)
-    within ``chord``, and the given boundary pairs; writes labels 1…n numbered in the order of
-    each component's first node (column-major scan) and returns n."""
+    """Union–find over the nodes (``directions``: one row per node): neighbouring pixels
+    (right, down, down-right, down-left) within ``chord``, and the given boundary pairs;
+    writes labels 1…n numbered in the order of each component's first node (column-major
+    scan) and returns n."""
     rows, cols = node.shape
     n_nodes = node_rows.size
     parent = np.arange(n_nodes)
@@ -213,7 +216,7 @@ def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, l
             r2, c2 = r + dr, c + dc
             if r2 < rows and 0 <= c2 < cols:
                 m = node[r2, c2]
-                if m >= 0 and _close(directions, r, c, r2, c2, chord):
+                if m >= 0 and _close(directions, k, m, chord):
                     _union(parent, k, m)
     for i in range(pair_a.size):
         _union(parent, pair_a[i], pair_b[i])
@@ -228,17 +231,16 @@ def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, l
     return n
 
 
-@njit(**_OPTIONS,
-      aot="UniTuple(int64[::1], 2)(float64[:, :, :], int64[::1], int64[::1], float64)")
-def _close_pairs(directions, rows, cols, chord):
-    """Index pairs (a < b) of the pixels (rows[a], cols[a]), (rows[b], cols[b]) whose directions
-    are :func:`_close`: each direction falls in a cube of side ``chord``, and only the 27 cubes
-    around a pixel's can hold its partners (a grid hash; one pass counts, one fills)."""
-    m = rows.size
+@njit(**_OPTIONS, aot="UniTuple(int64[::1], 2)(float64[:, ::1], float64)")
+def _close_pairs(directions, chord):
+    """Index pairs (a < b) of the rows of ``directions`` (n, 3) that are :func:`_close`: each
+    direction falls in a cube of side ``chord``, and only the 27 cubes around a pixel's can
+    hold its partners (a grid hash; one pass counts, one fills)."""
+    m = directions.shape[0]
     cell = np.empty((m, 3), np.int64)
     for a in range(m):
         for k in range(3):
-            cell[a, k] = np.int64(math.floor((np.float64(directions[rows[a], cols[a], k]) + 1.0) / chord))
+            cell[a, k] = np.int64(math.floor((directions[a, k] + 1.0) / chord))
     span = np.int64(math.floor(2.0 / chord)) + 3  # cube indices −1 … span − 2 along each axis
     key = ((cell[:, 0] + 1) * span + cell[:, 1] + 1) * span + cell[:, 2] + 1
     order = np.argsort(key)
@@ -261,7 +263,7 @@ def _close_pairs(directions, rows, cols, chord):
                         while s < m and sorted_key[s] == near:
                             b = order[s]
                             s += 1
-                            if b > a and _close(directions, rows[a], cols[a], rows[b], cols[b], chord):
+                            if b > a and _close(directions, a, b, chord):
                                 if fill:
                                     pair_a[count] = a
                                     pair_b[count] = b
@@ -269,57 +271,68 @@ def _close_pairs(directions, rows, cols, chord):
     return pair_a, pair_b
 
 
-def _link(mask, directions, separation):
-    """Single-linkage labels (1…n, 0 elsewhere) of ``mask`` pixels at angular ``separation``."""
+def _link(mask, directions, separation, offset=(0, 0)):
+    """Single-linkage labels (1…n, 0 elsewhere) of ``mask`` pixels at angular ``separation``;
+    ``directions`` a map or a PixelGeometry of the whole picture, in which ``mask`` starts at
+    ``offset``: only the mask pixels' directions are read (or computed from the model)."""
     labels = np.zeros(mask.shape, dtype=np.int64)
     node, node_rows, node_cols, boundary = _nodes(np.ascontiguousarray(mask))
     if node_rows.size == 0:
         return labels, 0
     chord = float(_chord(separation))
+    # The nodes' directions, read in row-major order (runs along rows) and put in node order.
+    rows, cols = np.nonzero(node >= 0)
+    d = np.empty((node_rows.size, 3))
+    d[node[rows, cols]] = directions_at(directions, rows + offset[0], cols + offset[1])
     # Boundary pixels of different patches within reach of each other (the closest pair of
     # two patches always includes a boundary pixel).
     bnodes = np.flatnonzero(boundary)
-    pair_a, pair_b = _close_pairs(directions, node_rows[bnodes], node_cols[bnodes], chord)
-    n = _components(node, node_rows, node_cols, directions, chord, bnodes[pair_a], bnodes[pair_b],
-                    labels)
+    pair_a, pair_b = _close_pairs(np.ascontiguousarray(d[bnodes]), chord)
+    n = _components(node, node_rows, node_cols, d, chord, bnodes[pair_a], bnodes[pair_b], labels)
     return labels, n
 
 
 @njit(**_OPTIONS,
-      aot=("Tuple((float64[:, ::1], float64[::1], float64[::1], int64[::1]))(int64[:, ::1], "
-           "int64, float64[:, :], float64[:, :, :], float64[:, :])"))
-def _source_sums(labels, n, luminance, directions, solid_angle):
-    """Per label 1…n, in row-major pixel order (as np.bincount): Σω, ΣL·ω, ΣL·ω·d̂,
-    ΣL·ω·row, ΣL·ω·col, max and min L and the pixel count."""
-    rows, cols = labels.shape
+      aot=("Tuple((float64[:, ::1], float64[::1], float64[::1], int64[::1]))(int64[::1], "
+           "int64, float64[::1], float64[:, ::1], float64[::1], int64[::1], int64[::1])"))
+def _source_sums(label, n, luminance, directions, solid_angle, rows, cols):
+    """Per label 1…n over the labelled pixels (``label``, L, d̂, ω, row and column of each, in
+    row-major pixel order, as np.bincount): Σω, ΣL·ω, ΣL·ω·d̂, ΣL·ω·row, ΣL·ω·col, max and
+    min L and the pixel count."""
     sums = np.zeros((n, 7))
     lmax = np.full(n, -np.inf)
     lmin = np.full(n, np.inf)
     count = np.zeros(n, np.int64)
-    for r in range(rows):
-        for c in range(cols):
-            k = labels[r, c] - 1
-            if k < 0:
-                continue
-            L = np.float64(luminance[r, c])
-            w = np.float64(solid_angle[r, c])
-            lw = L * w
-            sums[k, 0] += w
-            sums[k, 1] += lw
-            for a in range(3):
-                sums[k, 2 + a] += lw * np.float64(directions[r, c, a])
-            sums[k, 5] += lw * r
-            sums[k, 6] += lw * c
-            lmax[k] = max(lmax[k], L)
-            lmin[k] = min(lmin[k], L)
-            count[k] += 1
+    for i in range(label.size):
+        k = label[i] - 1
+        L = luminance[i]
+        w = solid_angle[i]
+        lw = L * w
+        sums[k, 0] += w
+        sums[k, 1] += lw
+        for a in range(3):
+            sums[k, 2 + a] += lw * directions[i, a]
+        sums[k, 5] += lw * rows[i]
+        sums[k, 6] += lw * cols[i]
+        lmax[k] = max(lmax[k], L)
+        lmin[k] = min(lmin[k], L)
+        count[k] += 1
     return sums, lmax, lmin, count
 
 
-def _describe(labels, n, luminance, directions, solid_angle, peak_flags):
+def _describe(labels, n, luminance, directions, solid_angle, peak_flags, offset=(0, 0)):
+    """The sources of ``labels`` (1…n; ``luminance``, ``solid_angle`` of their shape, which
+    starts at ``offset`` in the picture of ``directions``: a map or a PixelGeometry)."""
     if n == 0:
         return []
-    sums, lmax, lmin, count = _source_sums(labels, n, luminance, directions, solid_angle)
+    labels = np.asarray(labels)
+    rows, cols = (np.ascontiguousarray(i) for i in np.nonzero(labels))  # row-major order
+    sums, lmax, lmin, count = _source_sums(
+        labels[rows, cols].astype(np.int64), n,
+        np.asarray(luminance)[rows, cols].astype(np.float64),
+        np.ascontiguousarray(directions_at(directions, rows + offset[0], cols + offset[1]),
+                             dtype=np.float64),
+        np.asarray(solid_angle)[rows, cols].astype(np.float64), rows, cols)
     omega, sum_lw = sums[:, 0], sums[:, 1]
     dirs = sums[:, 2:5] / np.linalg.norm(sums[:, 2:5], axis=-1, keepdims=True)
     row_c = sums[:, 5] / sum_lw
@@ -339,8 +352,10 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
     ----------
     luminance : ndarray, shape (rows, cols)
         L [cd·m⁻²].
-    directions : ndarray, shape (rows, cols, 3)
-        Unit pixel directions.
+    directions : ndarray, shape (rows, cols, 3), or PixelGeometry
+        Unit pixel directions, or the :class:`~lsadphoto.geometry.PixelGeometry` that gives
+        them (the directions of the source pixels are then computed from the camera model,
+        without a map of the picture).
     solid_angle : ndarray, shape (rows, cols)
         ω [sr].
     source_mask : ndarray of bool, shape (rows, cols)
@@ -367,16 +382,16 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
     box = (slice(rows_any[0], rows_any[-1] + 1), slice(cols_any[0], cols_any[-1] + 1))
     mask = full_mask[box]
     luminance = np.asarray(luminance)[box]
-    directions = np.asarray(directions)[box]
     solid_angle = np.asarray(solid_angle)[box]
-    labels, n = _link(mask, directions, separation)
+    offset = (box[0].start, box[1].start)
+    labels, n = _link(mask, directions, separation, offset)
     peak_flags = [False] * n
     if peak_luminance is not None and n:
         limit = check_positive(peak_luminance, "peak_luminance")
         with np.errstate(invalid="ignore"):
             peak_mask = mask & (luminance >= limit)
         if peak_mask.any():
-            peak_labels, n_peak = _link(peak_mask, directions, separation)
+            peak_labels, n_peak = _link(peak_mask, directions, separation, offset)
             rest = np.where(peak_mask, 0, labels)
             # The labels left after peak extraction, in increasing order (np.unique would
             # import numpy.ma, 0.05 s of a short process).
@@ -386,8 +401,8 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
             labels = np.where(peak_mask, peak_labels + kept.size, renumber[rest])
             n = kept.size + n_peak
             peak_flags = [False] * kept.size + [True] * n_peak
-    sources = _describe(labels, n, luminance, directions, solid_angle, peak_flags)
-    offset_row, offset_col = box[0].start, box[1].start
+    sources = _describe(labels, n, luminance, directions, solid_angle, peak_flags, offset)
+    offset_row, offset_col = offset
     sources = [replace(s, row=s.row + offset_row, col=s.col + offset_col) for s in sources]
     labels_full[box] = labels
     return sources, labels_full

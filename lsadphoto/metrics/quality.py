@@ -85,6 +85,8 @@ from .._compiled import njit, prange
 
 from .._validation import check_choice, check_positive
 from ..errors import BadInputError
+from ..geometry.field import PixelGeometry
+from ._filters import correlate_separable, erode_square
 from .adrian import threshold_luminance_difference
 
 __all__ = [
@@ -186,16 +188,29 @@ def _check_inputs(luminance, directions, solid_angle, position_index, valid):
     if L.ndim != 2:
         raise BadInputError(f"luminance must have shape (rows, cols), got {L.shape}")
     shape = L.shape
-    d = np.asarray(directions)
-    if d.dtype.kind not in "fiu":
-        raise BadInputError("directions is not a numeric array")
-    if d.shape != shape + (3,):
-        raise BadInputError(f"directions must have shape {shape + (3,)}, got {d.shape}")
-    sample = np.asarray(d[::max(1, shape[0] // 61), ::max(1, shape[1] // 61)], dtype=np.float64)
-    norms = np.linalg.norm(sample, axis=-1)
-    norms = norms[np.isfinite(norms)]
-    if norms.size and np.max(np.abs(norms - 1.0)) > _UNIT_TOLERANCE:
-        raise BadInputError("directions must be unit vectors")
+    if valid is not None:
+        valid = np.asarray(valid)
+        if valid.shape != shape or valid.dtype != bool:
+            raise BadInputError(f"valid must be a boolean array of shape {shape}")
+    if isinstance(directions, PixelGeometry):
+        # Unit directions, NaN exactly where the geometry is not valid: the field takes the
+        # geometry's validity instead of testing the directions.
+        if directions.valid.shape != shape:
+            raise BadInputError(f"the pixel geometry has shape {directions.valid.shape}, "
+                                f"the luminance {shape}")
+        d = directions
+        valid = d.valid if valid is None or valid is d.valid else valid & d.valid
+    else:
+        d = np.asarray(directions)
+        if d.dtype.kind not in "fiu":
+            raise BadInputError("directions is not a numeric array")
+        if d.shape != shape + (3,):
+            raise BadInputError(f"directions must have shape {shape + (3,)}, got {d.shape}")
+        sample = np.asarray(d[::max(1, shape[0] // 61), ::max(1, shape[1] // 61)], dtype=np.float64)
+        norms = np.linalg.norm(sample, axis=-1)
+        norms = norms[np.isfinite(norms)]
+        if norms.size and np.max(np.abs(norms - 1.0)) > _UNIT_TOLERANCE:
+            raise BadInputError("directions must be unit vectors")
     omega = _numeric(solid_angle, "solid_angle is not a numeric array")
     if omega.shape != shape:
         raise BadInputError(f"solid_angle must have shape {shape}, got {omega.shape}")
@@ -205,11 +220,17 @@ def _check_inputs(luminance, directions, solid_angle, position_index, valid):
         P = _numeric(position_index, "position_index is not a numeric array")
         if P.shape != shape:
             raise BadInputError(f"position_index must have shape {shape}, got {P.shape}")
-    if valid is not None:
-        valid = np.asarray(valid)
-        if valid.shape != shape or valid.dtype != bool:
-            raise BadInputError(f"valid must be a boolean array of shape {shape}")
     return L, d, omega, P, valid
+
+
+def _stencil(directions, index, cols):
+    """(flat directions, indices, row step) around the flat pixels ``index`` for
+    :func:`_metric`: the map itself, or what a PixelGeometry computes from its model
+    (:meth:`~lsadphoto.geometry.PixelGeometry.stencil_directions`)."""
+    if isinstance(directions, PixelGeometry):
+        return directions.stencil_directions(index)
+    d = np.asarray(directions)
+    return d.reshape(-1, 3), np.asarray(index, dtype=np.int64), cols
 
 
 def _raise_for_values(flags):
@@ -238,15 +259,16 @@ def _weight(P, m):
 
 @njit(parallel=True, **_KERNEL_OPTIONS,
       aot=("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], boolean[:, ::1], "
-           "float64[:, :, ::1], float64, boolean, boolean, boolean, boolean[:, ::1], "
+           "float64[:, :, ::1], boolean, float64, boolean, boolean, boolean, boolean[:, ::1], "
            "float32[:, ::1], int64[::1], float64[:, ::1], int64[:, ::1], boolean[:, ::1])"))
-def _field_kernel(L, omega, P, valid, d, m, use_p, use_valid, weighted, field, filled, counts,
-                  sums, extent, flags):
+def _field_kernel(L, omega, P, valid, d, check_d, m, use_p, use_valid, weighted, field, filled,
+                  counts, sums, extent, flags):
     """The field, the filled map and the field sums, row by row, in float32 as the numpy
     version had them (L, ω and P converted to float32; products L·ω and ω·w in float32,
     summed in float64).
 
-    field: finite L, ω > 0, P not NaN (``use_p``), ``valid`` (``use_valid``), finite direction.
+    field: finite L, ω > 0, P not NaN (``use_p``), ``valid`` (``use_valid``), finite direction
+    (``check_d``; else ``d`` is not read: a pixel geometry's validity stands for it).
     filled: L on the field, 0 elsewhere (float32). Per row: ``counts`` field pixels, ``sums``
     (Σω, ΣL·ω, Σω·w), ``extent`` first and last field column, ``flags`` infinite L, bad ω,
     P ≤ 0.
@@ -271,7 +293,8 @@ def _field_kernel(L, omega, P, valid, d, m, use_p, use_valid, weighted, field, f
                 ok &= not np.isnan(p)
             if use_valid:
                 ok &= valid[i, j]
-            ok &= np.isfinite(d[i, j, 0]) & np.isfinite(d[i, j, 1]) & np.isfinite(d[i, j, 2])
+            if check_d:
+                ok &= np.isfinite(d[i, j, 0]) & np.isfinite(d[i, j, 1]) & np.isfinite(d[i, j, 2])
             field[i, j] = ok
             if ok:
                 filled[i, j] = lum
@@ -437,14 +460,23 @@ def _metric_kernel(index, directions, cols, out):
 
 def _angular_gradient(index, local, directions, lu, lv, cols):
     """|∇L| [cd·m⁻²·rad⁻¹] at flat image ``index`` from the pixel derivatives ``lu``, ``lv`` at
-    the same pixels' flat ``local`` indices (float64).
+    the same pixels' flat ``local`` indices (float64); ``directions`` a map or a PixelGeometry.
 
     g² = (G·L_u² − 2F·L_u·L_v + E·L_v²)/(EG − F²): the gradient under the metric of the pixel
     grid on the unit sphere. NaN where the metric is degenerate.
     """
     out = np.empty(index.size)
-    _gradient_kernel(index, local, directions, lu, lv, cols, out)
+    flat, at, step = _stencil(directions, index, cols)
+    _gradient_kernel(at, local, flat, lu, lv, step, out)
     return out
+
+
+def _metrics_at(index, directions, cols):
+    """E, F, G (n, 3) at the flat pixels ``index``; ``directions`` a map or a PixelGeometry."""
+    metric = np.empty((index.size, 3))
+    flat, at, step = _stencil(directions, index, cols)
+    _metric_kernel(at, flat, step, metric)
+    return metric
 
 
 def _pitch_lower_bound(index, directions, cols):
@@ -453,8 +485,7 @@ def _pitch_lower_bound(index, directions, cols):
     there is none."""
     if index.size == 0:
         return None
-    metric = np.empty((index.size, 3))
-    _metric_kernel(index, directions, cols, metric)
+    metric = _metrics_at(index, directions, cols)
     e, f, g = metric.T
     smallest = 0.5 * (e + g) - np.sqrt(0.25 * (e - g) ** 2 + f * f)  # λ_min of the metric
     smallest = smallest[np.isfinite(smallest)]
@@ -502,8 +533,9 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
     sums = np.empty((rows, 3))
     extent = np.empty((rows, 2), dtype=np.int64)
     flags = np.empty((rows, 3), dtype=bool)
-    _field_kernel(L, omega, L if P is None else P, field if valid is None else valid, d,
-                  float(weight_exponent), P is not None, valid is not None, weighted, field,
+    from_map = not isinstance(d, PixelGeometry)
+    _field_kernel(L, omega, L if P is None else P, field if valid is None else valid,
+                  d if from_map else np.empty((1, 1, 3)), from_map, float(weight_exponent), P is not None, valid is not None, weighted, field,
                   filled_image, counts, sums, extent, flags)
     _raise_for_values(flags)
     rows_used = np.flatnonzero(counts)
@@ -549,24 +581,20 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
     if box_rows < size or box_cols < size:
         out.reason = f"no pixel has a complete {size}×{size} stencil inside the field"
         return out
-    import cv2  # kept out of import time
-
-    evaluated = cv2.erode(np.ascontiguousarray(field_box).view(np.uint8), np.ones((size, size), np.uint8),
-                          borderType=cv2.BORDER_CONSTANT, borderValue=0).view(bool)
+    evaluated = erode_square(field_box, radius)
     out.evaluated = evaluated
     settings["n_evaluated"] = int(np.count_nonzero(evaluated))
     if settings["n_evaluated"] == 0:
         out.reason = f"no pixel has a complete {size}×{size} stencil inside the field"
         return out
-    # Pixel derivatives of the smoothed map (correlation; kernelX runs along columns). Borders
-    # never reach an evaluated pixel, so the border rule does not matter.
-    lu = cv2.sepFilter2D(filled, cv2.CV_32F, derivative, smooth)
-    lv = cv2.sepFilter2D(filled, cv2.CV_32F, smooth, derivative)
+    # Pixel derivatives of the smoothed map (correlation; kx runs along each row). The border
+    # the filters leave undefined never reaches an evaluated pixel.
+    lu = correlate_separable(filled, derivative, smooth)
+    lv = correlate_separable(filled, smooth, derivative)
 
     # Candidates: evaluated pixels that may pass the smallest cut-off n_min·ΔL_thr. Indices
     # into the box (``local``) and into the whole image (``index``).
     min_cut = n_min * np.float64(delta)
-    flat_directions = d.reshape(-1, 3)
 
     def to_image(local):
         return (local // box_cols + r0) * cols + (local % box_cols + c0)
@@ -576,7 +604,7 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
         sample = np.flatnonzero(evaluated[::_SCREEN_STRIDE, ::_SCREEN_STRIDE])
         sample_cols = (box_cols + _SCREEN_STRIDE - 1) // _SCREEN_STRIDE
         sample = (sample // sample_cols) * _SCREEN_STRIDE * box_cols + (sample % sample_cols) * _SCREEN_STRIDE
-        bound = _pitch_lower_bound(to_image(sample), flat_directions, cols)
+        bound = _pitch_lower_bound(to_image(sample), d, cols)
         if bound is not None:
             # g ≤ |(L_u, L_v)|/p_min: pixels whose bound stays below the cut are cut (float32
             # rounding of L_u, L_v is covered by the 1e-5 margin).
@@ -589,7 +617,7 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
     settings["evaluated_solid_angle_sr"] = out.evaluated_solid_angle
 
     if cutoff == "luminance":
-        smoothed = cv2.sepFilter2D(filled, cv2.CV_32F, smooth, smooth)
+        smoothed = correlate_separable(filled, smooth, smooth)
         level = mean + min_cut
         candidates = evaluated & (smoothed >= np.float32(level - 1e-5 * abs(level)))  # float32 margin
         local = np.flatnonzero(candidates)
@@ -597,14 +625,14 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
         keep = key >= min_cut
         local, key = local[keep], key[keep]
         index = to_image(local)
-        grad = _angular_gradient(index, local, flat_directions, lu.ravel(), lv.ravel(), cols)
+        grad = _angular_gradient(index, local, d, lu.ravel(), lv.ravel(), cols)
     else:
         offsets = np.zeros(box_rows, dtype=np.int64)
         np.cumsum(row_counts[:-1], out=offsets[1:])
         local = np.empty(int(row_counts.sum()), dtype=np.int64)
         index = np.empty_like(local)
         _candidate_fill(candidate, offsets, r0, c0, cols, local, index)
-        grad = _angular_gradient(index, local, flat_directions, lu.ravel(), lv.ravel(), cols)
+        grad = _angular_gradient(index, local, d, lu.ravel(), lv.ravel(), cols)
         key = grad * alpha
     out.index = index
     out.key = key
@@ -658,8 +686,11 @@ def q_Budak2021(luminance, directions, solid_angle, position_index, *, n_thresho
     ----------
     luminance : array_like, shape (rows, cols)
         L [cd·m⁻²]; NaN marks unknown pixels (kept as float32).
-    directions : array_like, shape (rows, cols, 3)
-        Unit direction of each pixel in any fixed frame; NaN where invalid (fisheye rim).
+    directions : array_like, shape (rows, cols, 3), or PixelGeometry
+        Unit direction of each pixel in any fixed frame; NaN where invalid (fisheye rim). Or
+        the :class:`~lsadphoto.geometry.PixelGeometry` of the picture, whose ``valid`` then
+        bounds the field and which computes the directions Q needs from its camera model
+        (no map of the whole picture; the same result).
     solid_angle : array_like, shape (rows, cols)
         ω [sr] of each pixel; pixels with ω = 0 or NaN are outside the field.
     position_index : array_like, shape (rows, cols), or None
@@ -828,7 +859,7 @@ def gradient_components(filled, directions, index, *, sigma_px):
     Parameters
     ----------
     filled : ndarray, shape (rows, cols), float32
-    directions : ndarray, shape (rows, cols, 3)
+    directions : ndarray, shape (rows, cols, 3), or PixelGeometry
     index : ndarray of int
         Flat pixels with a complete stencil (Q's evaluated pixels).
     sigma_px : float
@@ -838,16 +869,11 @@ def gradient_components(filled, directions, index, *, sigma_px):
     -------
     (a, b) : tuple of ndarray, float64
     """
-    import cv2
-
     smooth, derivative, _ = _kernels(float(sigma_px))
     image = np.ascontiguousarray(filled, dtype=np.float32)
-    lu = cv2.sepFilter2D(image, cv2.CV_32F, derivative, smooth).ravel()[index].astype(np.float64)
-    lv = cv2.sepFilter2D(image, cv2.CV_32F, smooth, derivative).ravel()[index].astype(np.float64)
-    index = np.asarray(index, dtype=np.int64)
-    metric = np.empty((index.size, 3))
-    _metric_kernel(index, np.asarray(directions).reshape(-1, 3), image.shape[1], metric)
-    e, f, g = metric.T
+    lu = correlate_separable(image, derivative, smooth).ravel()[index].astype(np.float64)
+    lv = correlate_separable(image, smooth, derivative).ravel()[index].astype(np.float64)
+    e, f, g = _metrics_at(np.asarray(index, dtype=np.int64), directions, image.shape[1]).T
     det = e * g - f * f
     with np.errstate(invalid="ignore", divide="ignore"):
         good = (det > 0) & (g > 0)

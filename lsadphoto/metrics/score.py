@@ -247,7 +247,7 @@ def _scored_sources(groups, geometry, frame, *, position_index_method, source_po
         pixel, direction = None, g.direction
         if source_position == "evalglare":
             pixel = position_pixel_evalglare(g.row, g.col, geometry.valid.shape)
-            d = np.asarray(geometry.directions[pixel], dtype=np.float64)
+            d = geometry.directions_at(*pixel)
             if geometry.valid[pixel] and np.all(np.isfinite(d)) and frame.angles(d)[0] <= \
                     math.pi / 2:
                 direction = tuple(map(float, d))
@@ -521,8 +521,9 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if guth_field not in (None, 1, 2):
         raise BadInputError(f"guth_field must be 1, 2 or None, got {guth_field!r}")
     frame = _frame(lmap, line_of_sight, up)
-    geometry = pixel_geometry(lmap.projection)
+    # The field first: a fisheye's geometry and field come from one pass where neither is cached.
     vf = visual_field(lmap.projection, frame, position_index_method=position_index_method)
+    geometry = pixel_geometry(lmap.projection)
     if guth_field is None:
         evaluated = geometry.valid
     else:
@@ -565,7 +566,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         n_thresholds=n_thresholds, size_arcmin=size_arcmin)
     settings["source_selection"] = dict(selection.settings)
     mask = np.asarray(selection.mask, dtype=bool)
-    groups, labels = group_sources_evalglare(luminance, geometry.directions, omega, mask,
+    groups, labels = group_sources_evalglare(luminance, geometry, omega, mask,
                                              search_angle=search_angle,
                                              peak_luminance=peak_luminance)
     if smooth or patch_deg is not None:
@@ -585,7 +586,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         zones, labels, parent, source_zones = zone_split(
             labels, directions=geometry.directions, valid=valid, projection=lmap.projection,
             zone_centre=zone_centre, zone_opening_deg=zone_opening_deg)
-        groups = describe_sources(labels, len(parent), luminance, geometry.directions, omega,
+        groups = describe_sources(labels, len(parent), luminance, geometry, omega,
                                   [groups[k].peak for k in parent])
         sources = _scored_sources(groups, geometry, frame,
                                   position_index_method=position_index_method,
@@ -607,7 +608,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
 
     values = indices(sums, s_l)
     analyses, details, regions, extra = evalglare_analyses(
-        luminance=luminance, solid_angle=omega, directions=geometry.directions,
+        luminance=luminance, solid_angle=omega, directions=geometry,
         cos_sigma=vf.cos_sigma, valid=valid, projection=lmap.projection,
         labels=labels, sources=sources, unsplit_sources=unsplit_sources,
         values=dict(values, dgp_raw=dgp_Wienold2006(values["vertical_illuminance"], s_l, s_w,
@@ -618,7 +619,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     values.update(extra)
     settings.update(band_deg=band_deg, mask=region_mask is not None, age=age, smooth=bool(smooth),
                     patch_deg=patch_deg)
-    quality = q_Budak2021(luminance, geometry.directions, omega, pindex,
+    quality = q_Budak2021(luminance, geometry, omega, pindex,
                           n_thresholds=n_thresholds, size_arcmin=size_arcmin,
                           weight_exponent=q_weight_exponent, threshold=q_threshold,
                           cutoff=q_cutoff, valid=valid)
@@ -640,7 +641,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     sweep_record = None
     if sweep_n or (extra_n and math.isfinite(quality.q)):
         wanted = sweep_n + [n for n, _ in extra_n]
-        _, q_values = q_sweep(luminance, geometry.directions, omega, pindex,
+        _, q_values = q_sweep(luminance, geometry, omega, pindex,
                               n_values=np.asarray(wanted), **q_options)
         q_values = [float(q) for q in q_values]
         if sweep_n:
@@ -655,7 +656,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         lmap, values, indices, sums, s_w, labels, len(sources),
         arrays=(luminance, omega, vf.cos_sigma, pindex), noise_samples=noise_samples,
         q_noise_samples=q_noise_samples, seed=seed,
-        q_of=lambda noisy: q_Budak2021(noisy, geometry.directions, omega, pindex,
+        q_of=lambda noisy: q_Budak2021(noisy, geometry, omega, pindex,
                                        n_thresholds=n_thresholds, **q_options).q)
     uncertainty = {key: math.hypot(calibration.get(key, 0.0), noise.get(key, 0.0))
                    for key in {**calibration, **noise}}
