@@ -335,3 +335,16 @@ def test_light_relayed_by_a_mirror_matches_the_image_source():
     assert 10 < inside.sum() < inside.size                      # both kinds of pixel are in view
     ours = np.asarray(lmap.luminance, float).ravel()[valid]
     assert np.allclose(ours, 0.5 / math.pi * (direct + mirrored), rtol=1e-6, atol=0)
+
+
+def test_glossy_lobe_at_grazing_half_vectors_is_zero_not_nan():
+    """h·n ≈ 1e-90 (both directions grazing): the lobe's 1/(h·n)⁴ must not underflow into
+    0/0 (seen as a RuntimeWarning, an error in this suite, with a glossy floor); the value is
+    the diffuse part alone, Y(C)(1 − s)/π, since exp(−tan²δ/α²) is exactly 0 there."""
+    scene = read_radiance_scene("void plastic g 0 0 5 .5 .5 .5 .05 .05\nvoid light l 0 0 3 1 1 1\n"
+                                "g polygon f 0 0 12 0 0 0 1 0 0 1 1 0 0 1 0\n"
+                                "l polygon p 0 0 12 0 0 1 0 1 1 1 1 1 1 0 1\n")
+    wo = np.array([[1.0, 0.0, 1e-90]])
+    wi = np.array([[-1.0, 1e-3, 2e-90]]) / np.sqrt(1 + 1e-6)
+    f = scene.bsdf.evaluate([scene.material_names.index("g")], np.array([[0.0, 0.0, 1.0]]), wo, wi)
+    assert f[0] == pytest.approx(0.5 * 0.95 / math.pi, rel=1e-12)

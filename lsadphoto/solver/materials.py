@@ -329,8 +329,10 @@ class MaterialTable:
             ok = hn > 0
             tan2 = np.where(ok, (hh - hn * hn) / np.maximum(hn * hn, 1e-300), np.inf)
             a = a2[glossy_r]
+            # hn ≥ 1e-75 keeps hn⁴ from underflowing (0/0 at grazing half vectors); below it
+            # tan²δ > 1e149 and the lobe is exactly 0 either way
             f[glossy_r] += np.where(ok, p["rs"][glossy_r] * hh * np.exp(-tan2 / a)
-                                    / (math.pi * a * np.maximum(hn, 1e-300) ** 4), 0.0)
+                                    / (math.pi * a * np.maximum(hn, 1e-75) ** 4), 0.0)
         glossy_t = ~refl & (p["ts"] > 0) & (mu_i < 0)
         if glossy_t.any():
             cb = -_dot(wi[glossy_t], wo[glossy_t])
