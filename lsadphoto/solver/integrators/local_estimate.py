@@ -696,8 +696,11 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
       the nodes' diffuse part only) cover β f_d L_D;
     * β_f' = (β f_d + β_f f_g)·|μ|/p: no connection covers the glossy or delta light of the hit;
     * emission: (β f_d + β_f f_g)·|μ|/p closer than ε, else β_f f_g w_B·|μ|/p, w_B the
-      balance-heuristic complement of the emitter connections (also behind straight-through
-      transmissions, which connections pass with their transmittance).
+      balance-heuristic complement of the emitter connections.
+
+    Behind straight-through transmissions, which connections pass with their transmittance,
+    β' and the emission keep these forms, with r the distance along the path from the
+    last non-delta vertex and the transmissions' weights as factors.
 
     A delta reflection turns β_f into the weight of everything beyond it (no connection
     reaches through it); a straight-through transmission keeps both. Russian roulette
@@ -755,7 +758,11 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
             bf[nd] = (beta[nd] * f_d + beta_f[nd] * f_g) * scale
             e_near[nd], e_far[nd] = bf[nd], beta_f[nd] * f_g * scale
             pdf_v[nd], primary_v[nd], travelled[nd], through[nd] = pdf, first, dist[nd], True
-        # emission where the path left a non-delta vertex and went straight on since
+        # where the path left a non-delta vertex and went straight on since, the connections
+        # from that vertex reach the hit through the transmissions: its diffuse light is
+        # theirs unless it lies closer than ε along the path (not only the first segment) …
+        b[through] = np.where(travelled[through] < near_distance, e_near[through], e_far[through])
+        # … and so is its emission, beyond ε in the balance-heuristic share w_L
         lit = np.flatnonzero(through & (prim >= 0))
         if lit.size:
             lit = lit[scene.emitter[prim[lit]] >= 0]
