@@ -200,3 +200,11 @@ def test_geometry_and_field_in_one_pass_equal_the_map_path(name, method):
     np.testing.assert_array_equal(geometry.valid, separate.valid)
     for name_ in ("position_index", "cos_sigma", "sigma", "tau"):
         np.testing.assert_array_equal(getattr(field, name_), getattr(reference, name_))
+
+
+def test_q_refuses_a_geometry_of_another_shape():
+    from lsadphoto.errors import BadInputError
+
+    geometry = pixel_geometry(CAMERAS["equidistant"])
+    with pytest.raises(BadInputError, match="pixel geometry has shape"):
+        q_Budak2021(np.ones((10, 10)), geometry, np.ones((10, 10)), None)

@@ -28,8 +28,8 @@ How the maps are computed (FORMULAS.md §2.4.2):
   :meth:`PixelGeometry.directions_at`), and ``directions`` makes the whole map only when it
   is read. There, :func:`visual_field` called before the geometry is cached (as
   :func:`~lsadphoto.metrics.score.score_map` does) computes both in one pass, each centre
-  direction once. The ideal fisheye's maps equal
-  its methods bit for bit (where numpy's tan is libm's). Other models evaluate
+  direction once. The ideal fisheye's maps equal its methods bit for bit (where numpy's
+  tan is libm's). Other models evaluate
   their own (numpy) ``directions`` in blocks of rows on threads, with the compiled
   solid-angle kernel.
 * The kernels are compiled on first use and cached on disk (numba ``cache=True``): the
@@ -355,19 +355,23 @@ def _compute_pixel_geometry(projection, field=None):
     return PixelGeometry(_read_only(directions), _read_only(solid_angle), _read_only(valid))
 
 
-def _field_arguments(field, shape):
-    """(v, u, h, method code, cap, P, cos σ) of the visual-field kernels for ``field`` =
-    (axes, method), fresh maps of ``shape``; placeholders for None."""
+def _field_constants(axes, method):
+    """(v, u, h, method code, cap): the visual-field kernels' arguments for the frame
+    ``axes`` and the position-index ``method``."""
     from . import _kernels
     from .position_index import POSITION_INDEX_CAP
 
+    v, u, h = (np.ascontiguousarray(a, dtype=np.float64) for a in axes)
+    return v, u, h, _kernels.POSITION_INDEX_METHODS.index(method), POSITION_INDEX_CAP
+
+
+def _field_arguments(field, shape):
+    """:func:`_field_constants` of ``field`` = (axes, method) and fresh P and cos σ maps of
+    ``shape``; placeholders for None."""
     if field is None:
         unused = np.empty((1, 1))
         return np.zeros(3), np.zeros(3), np.zeros(3), 0, 0.0, unused, unused
-    axes, method = field
-    v, u, h = (np.ascontiguousarray(a, dtype=np.float64) for a in axes)
-    return (v, u, h, _kernels.POSITION_INDEX_METHODS.index(method), POSITION_INDEX_CAP,
-            np.empty(shape), np.empty(shape))
+    return (*_field_constants(*field), np.empty(shape), np.empty(shape))
 
 
 def pixel_geometry(projection):
@@ -480,9 +484,7 @@ class VisualField:
 def _visual_field_maps(geometry, axes, method, *, angles):
     """(σ, τ) where ``angles``, else (position index, cos σ): read-only maps."""
     from . import _kernels
-    from .position_index import POSITION_INDEX_CAP
 
-    v, u, h = (np.ascontiguousarray(a, dtype=np.float64) for a in axes)
     shape = geometry.valid.shape
     unused = np.empty((1, 1))
     out = [np.empty(shape), np.empty(shape)]
@@ -492,9 +494,8 @@ def _visual_field_maps(geometry, axes, method, *, angles):
         directions, model = np.empty((1, 1, 3)), geometry.model
     else:
         directions, model = geometry.directions, (-1, np.empty(0), np.empty(0))
-    _kernels.visual_field_maps(directions, geometry.valid, *model, v, u, h,
-                               _kernels.POSITION_INDEX_METHODS.index(method), POSITION_INDEX_CAP,
-                               angles, not angles, *maps)
+    _kernels.visual_field_maps(directions, geometry.valid, *model,
+                               *_field_constants(axes, method), angles, not angles, *maps)
     return tuple(_read_only(array) for array in out)
 
 
