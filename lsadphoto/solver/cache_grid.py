@@ -249,6 +249,103 @@ def _patch_kernel(x, n, own, point, normal, radius, start, index, values, out):
                 out[i, g] = values[c, g]
 
 
+@njit(**_NUMBA)
+def _patch_kernel_bias(x, n, own, point, normal, radius, start, index, values, out):
+    """out[i] = the first-order bias of :func:`_patch_kernel`'s average at point i, per
+    group: g·ū, ū the weights' centroid of the patch points' offsets u_j = q_j − x projected
+    on the tangent plane, g the gradient of a weighted least-squares plane through their
+    values (g = (C + λI)⁻¹ Σ w_j (u_j − ū)(E_j − Ē), C = Σ w_j (u_j − ū)(u_j − ū)ᵀ, λ =
+    10⁻³·trace C): the kernel average minus the weighted linear fit's value at x, exact for a
+    linear field. 0 where fewer than two points qualify (no gradient to fit)."""
+    P = x.shape[0]
+    G = values.shape[1]
+    K = 1
+    for c in range(start.size - 1):
+        K = max(K, start[c + 1] - start[c])
+    wk = np.empty(K)
+    uk = np.empty((K, 2))
+    jk = np.empty(K, np.int64)
+    for i in range(P):
+        for g in range(G):
+            out[i, g] = 0.0
+        c = own[i]
+        r2 = radius[c] * radius[c]
+        # a tangent basis (t1, t2) at x
+        if abs(n[i, 0]) < 0.9:
+            ax, ay, az = 1.0, 0.0, 0.0
+        else:
+            ax, ay, az = 0.0, 1.0, 0.0
+        dot = ax * n[i, 0] + ay * n[i, 1] + az * n[i, 2]
+        t1x, t1y, t1z = ax - dot * n[i, 0], ay - dot * n[i, 1], az - dot * n[i, 2]
+        norm = math.sqrt(t1x * t1x + t1y * t1y + t1z * t1z)
+        t1x, t1y, t1z = t1x / norm, t1y / norm, t1z / norm
+        t2x = n[i, 1] * t1z - n[i, 2] * t1y
+        t2y = n[i, 2] * t1x - n[i, 0] * t1z
+        t2z = n[i, 0] * t1y - n[i, 1] * t1x
+        count = 0
+        total = 0.0
+        for k in range(start[c], start[c + 1]):
+            j = index[k]
+            dx = point[j, 0] - x[i, 0]
+            dy = point[j, 1] - x[i, 1]
+            dz = point[j, 2] - x[i, 2]
+            d2 = dx * dx + dy * dy + dz * dz
+            if d2 >= r2:
+                continue
+            agree = n[i, 0] * normal[j, 0] + n[i, 1] * normal[j, 1] + n[i, 2] * normal[j, 2]
+            if agree <= _PATCH_COS:
+                continue
+            d = math.sqrt(d2)
+            tilt = abs(n[i, 0] * dx + n[i, 1] * dy + n[i, 2] * dz) / d if d > 0 else 0.0
+            if tilt >= _PATCH_PLANE:
+                continue
+            q = 1.0 - d2 / r2
+            w = q * q * (agree - _PATCH_COS) / (1.0 - _PATCH_COS) * (1.0 - tilt / _PATCH_PLANE)
+            wk[count] = w
+            uk[count, 0] = dx * t1x + dy * t1y + dz * t1z
+            uk[count, 1] = dx * t2x + dy * t2y + dz * t2z
+            jk[count] = j
+            total += w
+            count += 1
+        if count < 2 or total <= 0:
+            continue
+        m0 = 0.0
+        m1 = 0.0
+        for k in range(count):
+            m0 += wk[k] * uk[k, 0]
+            m1 += wk[k] * uk[k, 1]
+        m0 /= total
+        m1 /= total
+        c00 = 0.0
+        c01 = 0.0
+        c11 = 0.0
+        for k in range(count):
+            a0, a1 = uk[k, 0] - m0, uk[k, 1] - m1
+            c00 += wk[k] * a0 * a0
+            c01 += wk[k] * a0 * a1
+            c11 += wk[k] * a1 * a1
+        lam = 1e-3 * (c00 + c11)
+        c00 += lam
+        c11 += lam
+        det = c00 * c11 - c01 * c01
+        if not det > 0:
+            continue
+        for g in range(G):
+            mean = 0.0
+            for k in range(count):
+                mean += wk[k] * values[jk[k], g]
+            mean /= total
+            s0 = 0.0
+            s1 = 0.0
+            for k in range(count):
+                e = wk[k] * (values[jk[k], g] - mean)
+                s0 += e * (uk[k, 0] - m0)
+                s1 += e * (uk[k, 1] - m1)
+            g0 = (c11 * s0 - c01 * s1) / det
+            g1 = (c00 * s1 - c01 * s0) / det
+            out[i, g] = g0 * m0 + g1 * m1
+
+
 @dataclass
 class SurfaceCache:
     """Indirect illuminance on the scene's surfaces: triangle grids and shared patch points.
@@ -352,7 +449,8 @@ class SurfaceCache:
     def interpolation_bias(self, scene, prim, x, side):
         """Estimated bias of :meth:`interpolate` [lx] per group at points ``x`` on triangles
         ``prim``, side 0 (front) or 1, shape (n, groups): the estimate minus the true E_ind,
-        to leading order (grid triangles: :meth:`_grid_bias`; small triangles' patches: 0).
+        to leading order (grid triangles: :meth:`_grid_bias`; the patches of small
+        triangles: the kernel average's first-order bias, :func:`_patch_kernel_bias`).
         """
         prim = np.asarray(prim)
         side = np.broadcast_to(np.asarray(side), prim.shape)
@@ -363,6 +461,10 @@ class SurfaceCache:
         grid = np.flatnonzero(m >= 1)
         if grid.size:
             out[grid] = self._grid_bias(scene, prim[grid], x[grid], side[grid])
+        small = np.flatnonzero(m == 0)
+        if small.size:
+            out[small] = self._patch_call(_patch_kernel_bias, scene, prim[small], x[small],
+                                          side[small])
         return out
 
     def _grid_bias(self, scene, prim, x, side):
@@ -421,16 +523,21 @@ class SurfaceCache:
             out[grid] = np.einsum("nk,nkg->ng", weight, self.values[index])
         small = np.flatnonzero(m == 0)
         if small.size:
-            own = self.patch[prim[small], side[small]]
-            if np.any(own < 0):
-                raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
-            sign = np.where(side[small] == 0, 1.0, -1.0)[:, None]
-            n = np.ascontiguousarray(sign * scene.normals[prim[small]], dtype=np.float64)
-            res = np.empty((small.size, self.values.shape[1]))
-            _patch_kernel(np.ascontiguousarray(x[small], dtype=np.float64), n, own,
-                          np.ascontiguousarray(self.positions[self.patch_row]),
-                          np.ascontiguousarray(self.patch_normal), self.patch_radius,
-                          self.patch_start, self.patch_index,
-                          np.ascontiguousarray(self.values[self.patch_row]), res)
-            out[small] = res
+            out[small] = self._patch_call(_patch_kernel, scene, prim[small], x[small], side[small])
         return out
+
+    def _patch_call(self, kernel, scene, prim, x, side):
+        """``kernel`` (:func:`_patch_kernel` or :func:`_patch_kernel_bias`) at points ``x``
+        on small triangles ``prim``, side 0 (front) or 1: per group, shape (n, groups)."""
+        own = self.patch[prim, side]
+        if np.any(own < 0):
+            raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
+        sign = np.where(side == 0, 1.0, -1.0)[:, None]
+        n = np.ascontiguousarray(sign * scene.normals[prim], dtype=np.float64)
+        res = np.empty((len(prim), self.values.shape[1]))
+        kernel(np.ascontiguousarray(x, dtype=np.float64), n, own,
+               np.ascontiguousarray(self.positions[self.patch_row]),
+               np.ascontiguousarray(self.patch_normal), self.patch_radius,
+               self.patch_start, self.patch_index,
+               np.ascontiguousarray(self.values[self.patch_row]), res)
+        return res
