@@ -286,9 +286,15 @@ def _render_from_cache(store_or_scene, projection, *, position, rotation, sample
         lmap = render_cached(store, projection, cache=cache_of(store, node_draws),
                              direct_samples=shadow_rays, **view)
         capped = node_draws == MAX_CACHE_NODES or shadow_rays == MAX_DIRECT_SAMPLES
+        p = lmap.provenance
         advice = (f"the surface cache reached its caps ({MAX_CACHE_NODES} node draws per point, "
                   f"{MAX_DIRECT_SAMPLES} shadow rays per luminaire and pixel); render with the "
                   "double local estimate or give more chains") if capped else None
+        if p["pixel_relative_bias_median"] > p["pixel_relative_noise_median"]:
+            # more samples do not reduce the interpolation bias; a finer cache does
+            advice = (f"the cache's estimated interpolation bias (median "
+                      f"{p['pixel_relative_bias_median']:.2g}) exceeds its noise and does not fall "
+                      "with more chains; give a finer cache_spacing")
         return lmap, {"cache_nodes": node_draws, "direct_samples": shadow_rays}, advice
 
     return _render_to_target(store_or_scene, samples=samples, target_error=target_error,
