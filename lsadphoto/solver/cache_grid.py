@@ -487,13 +487,14 @@ class SurfaceCache:
         if not ok.size:
             return out
         m, base, i, j, upper, w = m[ok], base[ok], i[ok], j[ok], upper[ok], weight[ok]
-        up = upper.astype(np.int64)
         # edges P0P1, P0P2, P1P2: lower cell along i from (i, j), along j from (i, j); upper
         # cell along j from (i + 1, j), along i from (i, j + 1); both along (1, −1) from (i, j)
-        q01 = np.where(upper[:, None], _second_difference(v, m, base, i + up, j, 1),
-                       _second_difference(v, m, base, i, j, 0))
-        q02 = np.where(upper[:, None], _second_difference(v, m, base, i, j + up, 0),
-                       _second_difference(v, m, base, i, j, 1))
+        q01, q02 = np.empty((2, len(m), v.shape[1]))
+        lo, hi = np.flatnonzero(~upper), np.flatnonzero(upper)
+        q01[lo] = _second_difference(v, m[lo], base[lo], i[lo], j[lo], 0)
+        q02[lo] = _second_difference(v, m[lo], base[lo], i[lo], j[lo], 1)
+        q01[hi] = _second_difference(v, m[hi], base[hi], i[hi] + 1, j[hi], 1)
+        q02[hi] = _second_difference(v, m[hi], base[hi], i[hi], j[hi] + 1, 0)
         q12 = _second_difference(v, m, base, i, j, 2)
         out[ok] = 0.5 * (w[:, :1] * w[:, 1:2] * q01 + w[:, :1] * w[:, 2:] * q02
                          + w[:, 1:2] * w[:, 2:] * q12)
