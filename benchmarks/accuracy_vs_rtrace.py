@@ -45,6 +45,7 @@ import argparse
 import math
 import os
 import platform
+import shlex
 import subprocess
 import sys
 import tempfile
@@ -241,7 +242,7 @@ def main(argv=None):
         rows.append(("ours, double local estimate", f"{args.local_chains} chains, nodes per pixel auto",
                      lmap, clock.cpu))
     _, _, version = _radiance()
-    lines = [f"Command: `{' '.join([os.path.basename(sys.executable), *sys.argv])}`  ",
+    lines = [f"Command: `{shlex.join([os.path.basename(sys.executable), *sys.argv])}`  ",
              f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
              f"Radiance binaries of pyradiance {version}; load average {os.getloadavg()[0]:.1f} at the end.  ",
              f"Scene: {scene.name} ({len(scene.triangles)} triangles, {len(scene.point_luminaires)} point and "
