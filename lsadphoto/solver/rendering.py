@@ -94,8 +94,10 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
     estimator : {"local", "cache", "auto"}
         ``"local"`` (default): the double local estimate per pixel, unbiased. ``"cache"``:
         direct light per pixel, indirect light interpolated from a surface cache (the store's,
-        or one built with ``cache_spacing`` and ``cache_nodes``); its per-pixel standard error
-        leaves out the interpolation bias (docs/accuracy.md). ``"auto"``: as
+        or one built with ``cache_spacing`` and ``cache_nodes``); its per-pixel uncertainty
+        includes the estimated interpolation bias, and the provenance gives the noise and
+        bias parts apart (:func:`~lsadphoto.solver.integrators.surface_cache.render_cached`).
+        ``"auto"``: as
         :func:`choose_estimator` says, recorded in ``provenance["estimator_choice"]``.
     samples : int, optional
         Light chains to simulate when given a scene (an error for a store, whose chains are
@@ -145,7 +147,8 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
     -------
     LuminanceMap
         Luminance [cd·m⁻²] (NaN outside the projection's valid region; 0 where a ray
-        leaves an open scene), ``uncertainty`` the per-pixel standard error, and
+        leaves an open scene), ``uncertainty`` the per-pixel standard error (with the
+        cache: noise and estimated interpolation bias in quadrature), and
         ``provenance`` with estimator, samples, seed, near-field treatment and the
         achieved relative standard error of the field-mean luminance.
 
