@@ -17,7 +17,7 @@ import warnings
 from .._validation import check_choice
 from ..errors import BadInputError, SolverWarning
 from .direct import DIRECT_SAMPLES
-from .integrators.local_estimate import (AUTO_NODES_PER_PIXEL, render_local_estimate,
+from .integrators.local_estimate import (AUTO_NODES_PER_PIXEL, RAYS_PER_VERTEX, render_local_estimate,
                                          render_local_estimate_materials)
 from .integrators.path_tracer import render_path_traced
 from .integrators.surface_cache import CACHE_NODES, build_surface_cache, render_cached
@@ -47,6 +47,11 @@ DEFAULT_TARGET_ERROR = 0.02
 #: shadow-ray samples per luminaire and pixel.
 MAX_CACHE_NODES = 1 << 17
 MAX_DIRECT_SAMPLES = 256
+#: Caps of a ``target_error`` render of a scene with non-Lambertian materials: nodes per pixel
+#: and batch, and BSDF-sampled rays per eye vertex (their first round's are the defaults,
+#: :data:`~.local_estimate.AUTO_NODES_PER_PIXEL` and :data:`~.local_estimate.RAYS_PER_VERTEX`).
+MAX_MATERIAL_NODES = 1024
+MAX_RAYS_PER_VERTEX = 256
 
 
 def choose_estimator(store_or_scene, *, samples=None, target_error=None):
@@ -65,9 +70,12 @@ def choose_estimator(store_or_scene, *, samples=None, target_error=None):
     if isinstance(store_or_scene, LsadStore):
         if store_or_scene.surface_cache is not None:
             return "cache", "the store holds a surface cache"
+        if store_or_scene.materials:
+            return "local", "non-Lambertian materials: the surface cache models Lambertian surfaces only"
         return "local", "the store holds no surface cache (simulate --surface-cache builds one)"
     if not store_or_scene.lambertian:
-        return "local", "non-Lambertian materials: the surface cache models Lambertian surfaces only"
+        return "local", ("non-Lambertian materials: the surface cache models Lambertian surfaces only"
+                         + ("" if target_error is None else "; the per-pixel target by rounds of chains"))
     if samples is not None and target_error is None:
         return "local", "a fixed number of chains: the unbiased double local estimate"
     return "cache", ("a per-pixel target: the surface cache reaches it at a fraction of the double "
@@ -217,23 +225,13 @@ def _render_local(store_or_scene, projection, *, samples, target_error, max_samp
     options = {k: rest[k] for k in ("position", "rotation", "seed", "near_field", "near_distance",
                                     "nodes_per_pixel", "chunk_pixels", "workers")}
     seed, near_field = rest["seed"], rest["near_field"]
+    scene = store_or_scene.scene if isinstance(store_or_scene, LsadStore) else store_or_scene
+    if not scene.lambertian:
+        return _render_local_materials(store_or_scene, projection, samples=samples, target_error=target_error,
+                                       max_samples=max_samples, progress=progress, **rest)
     if isinstance(store_or_scene, LsadStore):
-        if samples is not None or target_error is not None:
-            raise BadInputError("samples and target_error apply when rendering a scene; a store's "
-                                f"{store_or_scene.chains} chains are fixed (simulate again for more)")
+        _refuse_chains_for_store(store_or_scene, samples, target_error)
         return render_local_estimate(store_or_scene, projection, progress=progress, **options)
-    if not store_or_scene.lambertian:
-        # glossy, specular, transmitting materials: chains and view in one go (no store)
-        if target_error is not None or near_field == "clamp":
-            raise BadInputError("scenes with non-Lambertian materials render with samples and the "
-                                "unbiased near field only (no target_error, no near_field='clamp')")
-        k = rest["nodes_per_pixel"]
-        return render_local_estimate_materials(
-            store_or_scene, projection, position=rest["position"], rotation=rest["rotation"],
-            samples=DEFAULT_CHAINS if samples is None else samples, seed=seed,
-            nodes_per_pixel=AUTO_NODES_PER_PIXEL if k in ("auto", None) else k,
-            near_distance=rest["near_distance"], chunk_pixels=rest["chunk_pixels"],
-            workers=rest["workers"], progress=progress)
     if target_error is None:
         store = simulate(store_or_scene, samples=samples, seed=seed,
                          near_field=near_field or "unbiased")
@@ -251,6 +249,53 @@ def _render_local(store_or_scene, projection, *, samples, target_error, max_samp
                              first_chains=FIRST_RENDER_CHAINS, render_round=render_round)
 
 
+def _refuse_chains_for_store(store, samples, target_error):
+    """One-line error: a store's chains are fixed."""
+    if samples is not None or target_error is not None:
+        raise BadInputError("samples and target_error apply when rendering a scene; a store's "
+                            f"{store.chains} chains are fixed (simulate again for more)")
+
+
+def _render_local_materials(store_or_scene, projection, *, samples, target_error, max_samples, progress,
+                            **rest):
+    """The double local estimate with materials (options as :func:`render`'s): a store of
+    chains that sample the BSDFs, simulated like any other (one path: a render of the scene
+    is :func:`simulate` + the render of its store, the same map bit for bit)."""
+    if rest["near_field"] == "clamp":
+        raise BadInputError("scenes with non-Lambertian materials render with the unbiased near field only "
+                            "(near_field='clamp' applies to Lambertian scenes)")
+    k = rest["nodes_per_pixel"]
+    if k is None or k == "all":
+        raise BadInputError("nodes_per_pixel='all' applies to Lambertian scenes; with non-Lambertian materials "
+                            f"each pixel connects to a number of nodes per batch (default {AUTO_NODES_PER_PIXEL})")
+    first_k = AUTO_NODES_PER_PIXEL if k == "auto" else k
+    view = {key: rest[key] for key in ("position", "rotation", "seed", "near_distance", "chunk_pixels", "workers")}
+    view["progress"] = progress
+    if isinstance(store_or_scene, LsadStore):
+        _refuse_chains_for_store(store_or_scene, samples, target_error)
+        return render_local_estimate_materials(store_or_scene, projection, nodes_per_pixel=first_k, **view)
+    if target_error is None:
+        store = simulate(store_or_scene, samples=samples, seed=rest["seed"])
+        return render_local_estimate_materials(store, projection, nodes_per_pixel=first_k, **view)
+
+    def render_round(store, growth):
+        # the node draws and the sampled rays per pixel grow with the chains: each noise of the
+        # map falls as 1/√ of its samples (the secondary vertices keep K/rays nodes each)
+        nodes = min(MAX_MATERIAL_NODES, max(first_k, round(first_k * growth)))
+        rays = min(MAX_RAYS_PER_VERTEX, max(RAYS_PER_VERTEX, round(RAYS_PER_VERTEX * growth)))
+        lmap = render_local_estimate_materials(store, projection, nodes_per_pixel=nodes, rays_per_vertex=rays,
+                                               **view)
+        capped = nodes == MAX_MATERIAL_NODES or rays == MAX_RAYS_PER_VERTEX
+        advice = (f"the material local estimate reached its caps ({MAX_MATERIAL_NODES} nodes per pixel and "
+                  f"batch, {MAX_RAYS_PER_VERTEX} sampled rays per eye vertex); give a larger target or "
+                  "render_path_traced") if capped else None
+        return lmap, {"nodes_per_pixel": nodes, "rays_per_vertex": rays}, advice
+
+    return _render_to_target(store_or_scene, samples=samples, target_error=target_error,
+                             max_samples=max_samples, seed=rest["seed"], near_field="unbiased",
+                             first_chains=FIRST_RENDER_CHAINS, render_round=render_round)
+
+
 def _render_from_cache(store_or_scene, projection, *, position, rotation, samples, target_error,
                        max_samples, seed, spacing, nodes, direct_samples, chunk_pixels, workers,
                        progress):
@@ -263,11 +308,11 @@ def _render_from_cache(store_or_scene, projection, *, position, rotation, sample
     def cache_of(store, node_draws):
         return build_surface_cache(store, spacing=spacing, nodes=node_draws, seed=seed, workers=workers)
 
+    (store_or_scene.scene if isinstance(store_or_scene, LsadStore) else store_or_scene).require_lambertian(
+        "the surface cache", "--estimator local (the double local estimate with materials)")
     if isinstance(store_or_scene, LsadStore):
         store = store_or_scene
-        if samples is not None or target_error is not None:
-            raise BadInputError("samples and target_error apply when rendering a scene; a store's "
-                                f"{store.chains} chains are fixed (simulate again for more)")
+        _refuse_chains_for_store(store, samples, target_error)
         cache = store.surface_cache
         if cache is not None and (spacing is not None or nodes is not None):
             raise BadInputError(f"cache_spacing and cache_nodes cannot apply: the store already holds a "
