@@ -409,15 +409,15 @@ def test_options_that_cannot_apply_to_a_material_store_are_one_line_errors():
 def test_a_material_store_agrees_with_the_path_tracer_on_another_view(variant):
     # The independent estimator on the second view of one store: per-pixel z-scores with both
     # standard errors (16 batches each), median |z| of a standard normal 0.674 — 1.0 allows
-    # for the noise of 16-batch error estimates on 144 pixels; the field means within 3σ
-    # combined.
+    # for the noise of 16-batch error estimates on 256 pixels; the field means within 3σ
+    # combined (measured: 0.3σ, 0.8σ, 2.1σ; with other seeds the glass room's sign turns).
     rad, _, _ = material_room_rad(variant)
     scene = read_radiance_scene(rad)
-    store = simulate(scene, samples=16384, seed=4)
+    store = simulate(scene, samples=65536, seed=4)
     pos, line = _OTHER_VIEW[variant]
-    proj, pose = _pinhole(12), {"position": np.asarray(pos, float), "rotation": camera_to_world(line)}
-    ours = render(store, proj, **pose, nodes_per_pixel=64, seed=4)
-    ref = render_path_traced(scene, proj, **pose, samples=512, batches=16, seed=5)
+    proj, pose = _pinhole(16), {"position": np.asarray(pos, float), "rotation": camera_to_world(line)}
+    ours = render(store, proj, **pose, nodes_per_pixel=128, seed=4)
+    ref = render_path_traced(scene, proj, **pose, samples=4096, batches=16, seed=5)
     a, sa = np.asarray(ours.luminance, float).ravel(), np.asarray(ours.uncertainty, float).ravel()
     b, sb = np.asarray(ref.luminance, float).ravel(), np.asarray(ref.uncertainty, float).ravel()
     lit = np.isfinite(a) & (b > 0)
