@@ -1163,7 +1163,8 @@ def _build_parser():
                           "light per pixel, indirect interpolated from a surface cache (the store's, or built) "
                           "— far faster per pixel, with a small interpolation bias (docs/accuracy.md); auto "
                           "(default): the store's cache if it has one, else local; for a scene, local with "
-                          "--samples alone, else cache — and says what it chose")
+                          "--samples alone, else cache; local for glossy, specular or transmitting materials "
+                          "— and says what it chose")
     ren.add_argument("--nodes-per-pixel", default="auto", help="nodes connected per pixel and batch: a number, 'all' or 'auto'")
     _add_cache_options(ren)
     ren.add_argument("--seed", type=int, default=0)

@@ -5,7 +5,10 @@ scene, simulated first) by one of ``ESTIMATORS``: ``"local"``, the double local 
 (:mod:`lsadphoto.solver.integrators.local_estimate`, the unbiased reference), or ``"cache"``,
 direct light per pixel and indirect light from a surface cache
 (:func:`~lsadphoto.solver.integrators.surface_cache.render_cached`); ``"auto"`` chooses
-(:func:`choose_estimator`) and says why. With ``target_error`` a scene is simulated and
+(:func:`choose_estimator`) and says why. Scenes with glossy, specular or transmitting
+materials render by the double local estimate with materials
+(:func:`~lsadphoto.solver.integrators.local_estimate.render_local_estimate_materials`), from
+their store like Lambertian ones. With ``target_error`` a scene is simulated and
 rendered in rounds until the median per-pixel relative error is reached. The path tracer
 (:func:`~lsadphoto.solver.integrators.path_tracer.render_path_traced`) is the independent
 cross-check.
@@ -58,9 +61,10 @@ def choose_estimator(store_or_scene, *, samples=None, target_error=None):
     """The estimator ``"auto"`` renders with, and why (one line).
 
     A store renders from its surface cache if it holds one, else by the double local estimate
-    (building a cache is a choice for ``simulate --surface-cache``). A scene with glossy,
-    specular or transmitting materials renders by the double local estimate (the cache is
-    Lambertian). A Lambertian scene with a fixed number
+    (building a cache is a choice for ``simulate --surface-cache``). A store or scene with
+    glossy, specular or transmitting materials renders by the double local estimate with
+    materials (the cache is Lambertian; a target is reached by its rounds). A Lambertian
+    scene with a fixed number
     of chains and no target renders by the double local estimate, the unbiased reference; a
     scene with a per-pixel target (or neither) by the surface cache, which reaches a per-pixel
     error at a small fraction of the per-pixel estimate's cost (docs/accuracy.md: 0.63 % mean
@@ -113,7 +117,9 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
         pixels with light (``provenance["pixel_relative_error_median"]``). The scene is
         simulated in rounds, each with the chains that 1/√chains predicts from the last
         (2–16 times as many; with ``"cache"`` the cache's node draws and the direct light's
-        samples grow by the same factor), up to ``max_samples``; a
+        samples grow by the same factor; with non-Lambertian materials the nodes per pixel
+        and the BSDF-sampled rays per eye vertex, up to :data:`MAX_MATERIAL_NODES` and
+        :data:`MAX_RAYS_PER_VERTEX`), up to ``max_samples``; a
         :class:`~lsadphoto.errors.SolverWarning` says when the target is not reached, or
         when the error stops falling with more chains because each pixel connects to a
         fixed number of nodes (``nodes_per_pixel``: then ask for ``"all"`` or a larger K).
@@ -123,7 +129,8 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
     seed : int
         Seed of the near-field rays (and of the simulation when given a scene).
     near_field : {"unbiased", "clamp"}, optional
-        Near-field treatment (:mod:`~lsadphoto.solver.integrators.local_estimate`); default the store's.
+        Near-field treatment (:mod:`~lsadphoto.solver.integrators.local_estimate`); default the store's
+        ("clamp" is an error for non-Lambertian materials).
     near_distance : float, optional
         ε [m]; default :data:`~lsadphoto.solver.integrators.local_estimate.RELATIVE_NEAR_DISTANCE` × scene size.
     cache_spacing, cache_nodes : float [m], int, optional
@@ -140,6 +147,8 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
         cost ∝ pixels × K × batches. ``"all"`` (or None) connects every node: the full
         double local estimate, cost ∝ pixels × nodes. ``"auto"`` (default): all nodes when
         pixels × nodes ≤ :data:`~.local_estimate.FULL_GATHER_PAIRS`, else :data:`~.local_estimate.AUTO_NODES_PER_PIXEL`.
+        With non-Lambertian materials an integer, or ``"auto"`` for
+        :data:`~.local_estimate.AUTO_NODES_PER_PIXEL` (``"all"`` is an error).
     chunk_pixels : int
         Pixels per processing chunk (rounded up to a multiple of :data:`~.eye.PIXEL_BLOCK`);
         bounds memory, never changes the result.

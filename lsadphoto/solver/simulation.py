@@ -160,6 +160,11 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
              max_samples=MAX_CHAINS, progress=None):
     """Trace light chains from the luminaires of ``scene``; return an :class:`LsadStore`.
 
+    In a scene with glossy, specular or transmitting materials the chains sample the BSDFs
+    (:func:`~lsadphoto.solver.chains.trace_material_chains`) and the store holds what the
+    material local estimate needs (the nodes' incoming directions and sides, the scene's
+    materials); such scenes take ``near_field="unbiased"`` and ``absorption="weight"`` only.
+
     Parameters
     ----------
     scene : Scene
