@@ -1,8 +1,10 @@
 """Per-pixel accuracy of the solver's maps against unbiased Radiance references (issue 13).
 
 One Radiance scene file goes to both programs: our :func:`lsadphoto.solver.read_scene` and
-Radiance's ``oconv``. The reference is ``rtrace -aa 0`` (pure Monte Carlo ambient sampling:
-no irradiance cache, so no interpolation bias; rpict's cache has its own errors) through the
+Radiance's ``oconv``. The reference is ``rtrace`` with
+:data:`~lsadphoto.solver.formats.radiance.RTRACE_UNBIASED` (pure Monte Carlo ambient sampling:
+no irradiance cache, so no interpolation bias, and no adaptive super-samples, which are biased
+low; rpict's cache has its own errors) through the
 rays that ``vwrays`` makes of the same 180° fisheye view, on a random subset of the pixels
 inside the image circle, **run twice** with the pixels in opposite order: the two runs' noise
 is independent (PITFALLS.md), their mean is the reference and half their difference its
@@ -47,6 +49,7 @@ from _clock import Clock
 from lsadphoto.constants import RADIANCE_RGB_LUMINANCE_WEIGHTS
 from lsadphoto.solver import read_scene, render, simulate
 from lsadphoto.solver.examples import canonical_room_rad
+from lsadphoto.solver.formats.radiance import RTRACE_UNBIASED
 from lsadphoto.solver.integrators.surface_cache import render_cached
 
 
@@ -135,7 +138,7 @@ def main(argv=None):
     parser.add_argument("--chains", type=int, default=65536)
     parser.add_argument("--local-chains", type=int, default=262144)
     parser.add_argument("--hall-scale", type=float, default=0.5)
-    parser.add_argument("--rtrace", default="-aa 0 -ab 8 -ad 512 -lw 1e-5 -dj 0 -ds 0.02")
+    parser.add_argument("--rtrace", default=" ".join(("-ab 8 -ad 512", *RTRACE_UNBIASED, "-ds 0.02")))
     parser.add_argument("--max-luminance", type=float, default=1000.0)
     parser.add_argument("--estimators", default="cache,local")
     parser.add_argument("--output", default="/tmp/frag_accuracy_rtrace.md")

@@ -33,6 +33,7 @@ import pytest
 from lsadphoto.errors import BadInputError, SolverWarning
 from lsadphoto.solver import load_store, read_radiance_scene, render, render_path_traced, simulate
 from lsadphoto.solver.examples import canonical_room_rad, material_room_rad
+from lsadphoto.solver.formats.radiance import RTRACE_UNBIASED
 from lsadphoto.solver.materials import (Material, MaterialTable, glass_transmissivity,
                                         luminance_of)
 from lsadphoto.solver.scene import camera_to_world, scene_from_dict
@@ -267,7 +268,7 @@ def _room_reference(variant, folder):
         valid, _, _, d = primary_rays(scene, engine_for(scene), proj, pos, rot)
         pick = valid[np.random.default_rng(0).choice(len(valid), 80, replace=False)]
         rays = [(pos, v) for v in d[np.searchsorted(valid, pick)]]
-        options = ["-ab", "10", "-ad", "1024", "-aa", "0", "-lw", "1e-5", "-st", "0", "-ds", "0.02", "-dj", "0"]
+        options = ["-ab", "10", "-ad", "1024", *RTRACE_UNBIASED, "-st", "0", "-ds", "0.02"]
         a = 179 * _rtrace(binpath, folder, rad, rays, options)
         b = 179 * _rtrace(binpath, folder, rad, rays[::-1], options)[::-1]
         _REFERENCES[variant] = (scene, proj, pos, rot, pick, a, b)
