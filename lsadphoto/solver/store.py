@@ -123,8 +123,8 @@ class LsadStore:
     def require_lambertian(self, estimator):
         """Raise :class:`BadInputError` (one line) when the store's scene has non-Lambertian
         materials and ``estimator`` models Lambertian surfaces only."""
-        self.scene.require_lambertian(estimator, "render the store with --estimator local "
-                                                 "(the double local estimate with materials)")
+        self.scene.require_lambertian(estimator, "render (estimator 'local': the double local estimate "
+                                                 "with materials)")
 
     @property
     def chains_per_batch(self):
