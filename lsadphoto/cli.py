@@ -719,7 +719,8 @@ def cmd_simulate(args):
         _print_json(record)
     else:
         achieved = store.provenance.get("achieved_relative_error")
-        extra = "" if achieved is None else f"; relative error of the first view's mean luminance {achieved:.2%}"
+        extra = ("" if achieved is None else
+                 f"; relative error of the {store.provenance['error_measured_on']} {achieved:.2%}")
         print(f"wrote {args.output}: {store.chains} light chains, {store.nodes} nodes{extra}")
     return 0
 

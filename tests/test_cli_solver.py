@@ -254,6 +254,10 @@ def test_a_glossy_scene_simulates_once_and_renders_many_views(tmp_path):
         lmap = read_exr(tmp_path / "m.exr")
         np.testing.assert_array_equal(lmap.luminance, direct.luminance)
         np.testing.assert_array_equal(lmap.uncertainty, np.asarray(direct.uncertainty, np.float32))
+    # to a target: the scene has no view, so the error is that of the flux arriving on its surfaces
+    code, out, err = cli("simulate", rad, "--target-error", "0.01", "-o", tmp_path / "t.npz", "--quiet")
+    assert code == 0 and "relative error of the surface-incident flux" in out, (out, err)
+    assert load_store(tmp_path / "t.npz").provenance["achieved_relative_error"] <= 0.01
     view = "--view=-vtv -vp 0 0 1.5 -vd 0 0 -1 -vu 0 1 0 -vh 60 -vv 60"
     for command, message in (
             (("render", store, view, "--size", "4x4", "--estimator", "cache"), "the surface cache models Lambertian"),
