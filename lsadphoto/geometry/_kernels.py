@@ -326,12 +326,22 @@ def _ideal_row(p, row, col_offset, ox, oy, oz, corner):
     cx, cy, kind, coefficient, limit = p[0], p[1], int(p[2]), p[3], p[4]
     y = row - cy
     n = ox.size
-    if kind == 0:  # equidistant: t = tan(θ/2), the argument parked in oz
+    if kind == 0:  # equidistant: t = tan(θ/2), the argument parked in ox
         for j in range(n):
             x = (j + col_offset) - cx
-            oz[j] = min(math.sqrt(x * x + y * y) * coefficient, math.pi) * 0.5
+            ox[j] = min(math.sqrt(x * x + y * y) * coefficient, math.pi) * 0.5
+        # The point mirrored about the centre column, k = m − j, has the same x² where 2·cx
+        # is a whole number of columns from the row's start (a centred image): where its
+        # argument is the same (compared, so exact whatever cx), its tan is copied rather
+        # than computed again (a pure function of the argument: the same value).
+        m = 2.0 * (cx - col_offset)
+        mirror = int(m) if m == math.floor(m) and abs(m) < 4.0 * n + 4.0 else -1
         for j in range(n):
-            oz[j] = math.tan(oz[j])
+            k = mirror - j
+            if 0 <= k < j and ox[k] == ox[j]:
+                oz[j] = oz[k]
+            else:
+                oz[j] = math.tan(ox[j])
     for j in range(n):
         x = (j + col_offset) - cx
         r = math.sqrt(x * x + y * y)
