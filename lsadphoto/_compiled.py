@@ -12,9 +12,11 @@ twice:
   a minute or two; later processes wait for it rather than build twice) into the user's cache
   folder (``$LSADPHOTO_CACHE_DIR``, else ``$XDG_CACHE_HOME/lsadphoto``, else
   ``~/.cache/lsadphoto``), under a key of the kernel sources, the numba, numpy and Python
-  versions and the CPU. Loading it takes a millisecond and does not import numba. It runs
-  on one thread (numba's ahead-of-time compiler has no ``parallel``: a ``prange`` is a
-  ``range``), with the host CPU's instruction set and each kernel's own error model;
+  versions and the CPU. Loading it takes a millisecond and does not import numba. A call
+  runs on one thread (numba's ahead-of-time compiler has no ``parallel``: a ``prange`` is a
+  ``range``), with the host CPU's instruction set, each kernel's own error model and, for a
+  ``nogil`` kernel, the GIL released, so that callers share large maps out among threads in
+  blocks of rows (:func:`run_blocks`, :meth:`Kernel.threads_for`);
 * **just in time** (``numba.njit`` with the same options, ``parallel`` included, cached by
   numba) for a call whose arguments match none of the kernel's ``aot`` signatures, where the
   ahead-of-time build failed (no C compiler: the reason is kept in ``build.failed`` in the
