@@ -40,7 +40,7 @@ from _clock import Clock
 
 from lsadphoto.constants import RADIANCE_RGB_LUMINANCE_WEIGHTS
 from lsadphoto.geometry.pinhole import PinholeProjection
-from lsadphoto.solver import read_radiance_scene, render_path_traced
+from lsadphoto.solver import read_radiance_scene, render_path_traced, simulate
 from lsadphoto.solver.engine import engine_for
 from lsadphoto.solver.examples import MATERIAL_ROOMS, material_room_rad
 from lsadphoto.solver.formats.radiance import RTRACE_UNBIASED
@@ -165,7 +165,7 @@ def main(argv=None):
                     setting = (f"{args.chains} chains, {args.nodes_per_pixel} nodes/px, "
                                f"{args.rays_per_vertex} rays/vertex")
                     lmap = render_local_estimate_materials(
-                        scene, proj, position=pos, rotation=rot, samples=args.chains,
+                        simulate(scene, samples=args.chains, seed=1), proj, position=pos, rotation=rot,
                         nodes_per_pixel=args.nodes_per_pixel, rays_per_vertex=args.rays_per_vertex, seed=1,
                         workers=args.workers)
                 else:
