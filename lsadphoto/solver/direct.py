@@ -57,7 +57,7 @@ DIRECT_SAMPLES = 4
 #: many, and samples them above it …
 ALL_LUMINAIRES_UP_TO = 8
 #: … with this many draws per point (besides the luminaires taken whole) …
-LUMINAIRE_DRAWS = 8
+LUMINAIRE_DRAWS = 32
 #: … after weighing exactly, per point, this many candidate luminaires of its region
 #: (:class:`LuminaireTable`) …
 LUMINAIRE_CANDIDATES = 16
@@ -348,11 +348,12 @@ def _unoccluded_all(x, n, points, areas, n_area, out):
 
 
 @njit(**_NUMBA)
-def _point_terms(x, n, offset, point, lum, guide, u, points, values, o32, d32, t32, ray):
+def _point_terms(x, n, offset, point, lum, guide, count, u, u_start, points, values, o32, d32, t32,
+                 ray):
     """Terms of the estimates of point luminaires ``lum[e]`` (index among the point
     luminaires) at points ``point[e]``: ``values[e, j]`` = I·cos⁺θ_x/r² from emission point j
-    of the luminous rectangle (uniforms ``u[e, j, :2]``; one point, the centre, with the exact
-    ``guide[e]`` as its value, for a luminaire without one); returns the number m of nonzero
+    < ``count[e]`` of the luminous rectangle (uniforms ``u[u_start[e] + j, :2]``; one point, the centre,
+    with the exact ``guide[e]`` as its value, for a luminaire without one); returns the number m of nonzero
     terms, whose flat index and float32 shadow ray (from x moved ``offset`` along n to the
     emission point, stopped ``offset`` short) are in ``ray``, ``o32``, ``d32``, ``t32`` [:m].
     Returns also how many terms each estimate has (``ns``)."""
@@ -365,15 +366,15 @@ def _point_terms(x, n, offset, point, lum, guide, u, points, values, o32, d32, t
         length, width = extent[k, 0], extent[k, 1]
         rect = length > 0.0 and width > 0.0
         if rect:
-            ns[e] = s
+            ns[e] = count[e]
         ox, oy, oz = x[i, 0] + offset * n[i, 0], x[i, 1] + offset * n[i, 1], x[i, 2] + offset * n[i, 2]
         for j in range(s):
             values[e, j] = 0.0
             if j >= ns[e]:
                 continue
             if rect:
-                a = (u[e, j, 0] - 0.5) * length
-                b = (u[e, j, 1] - 0.5) * width
+                a = (u[u_start[e] + j, 0] - 0.5) * length
+                b = (u[u_start[e] + j, 1] - 0.5) * width
                 y0 = pos[k, 0] + a * frame[k, 0, 0] + b * frame[k, 1, 0]
                 y1 = pos[k, 1] + a * frame[k, 0, 1] + b * frame[k, 1, 1]
                 y2 = pos[k, 2] + a * frame[k, 0, 2] + b * frame[k, 1, 2]
@@ -394,27 +395,28 @@ def _point_terms(x, n, offset, point, lum, guide, u, points, values, o32, d32, t
     return m, ns
 
 
-def _point_estimates(lights, x, n, point, lum, guide, u, engine):
+def _point_estimates(lights, x, n, point, lum, guide, u, u_start, count, engine):
     """Direct illuminance [lx] of point luminaires ``lum`` (index among the point luminaires)
-    at points ``x[point]``, and the sample variance of each mean: the mean over the emission
-    points of a luminous rectangle (``u`` (E, s, ≥ 2) places them), or the exact ``guide``
-    times the visibility of the centre; all shadow rays in one Embree call."""
+    at points ``x[point]``, and the sample variance of each mean: the mean over ``count[e]``
+    emission points of a luminous rectangle (placed by the uniforms ``u[u_start[e]:][:count[e],
+    :2]``), or the exact ``guide`` times the visibility of the centre; all shadow rays in one
+    Embree call."""
     E = len(point)
-    s = u.shape[1]
+    s = max(int(count.max(initial=1)), 1)
     values = np.empty((E, s))
     o32 = np.empty((E * s, 3), dtype=np.float32)
     d32 = np.empty((E * s, 3), dtype=np.float32)
     t32 = np.empty(E * s, dtype=np.float32)
     ray = np.empty(E * s, dtype=np.int64)
-    m, ns = _point_terms(x, n, engine.epsilon, point, lum, guide, u, lights.points, values,
-                         o32, d32, t32, ray)
+    m, ns = _point_terms(x, n, engine.epsilon, point, lum, guide, count, u, u_start, lights.points,
+                         values, o32, d32, t32, ray)
     if m:
         values.ravel()[ray[:m][engine.occluded(o32[:m], d32[:m], t32[:m])]] = 0.0
     mean = values.sum(axis=1) / ns
     var = np.zeros(E)
-    many = ns > 1
-    if many.any():
-        var[many] = values[many].var(axis=1, ddof=1) / s
+    for k in np.unique(ns[ns > 1]):
+        sel = ns == k
+        var[sel] = values[sel, :k].var(axis=1, ddof=1) / k
     return mean, var
 
 
@@ -456,19 +458,16 @@ def _plan(x, n, row, cand, n_cand, rest_w, rest_cum, picks, points, areas, n_are
     With M = Σu_c + Σ rest weights, candidates with u_c ≥ M/D are taken whole (weight 1);
     D = ``picks.shape[1]`` stratified draws (uniforms ``picks[i]``) go to the rest —
     candidates with p ∝ u_c (guides floored at 10⁻³ of the mean, so p > 0 wherever light
-    may arrive), other luminaires with p ∝ their region weight — each draw weighted
-    1/(D·p). Writes, per point, ``ev_n[i]`` evaluations: luminaire, weight, draw count
-    (0: whole), probability and unoccluded value (exact or guide)."""
+    may arrive), other luminaires with p ∝ their region weight — each draw an evaluation of
+    its own, weighted 1/(D·p). Writes, per point, ``ev_n[i]`` ≤ 2D evaluations: luminaire,
+    weight, draw count (0: whole, 1: drawn), probability and unoccluded value (exact or
+    guide)."""
     P, D = picks.shape
     N = rest_w.shape[1]
     K = cand.shape[1]
     u = np.empty(K)
     up = np.empty(K)
     whole = np.empty(K, dtype=np.bool_)
-    d_lum = np.empty(D, dtype=np.int64)
-    d_count = np.empty(D, dtype=np.int64)
-    d_prob = np.empty(D)
-    d_guide = np.empty(D)
     for i in range(P):
         r = row[i]
         k = n_cand[r]
@@ -492,7 +491,6 @@ def _plan(x, n, row, cand, n_cand, rest_w, rest_cum, picks, points, areas, n_are
             up[c] = 0.0 if whole[c] else (u[c] if exact[cand[r, c]] else max(u[c], floor))
             mass_c += up[c]
         mass = mass_c + rest_cum[r, N - 1]
-        nd = 0
         if mass > 0.0:
             for j in range(D):
                 t = (j + picks[i, j]) / D * mass
@@ -521,18 +519,9 @@ def _plan(x, n, row, cand, n_cand, rest_w, rest_cum, picks, points, areas, n_are
                         lum -= 1
                     prob = rest_w[r, lum] / mass
                     guide = _unoccluded(points, areas, n_area, lum, x[i], n[i])
-                q = 0
-                while q < nd and d_lum[q] != lum:
-                    q += 1
-                if q == nd:
-                    d_lum[q], d_count[q], d_prob[q], d_guide[q] = lum, 0, prob, guide
-                    nd += 1
-                d_count[q] += 1
-        for q in range(nd):
-            ev_lum[i, m], ev_count[i, m], ev_prob[i, m] = d_lum[q], d_count[q], d_prob[q]
-            ev_weight[i, m] = d_count[q] / (D * d_prob[q])
-            ev_guide[i, m] = d_guide[q]
-            m += 1
+                ev_lum[i, m], ev_count[i, m], ev_prob[i, m] = lum, 1, prob
+                ev_weight[i, m], ev_guide[i, m] = 1.0 / (D * prob), guide
+                m += 1
         ev_n[i] = m
 
 
@@ -610,10 +599,10 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         _unoccluded_all(x, n, lights.points, lights.areas, lights.n_area, guide)
         point, lum = np.nonzero((guide > 0) | ~lights.exact[None, :])
         e, v = _estimates(scene, lights, engine, x, n, origins, point, lum, guide[point, lum],
-                          u[point, lum])
+                          u[point, lum].reshape(-1, 3), np.full(len(point), s, dtype=np.int64))
         return E + np.bincount(point, e, P), var + np.bincount(point, v, P)
-    # Importance sampling of luminaires (_plan): each point evaluates its whole and drawn
-    # luminaires; the uniforms of the m-th evaluation of a point are slot m.
+    # Importance sampling of luminaires (_plan): each point evaluates its whole luminaires
+    # and its draws; a block's stream gives first its draws, then the evaluations' uniforms.
     table = _luminaire_table(scene)
     picks = np.empty((P, draws))
     slots = []
@@ -621,7 +610,7 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         m = np.flatnonzero(blocks == j)
         g = stream(seed, "direct", purpose_key, j)
         picks[m] = g.random((m.size, draws))
-        slots.append((m, g))
+        slots.append((j, g))
     row, cand, n_cand, rest_w, rest_cum = table.plan_rows(x, n)
     S = 2 * draws  # at most draws whole luminaires (each ≥ 1/draws of the total) + draws drawn
     ev_lum = np.empty((P, S), dtype=np.int64)
@@ -630,47 +619,57 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     ev_n = np.empty(P, dtype=np.int64)
     _plan(x, n, row, cand, n_cand, rest_w, rest_cum, picks, lights.points, lights.areas,
           lights.n_area, lights.exact, ev_lum, ev_weight, ev_count, ev_prob, ev_guide, ev_n)
-    u = np.empty((P, int(ev_n.max(initial=0)), s, 3))
-    for m, g in slots:
-        # as many slots as the block's own points use, so a block's draws do not depend on
-        # which other blocks share the call (chunking)
-        k = int(ev_n[m].max(initial=0))
-        u[m, :k] = g.random((m.size, k, s, 3))
     point, slot = np.nonzero(np.arange(S)[None, :] < ev_n[:, None])
     lum, weight = ev_lum[point, slot], ev_weight[point, slot]
+    drawn = ev_count[point, slot] > 0
+    # Samples per evaluation: s for an area luminaire (its ratio estimate) and for a luminous
+    # rectangle taken whole, one point of the rectangle per draw, none for a point.
+    rect = ~lights.exact[lum]
+    count = np.where(lum < lights.n_area, s, np.where(rect, np.where(drawn, 1, s), 0))
+    u = np.empty((int(count.sum()), 3))
+    u_start = np.cumsum(count) - count
+    order = np.argsort(blocks[point], kind="stable")
+    bounds = np.searchsorted(blocks[point][order], [j for j, _ in slots] + [np.inf])
+    for k, (_, g) in enumerate(slots):
+        # in the order of the block's own points and evaluations, so that a block's draws do
+        # not depend on which other blocks share the call (chunking)
+        sel = order[bounds[k]:bounds[k + 1]]
+        need = count[sel]
+        rows = np.repeat(u_start[sel] - (np.cumsum(need) - need), need) + np.arange(int(need.sum()))
+        u[rows] = g.random((rows.size, 3))
     e, v = _estimates(scene, lights, engine, x, n, origins, point, lum, ev_guide[point, slot],
-                      u[point, slot])
+                      u, count)
     E += np.bincount(point, weight * e, P)
-    var += np.bincount(point, weight ** 2 * v, P)
-    count = ev_count[point, slot]
-    drawn = count > 0
+    var += np.bincount(point[~drawn], v[~drawn], P)
     if draws > 1 and drawn.any():
-        # the draws' spread: the sample variance of Ê/p over the draws, / draws
+        # the draws' spread: the sample variance of Ê/p over a point's draws, / draws
         ratio = e[drawn] / ev_prob[point, slot][drawn]
-        sum_v = np.bincount(point[drawn], count[drawn] * ratio, P)
-        sum_v2 = np.bincount(point[drawn], count[drawn] * ratio ** 2, P)
-        mean_v = sum_v / draws
-        var += np.maximum(sum_v2 / draws - mean_v ** 2, 0.0) / (draws - 1)
+        mean_v = np.bincount(point[drawn], ratio, P) / draws
+        sum_v2 = np.bincount(point[drawn], ratio ** 2, P)
+        var += np.maximum(sum_v2 - draws * mean_v ** 2, 0.0) / (draws * (draws - 1))
     return E, var
 
 
-def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u):
+def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count):
     """Direct illuminance [lx] of luminaire ``lum[e]`` at point ``point[e]`` and its
-    sampling variance, for every pair e (uniforms ``u`` (E, s, 3); ``guide``: the unoccluded
-    value, exact for area luminaires and points): point luminaires in one compiled pass and
-    one Embree call, area luminaires by :func:`_area_estimate` per luminaire."""
+    sampling variance, for every pair e (``guide``: the unoccluded value, exact for area
+    luminaires and points), from ``count[e]`` samples (uniforms: the rows of ``u`` (U, 3) in
+    order, ``count[e]`` per pair): point luminaires in one compiled pass and one Embree call,
+    area luminaires by :func:`_area_estimate` per luminaire."""
     e = np.zeros(len(point))
     v = np.zeros(len(point))
+    u_start = np.cumsum(count) - count
     is_point = lum >= lights.n_area
     if is_point.any():
         sel = np.flatnonzero(is_point)
         e[sel], v[sel] = _point_estimates(lights, x, n, point[sel], lum[sel] - lights.n_area,
-                                          guide[sel], np.ascontiguousarray(u[sel]), engine)
+                                          guide[sel], u, u_start[sel], count[sel], engine)
     samplers = _samplers(scene)
     for li in np.unique(lum[~is_point]):
         sel = np.flatnonzero(lum == li)
         p = point[sel]
-        e[sel], v[sel] = _area_estimate(samplers[li], x[p], n[p], origins[p], u[sel], engine,
+        u3 = u[u_start[sel, None] + np.arange(int(count[sel[0]]))]
+        e[sel], v[sel] = _area_estimate(samplers[li], x[p], n[p], origins[p], u3, engine,
                                         unoccluded=guide[sel])
     return e, v
 
@@ -920,8 +919,9 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
         guide = np.empty(of_point.size)
         _unoccluded_pairs(x, n, of_point, pick[of_point], lights.points, lights.areas,
                           lights.n_area, guide)
-        E[of_point] = _point_estimates(lights, x, n, of_point, pick[of_point] - lights.n_area,
-                                       guide, np.ascontiguousarray(u[of_point, None, 1:]), engine)[0]
+        E[of_point] = _point_estimates(lights, x, n, of_point, pick[of_point] - lights.n_area, guide,
+                                       np.ascontiguousarray(u[of_point, 1:]), np.arange(of_point.size),
+                                       np.ones(of_point.size, dtype=np.int64), engine)[0]
     origins = x + engine.epsilon * n
     samplers = _samplers(scene)
     for li in np.unique(pick[pick < lights.n_area]):
