@@ -28,6 +28,21 @@ Each estimate comes with its sampling variance (the delta-method variance of the
 point luminaires the sample variance over s). Both ignore the stratification, which lowers
 the true variance: conservative (1.2–1.4× the observed variance in the half-shadow test).
 
+Many luminaires (:func:`direct_illuminance`, ``luminaires`` an integer K or ``"auto"``
+above :data:`ALL_LUMINAIRES_UP_TO`) are sampled, not all evaluated. A compiled planning pass
+(:func:`_plan`) weighs at each point only the :data:`LUMINAIRE_CANDIDATES` luminaires of
+largest bound in its region of a :class:`LuminaireTable` — their exact unoccluded values
+(Lambert's Π, or I·cos⁺θ/r² from the intensity tables by
+:func:`~.photometry.packed_intensity`) — and gives every other luminaire its region's
+weight. A luminaire giving at least 1/K of the point's total weight is taken whole (the
+*closed-form path* where one luminaire dominates: its Lambert or I·cos/r² value times the
+visibility of its samples, exact where it is fully visible); K stratified draws take the
+rest with p ∝ weight, each one estimate weighted 1/(K·p) (one point of a luminous
+rectangle per draw). Every luminaire keeps p > 0 wherever it may give light, so the sum is
+unbiased (for area luminaires: as unbiased as their ratio estimate above); it is exact —
+zero variance — where nothing is in the way and every luminaire is a candidate with an
+exact value. Shadow rays of all the point luminaires' samples go to Embree in one call.
+
 References
 ----------
 Lambert, J. H. (1760). *Photometria*, §§ 170–176 (the polygon formula); in modern form
@@ -48,8 +63,8 @@ from .photometry import pack_photometries, packed_intensity
 from .sky import distant_illuminance, distant_uniforms
 
 __all__ = ["ALL_LUMINAIRES_UP_TO", "DIRECT_SAMPLES", "LUMINAIRE_CANDIDATES", "LUMINAIRE_DRAWS",
-           "REGION_CELL", "LuminaireTable", "direct_illuminance", "projected_solid_angle", "sampled_direct_illuminance",
-           "unoccluded_illuminance"]
+           "REGION_CELL", "LuminaireTable", "direct_illuminance", "projected_solid_angle",
+           "sampled_direct_illuminance", "unoccluded_illuminance"]
 
 #: Default shadow-ray samples per luminaire and point.
 DIRECT_SAMPLES = 4
@@ -549,11 +564,12 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         Distinguishes independent uses (e.g. pixels and cache points) within one seed.
     luminaires : "all", int or "auto"
         ``"all"``: every luminaire at every point. An integer K: at each point the
-        luminaires that give at least 1/K of its unoccluded illuminance
-        (:func:`unoccluded_illuminance`) are taken whole and K more are drawn from the rest
-        in proportion to their unoccluded illuminance, each weighted by 1/(K·p) — unbiased
-        importance sampling of luminaires (Shirley et al. 1996), exact where every
-        luminaire is fully visible and its unoccluded value exact, at the cost of ≤ 2K
+        candidate luminaires of its region (:class:`LuminaireTable`; all of them up to
+        :data:`LUMINAIRE_CANDIDATES`) that give at least 1/K of its unoccluded illuminance
+        (:func:`unoccluded_illuminance`; the other luminaires counted by their region's
+        weights) are taken whole and K draws are made from the rest in proportion to
+        those values and weights, each weighted by 1/(K·p) — unbiased importance sampling
+        of luminaires (Shirley et al. 1996; module docstring), at the cost of ≤ 2K
         luminaire estimates per point instead of all. ``"auto"`` (default): all up to
         :data:`ALL_LUMINAIRES_UP_TO` luminaires, else K = :data:`LUMINAIRE_DRAWS`.
     distant_samples : int, optional
@@ -563,9 +579,11 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     Returns
     -------
     (E, variance) : tuple of ndarray, shape (P,)
-        Exact where luminaires are fully visible or hidden, never negative; in a partial
-        shadow of an area luminaire a ratio estimate (bias of order 1/s, module docstring).
-        With sampled luminaires the variance adds the draws' spread (their sample variance).
+        Exact where luminaires are fully visible or hidden and none is drawn, never
+        negative; in a partial shadow of an area luminaire a ratio estimate (bias of order
+        1/s, module docstring). With sampled luminaires the variance is that of the whole
+        ones plus the draws' spread (the sample variance of Ê/p over the K draws, / K;
+        conservative: the draws are stratified).
 
     References
     ----------
