@@ -53,6 +53,7 @@ bias and delta-method variance). FORMULAS.md §6.1.
 """
 
 import math
+import threading
 
 import numpy as np
 from numba import njit
@@ -808,6 +809,7 @@ class LuminaireTable:
         N, K = self.count, self.candidates
         self._store = {"cdf": np.zeros((0, N)), "cand": np.zeros((0, K), dtype=np.int64),
                        "rest_w": np.zeros((0, N)), "rest_cum": np.zeros((0, N))}
+        self._lock = threading.Lock()  # renderers call from several threads
 
     def __getattr__(self, name):  # _cdf, _cand, _rest_w, _rest_cum: the rows built so far
         store = self.__dict__.get("_store")
@@ -854,17 +856,22 @@ class LuminaireTable:
         for k, key in enumerate(keys.tolist()):
             self.rows[key] = first + k
 
-    def _rows(self, x, n):
-        """The row of each point's region, built where missing."""
+    def _rows(self, x, n, *names):
+        """The row of each point's region, built where missing, and the arrays ``names``
+        (``"cdf"``, ``"cand"``, ``"rest_w"``, ``"rest_cum"``) as they are then (one thread
+        builds at a time; arrays read later by another thread stay valid: views)."""
         keys, inverse = np.unique(self._keys(x, n), return_inverse=True)
-        missing = np.asarray([k for k in keys.tolist() if k not in self.rows], dtype=np.int64)
-        if missing.size:
-            self._build(missing)
-        return np.asarray([self.rows[k] for k in keys.tolist()], dtype=np.int64)[inverse.ravel()]
+        with self._lock:
+            missing = np.asarray([k for k in keys.tolist() if k not in self.rows], dtype=np.int64)
+            if missing.size:
+                self._build(missing)
+            rows = np.asarray([self.rows[k] for k in keys.tolist()], dtype=np.int64)[inverse.ravel()]
+            return (rows, *(self._store[name][:len(self.rows)] for name in names))
 
     def cdf(self, x, n):
         """CDF rows (P, N) of the bounds in the regions of points ``x`` with normals ``n``."""
-        return self._cdf[self._rows(x, n)]
+        rows, cdf = self._rows(x, n, "cdf")
+        return cdf[rows]
 
     def plan_rows(self, x, n):
         """What the planning pass of :func:`direct_illuminance` reads for points ``x``
@@ -875,9 +882,8 @@ class LuminaireTable:
         if self.candidates >= N:
             return (np.zeros(len(x), dtype=np.int64), np.arange(N, dtype=np.int64)[None, :],
                     np.array([N], dtype=np.int64), np.zeros((1, N)), np.zeros((1, N)))
-        row = self._rows(x, n)
-        return (row, self._cand, np.full(len(self._cand), self.candidates, dtype=np.int64),
-                self._rest_w, self._rest_cum)
+        row, cand, rest_w, rest_cum = self._rows(x, n, "cand", "rest_w", "rest_cum")
+        return (row, cand, np.full(len(cand), self.candidates, dtype=np.int64), rest_w, rest_cum)
 
 
 def _luminaire_table(scene):
@@ -929,8 +935,8 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
         u[m] = stream(seed, "direct", purpose_key, j, 1).random((int(m.sum()), 4))
     pick = np.empty(P, dtype=np.int64)
     prob = np.empty(P)
-    rows = table._rows(x, n)  # (builds missing rows: before reading the table's arrays)
-    _pick_rows(table._cdf, rows, np.ascontiguousarray(u[:, 0]), pick, prob)
+    rows, cdf = table._rows(x, n, "cdf")
+    _pick_rows(cdf, rows, np.ascontiguousarray(u[:, 0]), pick, prob)
     lights = _lights(scene)
     of_point = np.flatnonzero(pick >= lights.n_area)
     if of_point.size:
