@@ -63,9 +63,9 @@ def _cell(m, b1, b2):
     """Cell of barycentric point (b1, b2) in a level-m grid (m ≥ 1, arrays).
 
     Returns the grid indices of its corners P0, P1, P2, the interpolation weights of P1 and
-    P2 (the point is P0 + w1·(P1 − P0) + w2·(P2 − P0)) and the cell's key 2·index(i, j) +
-    upper. Lower cells are (i, j), (i + 1, j), (i, j + 1); upper cells (i + 1, j + 1),
-    (i + 1, j), (i, j + 1).
+    P2 (the point is P0 + w1·(P1 − P0) + w2·(P2 − P0)), the cell's key 2·index(i, j) +
+    upper, and its (i, j, upper). Lower cells are (i, j), (i + 1, j), (i, j + 1); upper
+    cells (i + 1, j + 1), (i + 1, j), (i, j + 1).
     """
     s, t = b1 * m, b2 * m
     i = np.clip(np.floor(s), 0, m - 1).astype(np.int64)
@@ -77,7 +77,34 @@ def _cell(m, b1, b2):
     k2 = grid_index(m, i, j + 1)
     w1 = np.where(upper, 1.0 - ft, fs)
     w2 = np.where(upper, 1.0 - fs, ft)
-    return k0, k1, k2, w1, w2, 2 * grid_index(m, i, j) + upper
+    return k0, k1, k2, w1, w2, 2 * grid_index(m, i, j) + upper, (i, j, upper)
+
+
+def _second_difference(values, m, base, i, j, along):
+    """Second differences f(c − e) − 2 f(c) + f(c + e) [lx] of the values (per group) of
+    level-m grids (first vertex ``base``) along grid direction ``along`` (0: i, 1: j, 2:
+    (1, −1)), averaged over the two stencils centred on the ends of the cell edge that
+    starts at vertex (i, j) in that direction, each moved to the nearest stencil that lies
+    in the grid (m ≥ 2): e·H·e of the field's Hessian H over the edge vector e where the
+    field is quadratic."""
+    total = 0.0
+    for end in (0, 1):
+        if along == 0:  # edge (i, j)–(i + 1, j)
+            jc = np.minimum(j, m - 2)
+            ic = np.clip(i + end, 1, m - 1 - jc)
+            lo, hi = grid_index(m, ic - 1, jc), grid_index(m, ic + 1, jc)
+        elif along == 1:  # edge (i, j)–(i, j + 1)
+            ic = np.minimum(i, m - 2)
+            jc = np.clip(j + end, 1, m - 1 - ic)
+            lo, hi = grid_index(m, ic, jc - 1), grid_index(m, ic, jc + 1)
+        else:  # edge (i + 1, j)–(i, j + 1), on the line i + j = s
+            sc = np.clip(i + j + 1, 2, m)
+            ic = np.clip(i + end, 1, sc - 1)
+            jc = sc - ic
+            lo, hi = grid_index(m, ic + 1, jc - 1), grid_index(m, ic - 1, jc + 1)
+        mid = grid_index(m, ic, jc)
+        total = total + (values[base + lo] - 2.0 * values[base + mid] + values[base + hi])
+    return 0.5 * total
 
 
 def _barycentric(tri, x):
@@ -222,6 +249,103 @@ def _patch_kernel(x, n, own, point, normal, radius, start, index, values, out):
                 out[i, g] = values[c, g]
 
 
+@njit(**_NUMBA)
+def _patch_kernel_bias(x, n, own, point, normal, radius, start, index, values, out):
+    """out[i] = the first-order bias of :func:`_patch_kernel`'s average at point i, per
+    group: g·ū, ū the weights' centroid of the patch points' offsets u_j = q_j − x projected
+    on the tangent plane, g the gradient of a weighted least-squares plane through their
+    values (g = (C + λI)⁻¹ Σ w_j (u_j − ū)(E_j − Ē), C = Σ w_j (u_j − ū)(u_j − ū)ᵀ, λ =
+    10⁻³·trace C): the kernel average minus the weighted linear fit's value at x, exact for a
+    linear field. 0 where fewer than two points qualify (no gradient to fit)."""
+    P = x.shape[0]
+    G = values.shape[1]
+    K = 1
+    for c in range(start.size - 1):
+        K = max(K, start[c + 1] - start[c])
+    wk = np.empty(K)
+    uk = np.empty((K, 2))
+    jk = np.empty(K, np.int64)
+    for i in range(P):
+        for g in range(G):
+            out[i, g] = 0.0
+        c = own[i]
+        r2 = radius[c] * radius[c]
+        # a tangent basis (t1, t2) at x
+        if abs(n[i, 0]) < 0.9:
+            ax, ay, az = 1.0, 0.0, 0.0
+        else:
+            ax, ay, az = 0.0, 1.0, 0.0
+        dot = ax * n[i, 0] + ay * n[i, 1] + az * n[i, 2]
+        t1x, t1y, t1z = ax - dot * n[i, 0], ay - dot * n[i, 1], az - dot * n[i, 2]
+        norm = math.sqrt(t1x * t1x + t1y * t1y + t1z * t1z)
+        t1x, t1y, t1z = t1x / norm, t1y / norm, t1z / norm
+        t2x = n[i, 1] * t1z - n[i, 2] * t1y
+        t2y = n[i, 2] * t1x - n[i, 0] * t1z
+        t2z = n[i, 0] * t1y - n[i, 1] * t1x
+        count = 0
+        total = 0.0
+        for k in range(start[c], start[c + 1]):
+            j = index[k]
+            dx = point[j, 0] - x[i, 0]
+            dy = point[j, 1] - x[i, 1]
+            dz = point[j, 2] - x[i, 2]
+            d2 = dx * dx + dy * dy + dz * dz
+            if d2 >= r2:
+                continue
+            agree = n[i, 0] * normal[j, 0] + n[i, 1] * normal[j, 1] + n[i, 2] * normal[j, 2]
+            if agree <= _PATCH_COS:
+                continue
+            d = math.sqrt(d2)
+            tilt = abs(n[i, 0] * dx + n[i, 1] * dy + n[i, 2] * dz) / d if d > 0 else 0.0
+            if tilt >= _PATCH_PLANE:
+                continue
+            q = 1.0 - d2 / r2
+            w = q * q * (agree - _PATCH_COS) / (1.0 - _PATCH_COS) * (1.0 - tilt / _PATCH_PLANE)
+            wk[count] = w
+            uk[count, 0] = dx * t1x + dy * t1y + dz * t1z
+            uk[count, 1] = dx * t2x + dy * t2y + dz * t2z
+            jk[count] = j
+            total += w
+            count += 1
+        if count < 2 or total <= 0:
+            continue
+        m0 = 0.0
+        m1 = 0.0
+        for k in range(count):
+            m0 += wk[k] * uk[k, 0]
+            m1 += wk[k] * uk[k, 1]
+        m0 /= total
+        m1 /= total
+        c00 = 0.0
+        c01 = 0.0
+        c11 = 0.0
+        for k in range(count):
+            a0, a1 = uk[k, 0] - m0, uk[k, 1] - m1
+            c00 += wk[k] * a0 * a0
+            c01 += wk[k] * a0 * a1
+            c11 += wk[k] * a1 * a1
+        lam = 1e-3 * (c00 + c11)
+        c00 += lam
+        c11 += lam
+        det = c00 * c11 - c01 * c01
+        if not det > 0:
+            continue
+        for g in range(G):
+            mean = 0.0
+            for k in range(count):
+                mean += wk[k] * values[jk[k], g]
+            mean /= total
+            s0 = 0.0
+            s1 = 0.0
+            for k in range(count):
+                e = wk[k] * (values[jk[k], g] - mean)
+                s0 += e * (uk[k, 0] - m0)
+                s1 += e * (uk[k, 1] - m1)
+            g0 = (c11 * s0 - c01 * s1) / det
+            g1 = (c00 * s1 - c01 * s0) / det
+            out[i, g] = g0 * m0 + g1 * m1
+
+
 @dataclass
 class SurfaceCache:
     """Indirect illuminance on the scene's surfaces: triangle grids and shared patch points.
@@ -295,12 +419,18 @@ class SurfaceCache:
     def corners(self, scene, prim, x, side):
         """Indices of the three grid points around points ``x`` on grid triangles ``prim``
         (level ≥ 1; side 0 front, 1 back) and their linear-interpolation weights, each (n, 3)."""
+        index, weight, _ = self._cells(scene, prim, x, side)
+        return index, weight
+
+    def _cells(self, scene, prim, x, side):
+        """:meth:`corners`, and the cells as (level, first vertex, i, j, upper) of the grid
+        they lie in (the triangle's, or a refined cell's level-``refine`` grid)."""
         b1, b2 = _barycentric(scene.triangles[prim], x)
         m = self.level[prim]
         base = self.offset[prim, side]
         if np.any(m < 1) or np.any(base < 0):
             raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
-        k0, k1, k2, w1, w2, key = _cell(m, b1, b2)
+        k0, k1, k2, w1, w2, key, (i, j, upper) = _cell(m, b1, b2)
         index = np.stack([base + k0, base + k1, base + k2], axis=1)
         weight = np.stack([1.0 - w1 - w2, w1, w2], axis=1)
         if self.refined_key.size:
@@ -309,11 +439,65 @@ class SurfaceCache:
             fine = self.refined_key[pos] == global_key
             if fine.any():
                 r = self.refine
-                f0, f1, f2, v1, v2, _ = _cell(r, w1[fine], w2[fine])
+                f0, f1, f2, v1, v2, _, (fi, fj, fu) = _cell(r, w1[fine], w2[fine])
                 start = self.refined_offset[pos[fine]]
                 index[fine] = np.stack([start + f0, start + f1, start + f2], axis=1)
                 weight[fine] = np.stack([1.0 - v1 - v2, v1, v2], axis=1)
-        return index, weight
+                m[fine], base[fine], i[fine], j[fine], upper[fine] = r, start, fi, fj, fu
+        return index, weight, (m, base, i, j, upper)
+
+    def interpolation_bias(self, scene, prim, x, side):
+        """Estimated bias of :meth:`interpolate` [lx] per group at points ``x`` on triangles
+        ``prim``, side 0 (front) or 1, shape (n, groups): the estimate minus the true E_ind,
+        to leading order (grid triangles: :meth:`_grid_bias`; the patches of small
+        triangles: the kernel average's first-order bias, :func:`_patch_kernel_bias`).
+        """
+        prim = np.asarray(prim)
+        side = np.broadcast_to(np.asarray(side), prim.shape)
+        m = self.level[prim]
+        if np.any(m < 0):
+            raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
+        out = np.zeros((len(prim), self.values.shape[1]))
+        grid = np.flatnonzero(m >= 1)
+        if grid.size:
+            out[grid] = self._grid_bias(scene, prim[grid], x[grid], side[grid])
+        small = np.flatnonzero(m == 0)
+        if small.size:
+            out[small] = self._patch_call(_patch_kernel_bias, scene, prim[small], x[small],
+                                          side[small])
+        return out
+
+    def _grid_bias(self, scene, prim, x, side):
+        """Estimated bias of the linear interpolation [lx] per group at points ``x`` on grid
+        triangles ``prim`` (level ≥ 1), shape (n, groups).
+
+        Linear interpolation over a cell with corners P_a and barycentric weights w_a errs
+        for a field f of Hessian H by (I − f)(x) = ½ Σ_(a<b) w_a·w_b·(P_a − P_b)ᵀH(P_a − P_b)
+        (exact for a quadratic f; the error of a field with bounded second derivatives
+        falls as h², h the cell's edge). Each quadratic form is the second difference of the
+        cached values along that edge's grid direction (:func:`_second_difference`): the
+        difference between the interpolation at h and the quadratic one through the
+        neighbouring vertices (a stencil of 2h), i.e. the Richardson estimate of the
+        leading error with its order p = 2. Level-1 grids (no stencil) give 0.
+        """
+        _, weight, (m, base, i, j, upper) = self._cells(scene, prim, x, side)
+        v = self.values
+        out = np.zeros((len(m), v.shape[1]))
+        ok = np.flatnonzero(m >= 2)
+        if not ok.size:
+            return out
+        m, base, i, j, upper, w = m[ok], base[ok], i[ok], j[ok], upper[ok], weight[ok]
+        up = upper.astype(np.int64)
+        # edges P0P1, P0P2, P1P2: lower cell along i from (i, j), along j from (i, j); upper
+        # cell along j from (i + 1, j), along i from (i, j + 1); both along (1, −1) from (i, j)
+        q01 = np.where(upper[:, None], _second_difference(v, m, base, i + up, j, 1),
+                       _second_difference(v, m, base, i, j, 0))
+        q02 = np.where(upper[:, None], _second_difference(v, m, base, i, j + up, 0),
+                       _second_difference(v, m, base, i, j, 1))
+        q12 = _second_difference(v, m, base, i, j, 2)
+        out[ok] = 0.5 * (w[:, :1] * w[:, 1:2] * q01 + w[:, :1] * w[:, 2:] * q02
+                         + w[:, 1:2] * w[:, 2:] * q12)
+        return out
 
     def interpolate(self, scene, prim, x, side):
         """E_ind per group [lx] at points ``x`` on triangles ``prim``, side 0 (front) or 1.
@@ -339,16 +523,21 @@ class SurfaceCache:
             out[grid] = np.einsum("nk,nkg->ng", weight, self.values[index])
         small = np.flatnonzero(m == 0)
         if small.size:
-            own = self.patch[prim[small], side[small]]
-            if np.any(own < 0):
-                raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
-            sign = np.where(side[small] == 0, 1.0, -1.0)[:, None]
-            n = np.ascontiguousarray(sign * scene.normals[prim[small]], dtype=np.float64)
-            res = np.empty((small.size, self.values.shape[1]))
-            _patch_kernel(np.ascontiguousarray(x[small], dtype=np.float64), n, own,
-                          np.ascontiguousarray(self.positions[self.patch_row]),
-                          np.ascontiguousarray(self.patch_normal), self.patch_radius,
-                          self.patch_start, self.patch_index,
-                          np.ascontiguousarray(self.values[self.patch_row]), res)
-            out[small] = res
+            out[small] = self._patch_call(_patch_kernel, scene, prim[small], x[small], side[small])
         return out
+
+    def _patch_call(self, kernel, scene, prim, x, side):
+        """``kernel`` (:func:`_patch_kernel` or :func:`_patch_kernel_bias`) at points ``x``
+        on small triangles ``prim``, side 0 (front) or 1: per group, shape (n, groups)."""
+        own = self.patch[prim, side]
+        if np.any(own < 0):
+            raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
+        sign = np.where(side == 0, 1.0, -1.0)[:, None]
+        n = np.ascontiguousarray(sign * scene.normals[prim], dtype=np.float64)
+        res = np.empty((len(prim), self.values.shape[1]))
+        kernel(np.ascontiguousarray(x, dtype=np.float64), n, own,
+               np.ascontiguousarray(self.positions[self.patch_row]),
+               np.ascontiguousarray(self.patch_normal), self.patch_radius,
+               self.patch_start, self.patch_index,
+               np.ascontiguousarray(self.values[self.patch_row]), res)
+        return res

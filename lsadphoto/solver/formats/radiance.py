@@ -147,8 +147,9 @@ def radiance_programs():
 #: choice made from the samples themselves, which is biased low where a few divisions see a
 #: small bright patch. Measured with Radiance 6.0a (pyradiance 1.3.1) on
 #: ``data_samples/radiance/daylit_room.rad``, 38 random room pixels, 8 runs: with the default
-#: ``-as 512`` the pixel values are 4.8 ± 0.5 % below ρ/π times rtrace's own ``-I`` irradiance
-#: at the same hit points (rms z 5.0); with these options 1.0011 in median (rms z 1.1).
+#: ``-as 512`` the pixel values are 4.9 ± 0.5 % below ρ/π times rtrace's own ``-I`` irradiance
+#: at the same hit points (rms z 5.9); with these options 1.001 in median (rms z 1.2)
+#: (benchmarks/radiance_super_samples.py, docs/accuracy.md).
 RTRACE_UNBIASED = ("-aa", "0", "-as", "0", "-lw", "1e-9", "-dj", "0")
 
 

@@ -240,7 +240,8 @@ def view_pose(position, rotation):
 
 
 def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, extra, elapsed,
-                               pose, openings=None, shared_variance=None):
+                               pose, openings=None, shared_variance=None, bias=None,
+                               bias_variance=None):
     """The LuminanceMap of per-batch pixel values ``lum_b`` (valid pixels × batches).
 
     ``model`` is the store or scene rendered (its scene's name is recorded); ``pose`` =
@@ -249,6 +250,13 @@ def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, ex
 
     ``shared_variance`` (per valid pixel) is the variance of a component that all batches
     share (added to the batches' squared standard error; independent between pixels).
+
+    ``bias`` (per valid pixel, signed, cd·m⁻²) is an estimated systematic error of the
+    estimator and ``bias_variance`` its estimate's own sampling variance (both None: an
+    unbiased estimator). The map's uncertainty is then σ_total = √(σ_noise² + b²), b² =
+    max(bias² − bias_variance, 0) (an unbiased estimate of the squared bias); the provenance
+    keeps the noise part (``pixel_relative_noise_*``) and the bias part
+    (``pixel_relative_bias_*``) apart, and the field mean's signed bias estimate.
     """
     rows, cols = projection.shape
     shared = np.zeros(len(valid)) if shared_variance is None else shared_variance
@@ -258,7 +266,14 @@ def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, ex
         shared[seen] = 0.0
     B = lum_b.shape[1]
     mean = lum_b.mean(axis=1)
-    se = np.sqrt(lum_b.var(axis=1, ddof=1) / B + shared)
+    noise = np.sqrt(lum_b.var(axis=1, ddof=1) / B + shared)
+    b2 = np.zeros(len(valid))
+    if bias is not None:
+        if openings is not None:
+            bias = np.where(seen, 0.0, bias)
+            bias_variance = np.where(seen, 0.0, bias_variance)
+        b2 = np.maximum(bias ** 2 - bias_variance, 0.0)
+    se = np.sqrt(noise ** 2 + b2)
     lum = np.full(rows * cols, np.nan)
     unc = np.full(rows * cols, np.nan)
     lum[valid] = mean
@@ -269,8 +284,22 @@ def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, ex
     field_mean = float(field_b.mean())
     field_se = float(math.sqrt(field_b.var(ddof=1) / B + (omega ** 2 * shared).sum() / omega.sum() ** 2))
     with np.errstate(divide="ignore", invalid="ignore"):
-        rel = se / mean
-    rel = rel[np.isfinite(rel) & (mean > 0)]
+        rel, rel_noise, rel_bias = se / mean, noise / mean, np.sqrt(b2) / mean
+    lit = (mean > 0) & np.isfinite(rel)
+
+    def quantiles(name, v):
+        v = v[lit]
+        return {f"pixel_relative_{name}_median": float(np.median(v)) if v.size else float("nan"),
+                f"pixel_relative_{name}_p95": float(np.percentile(v, 95)) if v.size else float("nan")}
+
+    # the per-pixel relative uncertainties (of pixels with light), which the field mean's error
+    # understates by orders of magnitude: the total (the map's uncertainty) and, for a biased
+    # estimator, its noise and bias parts and the field mean's signed relative bias estimate
+    parts = {} if bias is None else {
+        **quantiles("noise", rel_noise), **quantiles("bias", rel_bias),
+        "field_mean_relative_bias_estimate": float((omega * bias).sum() / omega.sum() / field_mean)
+        if field_mean > 0 else float("nan")}
+
     provenance = {
         **build_provenance(),
         "solver": "lsadphoto.solver",
@@ -279,10 +308,8 @@ def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, ex
         "field_mean_luminance": field_mean,
         "field_mean_standard_error": field_se,
         "achieved_relative_error": field_se / field_mean if field_mean > 0 else float("nan"),
-        # the per-pixel relative standard errors (of pixels with light), which the field mean's
-        # error above understates by orders of magnitude
-        "pixel_relative_error_median": float(np.median(rel)) if rel.size else float("nan"),
-        "pixel_relative_error_p95": float(np.percentile(rel, 95)) if rel.size else float("nan"),
+        **quantiles("error", rel),
+        **parts,
         "render_time_s": float(elapsed),
         "scene": model.scene.name if hasattr(model, "scene") else model.name,
         "view_pose": view_pose(*pose),

@@ -39,9 +39,10 @@ further view needs only its primary rays, its direct shadow rays and the interpo
 the estimate of E_ind at every cache point is unbiased, the interpolation adds a bias of
 order spacing² × (curvature of E_ind) — largest next to concave edges; on patches, whose
 kernel average reproduces constants but not gradients, of order spacing × |∇E_ind| where the
-points lie on one side (an edge of a mesh) — which the reported standard errors do not
-include. It is measured against per-pixel estimates in
-docs/accuracy.md; halve ``spacing`` to quarter it.
+points lie on one side (an edge of a mesh). :func:`render_cached` estimates it per pixel
+from the cached values themselves (:meth:`~lsadphoto.solver.cache_grid.SurfaceCache.interpolation_bias`)
+and adds it to the reported uncertainty in quadrature. It is measured against per-pixel
+estimates in docs/accuracy.md; halve ``spacing`` to quarter it.
 
 References
 ----------
@@ -688,9 +689,12 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     Returns
     -------
     LuminanceMap
-        Luminance, per-pixel standard error (the direct part's sampling variance plus the
-        spread of the interpolated groups; the interpolation bias is not included, see
-        the module docstring) and provenance.
+        Luminance, per-pixel uncertainty σ_total = √(σ_noise² + b²) — σ_noise from the
+        direct part's sampling variance and the spread of the interpolated groups, b the
+        estimated interpolation bias (:meth:`SurfaceCache.interpolation_bias`, per group:
+        b² is its squared mean less that mean's variance) — and provenance, which keeps the
+        parts apart (``pixel_relative_noise_*``, ``pixel_relative_bias_*``, and
+        ``field_mean_relative_bias_estimate``, signed).
     """
     if not isinstance(store, LsadStore):
         raise BadInputError("render_cached needs an LsadStore (simulate the scene first)")
@@ -707,6 +711,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     G = cache.values.shape[1]
     lum_b = np.zeros((valid.size, G))
     direct_var = np.zeros(valid.size)
+    bias, bias_var = np.zeros(valid.size), np.zeros(valid.size)
     chunk = chunk_size(chunk_pixels)
 
     def work(start):
@@ -719,10 +724,15 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                                             samples=direct_samples, seed=seed,
                                             block_ids=c.block[refl],
                                             distant_samples=DISTANT_RAYS_PER_DIRECT_SAMPLE * direct_samples)
-            e_ind = cache.interpolate(scene, c.triangle[refl], x, np.where(c.front[refl], 0, 1))
+            side = np.where(c.front[refl], 0, 1)
+            e_ind = cache.interpolate(scene, c.triangle[refl], x, side)
             k = (c.reflectance[refl] / math.pi)[:, None]
             out[refl] += k * (e_dir[:, None] + e_ind)
             direct_var[c.index[refl]] = k[:, 0] ** 2 * var
+            # the interpolation's bias per group: its mean, and the variance of that mean
+            b = k * cache.interpolation_bias(scene, c.triangle[refl], x, side)
+            bias[c.index[refl]] = b.mean(axis=1)
+            bias_var[c.index[refl]] = b.var(axis=1, ddof=1) / G
         return c.index, out
 
     run_chunks(work, range(0, hit.size, chunk), lum_b, int(workers), progress, t0, hit.size)
@@ -732,12 +742,12 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     return luminance_map_from_batches(
         projection, valid, lum_b, model=store,
         estimator="surface cache (direct per pixel, indirect interpolated)",
-        openings=openings, shared_variance=direct_var,
+        openings=openings, shared_variance=direct_var, bias=bias, bias_variance=bias_var,
         extra={"chains": int(store.chains), "nodes": int(store.nodes),
                "direct_samples": int(direct_samples), "seed": int(seed),
                "simulation_seed": int(store.seed),
                "cache_spacing_m": float(cache.spacing),
                "cache_points": int(cache.size),
                "cache_nodes_per_point": cache.provenance.get("nodes_per_point"),
-               "interpolation_bias": "not included in the uncertainty"},
+               "uncertainty": "noise and estimated interpolation bias in quadrature"},
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
