@@ -40,20 +40,21 @@ from _clock import Clock
 
 from lsadphoto.constants import RADIANCE_RGB_LUMINANCE_WEIGHTS
 from lsadphoto.geometry.pinhole import PinholeProjection
-from lsadphoto.solver import read_radiance_scene, render_path_traced
+from lsadphoto.solver import read_radiance_scene, render_path_traced, simulate
 from lsadphoto.solver.engine import engine_for
 from lsadphoto.solver.examples import MATERIAL_ROOMS, material_room_rad
+from lsadphoto.solver.formats.radiance import RTRACE_UNBIASED
 from lsadphoto.solver.integrators.eye import primary_rays
 from lsadphoto.solver.integrators.local_estimate import render_local_estimate_materials
 from lsadphoto.solver.scene import camera_to_world
 
-#: Radiance's options: pure Monte Carlo (-aa 0), deep (-ab 12, -lw 1e-6), fine source
+#: Radiance's options: pure Monte Carlo (RTRACE_UNBIASED: -aa 0 -as 0 -lw 1e-9), deep (-ab 12), fine source
 #: subdivision (-ds 0.005: the lobe widening by a source piece's solid angle is negligible).
 #: ``-ss 1`` (one sample per glossy reflection, Radiance's default): with ``-ss 64`` Radiance's
 #: glossy reflection came out 9 % darker on the metal panel and 0.6 % on the glossy floor
 #: than with ``-ss 1`` (-ds made < 1 % difference), while our path tracer and local estimate
 #: agree with each other and with ``-ss 1``; its noise is averaged by ``--repeats``.
-RTRACE = "-ab 12 -ad 8192 -aa 0 -lw 1e-6 -st 0 -ds 0.005 -dj 0"
+RTRACE = " ".join(("-ab 12 -ad 8192", *RTRACE_UNBIASED, "-st 0 -ds 0.005"))
 
 
 def _radiance():
@@ -164,7 +165,7 @@ def main(argv=None):
                     setting = (f"{args.chains} chains, {args.nodes_per_pixel} nodes/px, "
                                f"{args.rays_per_vertex} rays/vertex")
                     lmap = render_local_estimate_materials(
-                        scene, proj, position=pos, rotation=rot, samples=args.chains,
+                        simulate(scene, samples=args.chains, seed=1), proj, position=pos, rotation=rot,
                         nodes_per_pixel=args.nodes_per_pixel, rays_per_vertex=args.rays_per_vertex, seed=1,
                         workers=args.workers)
                 else:

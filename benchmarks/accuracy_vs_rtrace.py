@@ -1,8 +1,10 @@
 """Per-pixel accuracy of the solver's maps against unbiased Radiance references (issue 13).
 
 One Radiance scene file goes to both programs: our :func:`lsadphoto.solver.read_scene` and
-Radiance's ``oconv``. The reference is ``rtrace -aa 0`` (pure Monte Carlo ambient sampling:
-no irradiance cache, so no interpolation bias; rpict's cache has its own errors) through the
+Radiance's ``oconv``. The reference is ``rtrace`` with
+:data:`~lsadphoto.solver.formats.radiance.RTRACE_UNBIASED` (pure Monte Carlo ambient sampling:
+no irradiance cache, so no interpolation bias, and no adaptive super-samples, which are biased
+low; rpict's cache has its own errors) through the
 rays that ``vwrays`` makes of the same 180° fisheye view, on a random subset of the pixels
 inside the image circle, **run ``--runs`` times** (default 2): the first two with the pixels in
 opposite order, each further one with k·97 copies of the first ray traced before the subset
@@ -60,6 +62,7 @@ from lsadphoto.solver import read_scene, render, simulate
 from lsadphoto.solver.direct import direct_illuminance
 from lsadphoto.solver.engine import engine_for
 from lsadphoto.solver.examples import canonical_room_rad
+from lsadphoto.solver.formats.radiance import RTRACE_UNBIASED
 from lsadphoto.solver.integrators.eye import primary_rays
 from lsadphoto.solver.integrators.surface_cache import (
     indirect_illuminance,
@@ -185,7 +188,7 @@ def main(argv=None):
     parser.add_argument("--chains", type=int, default=65536)
     parser.add_argument("--local-chains", type=int, default=262144)
     parser.add_argument("--hall-scale", type=float, default=0.5)
-    parser.add_argument("--rtrace", default="-aa 0 -ab 8 -ad 512 -lw 1e-5 -dj 0 -ds 0.02")
+    parser.add_argument("--rtrace", default=" ".join(("-ab 8 -ad 512", *RTRACE_UNBIASED, "-ds 0.02")))
     parser.add_argument("--runs", type=int, default=2, help="reference runs (≥ 2)")
     parser.add_argument("--max-luminance", type=float, default=1000.0)
     parser.add_argument("--estimators", default="cache,points,local",

@@ -4,8 +4,8 @@ A hall floor (60 × 20 m, 1 m columns every 4 m that shadow it) under N isotropi
 luminaires at 5 m in three rows (points, or emitting from 0.6 × 0.6 m luminous rectangles as
 IES luminaires do); P random floor points. For each N: CPU time of
 ``direct_illuminance`` with ``luminaires="all"`` (exact per point: one shadow ray per point
-luminaire) and with the default ``"auto"`` (all up to 8 luminaires, else 8 draws per point
-besides the luminaires taken whole), and the sampled estimate's relative error against
+luminaire) and with the default ``"auto"`` (all up to 8 luminaires, else 32 draws per point
+besides the luminaires taken whole, weighing 16 candidates per region), and the sampled estimate's relative error against
 the exact one (RMS over points).
 
     PYTHONPATH=. .venv/bin/python benchmarks/bench_direct_light.py [--points 65536] [--lights 8,30,120,480]

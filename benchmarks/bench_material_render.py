@@ -1,4 +1,4 @@
-"""Time of the material local estimate (render_local_estimate_materials) on the glossy-floor room.
+"""Time of the material local estimate (simulate + render_local_estimate_materials) on the glossy-floor room.
 
 The canonical room with a glossy floor (:func:`lsadphoto.solver.examples.material_room_rad`),
 a 24² pinhole view, 131 072 light chains and 256 nodes per pixel, run twice; prints wall and
@@ -18,7 +18,7 @@ import time
 import numpy as np
 
 from lsadphoto.geometry.pinhole import PinholeProjection
-from lsadphoto.solver import read_radiance_scene
+from lsadphoto.solver import read_radiance_scene, simulate
 from lsadphoto.solver.examples import material_room_rad
 from lsadphoto.solver.integrators.local_estimate import render_local_estimate_materials
 from lsadphoto.solver.scene import camera_to_world
@@ -40,8 +40,8 @@ def main(argv=None):
     options = {} if args.rays_per_vertex is None else {"rays_per_vertex": args.rays_per_vertex}
     for _ in range(2):
         wall, cpu = time.perf_counter(), time.process_time()
-        lmap = render_local_estimate_materials(scene, proj, position=np.asarray(eye, float),
-                                               rotation=camera_to_world(sight), samples=args.chains,
+        lmap = render_local_estimate_materials(simulate(scene, samples=args.chains, seed=1), proj,
+                                               position=np.asarray(eye, float), rotation=camera_to_world(sight),
                                                nodes_per_pixel=args.nodes_per_pixel, seed=1, **options)
         print(f"wall {time.perf_counter() - wall:.1f} s, CPU {time.process_time() - cpu:.1f} s, "
               f"mean {float(np.nanmean(lmap.luminance)):.4f} cd/m²", flush=True)

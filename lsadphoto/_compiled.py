@@ -12,9 +12,11 @@ twice:
   a minute or two; later processes wait for it rather than build twice) into the user's cache
   folder (``$LSADPHOTO_CACHE_DIR``, else ``$XDG_CACHE_HOME/lsadphoto``, else
   ``~/.cache/lsadphoto``), under a key of the kernel sources, the numba, numpy and Python
-  versions and the CPU. Loading it takes a millisecond and does not import numba. It runs
-  on one thread (numba's ahead-of-time compiler has no ``parallel``: a ``prange`` is a
-  ``range``), with the host CPU's instruction set and each kernel's own error model;
+  versions and the CPU. Loading it takes a millisecond and does not import numba. A call
+  runs on one thread (numba's ahead-of-time compiler has no ``parallel``: a ``prange`` is a
+  ``range``), with the host CPU's instruction set, each kernel's own error model and, for a
+  ``nogil`` kernel, the GIL released, so that callers share large maps out among threads in
+  blocks of rows (:func:`run_blocks`, :meth:`Kernel.threads_for`);
 * **just in time** (``numba.njit`` with the same options, ``parallel`` included, cached by
   numba) for a call whose arguments match none of the kernel's ``aot`` signatures, where the
   ahead-of-time build failed (no C compiler: the reason is kept in ``build.failed`` in the
@@ -63,7 +65,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Kernel", "intrinsic", "njit", "prange"]
+__all__ = ["Kernel", "intrinsic", "njit", "prange", "row_blocks", "run_blocks", "threads"]
 
 #: Modules whose kernels go into the ahead-of-time extension (their sources key the cache).
 MODULES = (
@@ -210,15 +212,91 @@ class Kernel:
     def _numba_type_(self):  # numba types a Kernel found in a kernel's globals as its dispatcher
         return self.dispatcher._numba_type_
 
-    def __call__(self, *args):
+    def _ahead_of_time(self, args):
+        """The ahead-of-time function for ``args``, or None (numba's dispatcher then)."""
         if self._compiled is None:
             library = _library() if self._specs else {}
             self._compiled = [(spec, library[name]) for spec, name in
                               zip(self._specs, self.export_names, strict=True) if name in library]
         for spec, function in self._compiled:
             if _matches(spec, args):
-                return function(*args)
+                return function
+        return None
+
+    def threads_for(self, *args):
+        """Threads among which a caller may share out calls with arguments like ``args``
+        (blocks of rows, :func:`run_blocks`): :func:`threads` where the ahead-of-time code
+        runs them (one thread each, the GIL released), else 1 — numba's just-in-time code
+        runs its parallel loops on its own threads, and its default threading layer refuses
+        calls from several Python threads at once."""
+        if not self.targetoptions.get("nogil") or self._ahead_of_time(args) is None:
+            return 1
+        return threads()
+
+    def __call__(self, *args):
+        function = self._ahead_of_time(args)
+        if function is not None:
+            return function(*args)
         return self.dispatcher(*args)
+
+
+def threads():
+    """Threads for the package's kernels: ``LSADPHOTO_THREADS`` where set (a positive
+    integer), else the CPUs this process may run on."""
+    wanted = os.environ.get("LSADPHOTO_THREADS", "")
+    if wanted.isdigit() and int(wanted) > 0:
+        return int(wanted)
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        return os.cpu_count() or 1
+
+
+def row_blocks(rows, parts, multiple=1):
+    """``rows`` cut into at most ``parts`` blocks ``(r0, r1)`` of about equal size, their
+    bounds multiples of ``multiple`` (the last block excepted)."""
+    step = -(-rows // max(1, parts))
+    step = -(-step // multiple) * multiple
+    return [(r0, min(r0 + step, rows)) for r0 in range(0, rows, max(step, 1))]
+
+
+def run_blocks(task, blocks, workers=None):
+    """``task(*block)`` for every block, on up to ``workers`` threads (default
+    :func:`threads`), the calling thread one of them; blocks are handed out in order as
+    threads come free. Returns the results in the order of ``blocks``; the first exception
+    raised by a task is raised here once every thread has finished."""
+    blocks = list(blocks)
+    workers = min(threads() if workers is None else workers, len(blocks))
+    results = [None] * len(blocks)
+    if workers <= 1:
+        for k, block in enumerate(blocks):
+            results[k] = task(*block)
+        return results
+    import itertools
+    import threading
+
+    order = itertools.count()  # next() of a count is atomic under the GIL
+    errors = []
+
+    def work():
+        for k in order:
+            if k >= len(blocks) or errors:
+                return
+            try:
+                results[k] = task(*blocks[k])
+            except BaseException as error:  # noqa: BLE001 (re-raised in the caller)
+                errors.append(error)
+                return
+
+    helpers = [threading.Thread(target=work, daemon=True) for _ in range(workers - 1)]
+    for helper in helpers:
+        helper.start()
+    work()
+    for helper in helpers:
+        helper.join()
+    if errors:
+        raise errors[0]
+    return results
 
 
 def njit(*, aot=(), **options):
@@ -360,10 +438,12 @@ def build_extension(folder):
     compile_extra = pycc_compiler.compile_extra
 
     def compile_with_options(typingctx, targetctx, func, args, return_type, flags, **kwargs):
-        # pycc compiles every export with one set of flags (error model "python"): give each
-        # kernel its own error model, as its just-in-time compilation has.
+        # pycc compiles every export with one set of flags (error model "python", the GIL
+        # held): give each kernel its own error model and ``nogil``, as its just-in-time
+        # compilation has, so that threads can run kernels at the same time (run_blocks).
         flags = flags.copy()
         flags.error_model = options[func].get("error_model", "python")
+        flags.release_gil = bool(options[func].get("nogil", False))
         return compile_extra(typingctx, targetctx, func, args, return_type, flags, **kwargs)
 
     pycc_compiler.compile_extra = compile_with_options

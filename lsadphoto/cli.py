@@ -701,6 +701,8 @@ def cmd_simulate(args):
     if args.samples is None and args.target_error is None:
         args.samples = 65536
     scene = _load_any_scene(args.scene)
+    if args.surface_cache:
+        scene.require_lambertian("--surface-cache", "simulate without it and render --estimator local")
     callback, close = progress_callback("simulating", enabled=False if args.quiet else None)
     try:
         store = simulate(scene, samples=args.samples, target_error=args.target_error, seed=args.seed,
@@ -717,7 +719,8 @@ def cmd_simulate(args):
         _print_json(record)
     else:
         achieved = store.provenance.get("achieved_relative_error")
-        extra = "" if achieved is None else f"; relative error of the first view's mean luminance {achieved:.2%}"
+        extra = ("" if achieved is None else
+                 f"; relative error of the {store.provenance['error_measured_on']} {achieved:.2%}")
         print(f"wrote {args.output}: {store.chains} light chains, {store.nodes} nodes{extra}")
     return 0
 
@@ -822,8 +825,8 @@ def cmd_render(args):
     else:
         store_or_scene = scene = _load_any_scene(source)
         target = args.target_error
-        if target is None and args.samples is None and scene.lambertian:
-            target = DEFAULT_TARGET_ERROR  # (scenes with other materials render without rounds)
+        if target is None and args.samples is None:
+            target = DEFAULT_TARGET_ERROR
     estimator = args.estimator
     if estimator == "auto":
         estimator = choose_estimator(store_or_scene, samples=args.samples, target_error=target)[0]
@@ -1158,13 +1161,14 @@ def _build_parser():
     ren.add_argument("--samples", type=int, help="light chains when rendering a scene directly")
     ren.add_argument("--target-error", type=float, metavar="E",
                      help="rendering a scene: simulate and render in rounds until the median per-pixel "
-                          "relative error is at most E (default 0.02 for a Lambertian scene without --samples)")
+                          "relative error is at most E (default 0.02 for a scene without --samples)")
     ren.add_argument("--estimator", choices=_Choices("lsadphoto.solver.rendering", "ESTIMATORS"), default="auto",
                      help="local: the double local estimate per pixel (unbiased reference); cache: direct "
                           "light per pixel, indirect interpolated from a surface cache (the store's, or built) "
                           "— far faster per pixel, with a small interpolation bias (docs/accuracy.md); auto "
                           "(default): the store's cache if it has one, else local; for a scene, local with "
-                          "--samples alone, else cache — and says what it chose")
+                          "--samples alone, else cache; local for glossy, specular or transmitting materials "
+                          "— and says what it chose")
     ren.add_argument("--nodes-per-pixel", default="auto", help="nodes connected per pixel and batch: a number, 'all' or 'auto'")
     _add_cache_options(ren)
     ren.add_argument("--seed", type=int, default=0)

@@ -204,20 +204,66 @@ def test_render_a_scene_to_a_per_pixel_target_error(tmp_path):
     assert code == 2 and "--nodes-per-pixel applies to --estimator local" in err
 
 
+#: A glossy floor (Radiance plastic, specularity 0.05) under a 1 m² light panel of 1790 cd/m².
+GLOSSY_RAD = ("void plastic floor 0 0 5 .2 .2 .2 .05 .05\nvoid light lamp 0 0 3 10 10 10\n"
+              "floor polygon f 0 0 12 -3 -3 0  3 -3 0  3 3 0  -3 3 0\n"
+              "lamp polygon panel 0 0 12 -.5 -.5 3  -.5 .5 3  .5 .5 3  .5 -.5 3\n")
+
+
 @pytest.mark.slow
 def test_a_glossy_scene_renders_by_default_and_says_how(tmp_path):
-    # A glossy floor (Radiance plastic, specularity 0.05): the surface cache is Lambertian, so
-    # "auto" renders by the double local estimate with materials, without a per-pixel target
-    # (which that estimator does not take), and says so. The floor under the panel must be lit
-    # and darker than the panel's 1790 cd/m² (ρ ≤ 0.25).
+    # The surface cache is Lambertian, so "auto" renders by the double local estimate with
+    # materials, to the default per-pixel target of 2 % (rounds of chains), and says so. The
+    # floor under the panel must be lit and darker than the panel's 1790 cd/m² (ρ ≤ 0.25).
     rad = tmp_path / "glossy.rad"
-    rad.write_text("void plastic floor 0 0 5 .2 .2 .2 .05 .05\nvoid light lamp 0 0 3 10 10 10\n"
-                   "floor polygon f 0 0 12 -3 -3 0  3 -3 0  3 3 0  -3 3 0\n"
-                   "lamp polygon panel 0 0 12 -.5 -.5 3  -.5 .5 3  .5 .5 3  .5 -.5 3\n")
+    rad.write_text(GLOSSY_RAD)
     out = tmp_path / "g.exr"
     code, stdout, err = cli("render", rad, "--view=-vtv -vp 0 0 1.5 -vd 0 0 -1 -vu 0 1 0 -vh 60 -vv 60",
                             "--size", "8x8", "--quiet", "-o", out)
     assert code == 0, err
     assert "estimator auto: local (non-Lambertian materials" in stdout, stdout
-    L = read_exr(out).luminance
+    assert "target per-pixel error 2 % reached" in stdout, stdout
+    lmap = read_exr(out)
+    L = lmap.luminance
     assert 0 < np.nanmedian(L) < 1790
+    lit = np.isfinite(L) & (L > 0)
+    assert np.median(lmap.uncertainty[lit] / L[lit]) <= 0.02
+
+
+def test_a_glossy_scene_simulates_once_and_renders_many_views(tmp_path):
+    # simulate writes a store of the material chains; every view rendered from it by the CLI
+    # equals render() of the scene itself in Python with the same chains and seed (one call,
+    # no store file), to float32 storage; options that cannot apply to it are one-line errors.
+    from lsadphoto.io.hdr import parse_view, projection_from_view
+    from lsadphoto.solver import read_radiance_scene
+
+    rad, store = tmp_path / "glossy.rad", tmp_path / "glossy.npz"
+    rad.write_text(GLOSSY_RAD)
+    code, out, err = cli("simulate", rad, "--samples", "1024", "--seed", "5", "-o", store, "--quiet", "--json")
+    assert code == 0, err
+    assert json.loads(out)["chains"] == 1024
+    scene = read_radiance_scene(rad)
+    for view in ("-vtv -vp 0 0 1.5 -vd 0 0 -1 -vu 0 1 0 -vh 60 -vv 60",
+                 "-vtv -vp 2 -2 1 -vd -1 1 -0.6 -vu 0 0 1 -vh 50 -vv 50"):
+        code, _, err = cli("render", store, f"--view={view}", "--size", "6x6", "--seed", "5", "--quiet",
+                           "-o", tmp_path / "m.exr")
+        assert code == 0, err
+        given = parse_view(view)
+        direct = render(scene, projection_from_view(given, 6, 6), position=given["vp"],
+                        rotation=camera_to_world(given["vd"], given["vu"]), samples=1024, seed=5)
+        lmap = read_exr(tmp_path / "m.exr")
+        np.testing.assert_array_equal(lmap.luminance, direct.luminance)
+        np.testing.assert_array_equal(lmap.uncertainty, np.asarray(direct.uncertainty, np.float32))
+    # to a target: the scene has no view, so the error is that of the flux arriving on its surfaces
+    code, out, err = cli("simulate", rad, "--target-error", "0.01", "-o", tmp_path / "t.npz", "--quiet")
+    assert code == 0 and "relative error of the surface-incident flux" in out, (out, err)
+    assert load_store(tmp_path / "t.npz").provenance["achieved_relative_error"] <= 0.01
+    view = "--view=-vtv -vp 0 0 1.5 -vd 0 0 -1 -vu 0 1 0 -vh 60 -vv 60"
+    for command, message in (
+            (("render", store, view, "--size", "4x4", "--estimator", "cache"), "the surface cache models Lambertian"),
+            (("render", store, view, "--size", "4x4", "--nodes-per-pixel", "all"), "'all' applies to Lambertian"),
+            (("render", store, view, "--size", "4x4", "--target-error", "0.02"), "--target-error applies when"),
+            (("simulate", rad, "--samples", "256", "--surface-cache"), "--surface-cache models Lambertian")):
+        code, _, err = cli(*command, "--quiet", "-o", tmp_path / "bad.exr")
+        assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
+        assert not (tmp_path / "bad.exr").exists()

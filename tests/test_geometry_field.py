@@ -100,6 +100,32 @@ def test_other_models_match_the_projection_methods(name):
     np.testing.assert_allclose(geometry.solid_angle[ok], cam.solid_angles(rows, cols)[ok], rtol=rtol)
 
 
+@pytest.mark.parametrize("cx", [20.0, 20.5, 19.75, 20.3])
+def test_equidistant_directions_equal_one_tan_per_pixel(cx):
+    # The kernel copies tan(θ/2) from the pixel mirrored about the centre column where the
+    # argument is the same (2·cx a whole number of columns: cx = 20.0, 20.5; not 19.75, 20.3).
+    # Reference: the kernel's operations written out per pixel in Python, math.tan (the C
+    # library's, as the kernel calls) for every pixel; equal bit for bit.
+    cam = IdealFisheyeProjection("equidistant", cx, 18.5, 20.0, 180.0, 41, 38)
+    _, p, _ = field_module._fisheye_kernel_parameters(cam)
+    coefficient = p[3]
+    geometry = pixel_geometry(cam)
+    checked = 0
+    for r in range(38):
+        y = r - 18.5
+        for c in range(41):
+            if not geometry.valid[r, c]:
+                continue
+            x = c - cx
+            radius = math.sqrt(x * x + y * y)
+            t = math.tan(min(radius * coefficient, math.pi) * 0.5)
+            t2 = t * t
+            q = 2.0 * t / (1.0 + t2) / radius if radius > 0 else 0.0
+            assert tuple(geometry.directions[r, c]) == (q * x, q * y, (1.0 - t2) / (1.0 + t2))
+            checked += 1
+    assert checked > 1000
+
+
 def test_solid_angle_kernel_against_analytic_squares():
     # Reference: a square of half-size a on the tangent plane at a unit vector c (corners
     # c + a(±e1 ± e2)) subtends 4·arctan(a²/√(1 + 2a²)) (the rectangle formula of FORMULAS.md

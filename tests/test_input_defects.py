@@ -245,6 +245,22 @@ def test_negative_uncertainty_in_a_map_is_refused(tmp_path, capsys):
     assert "uncertainty map has 1 negative value(s)" in line
 
 
+@pytest.mark.parametrize("value", [np.inf, -np.inf])
+@pytest.mark.parametrize("with_nan", [False, True])
+def test_an_infinite_luminance_is_refused(value, with_nan):
+    # NaN (pixels without a value) is allowed and must not hide an infinite one.
+    from lsadphoto.errors import BadInputError
+    from lsadphoto.luminance_map import LuminanceMap
+
+    luminance = np.full((6, 7), 100.0, np.float32)
+    if with_nan:
+        luminance[0, :] = np.nan
+    LuminanceMap(luminance.copy())
+    luminance[4, 5] = value
+    with pytest.raises(BadInputError, match="luminance map has infinite values"):
+        LuminanceMap(luminance)
+
+
 def test_negative_luminance_is_kept_and_noted():
     from lsadphoto.geometry import PinholeProjection
     from lsadphoto.luminance_map import LuminanceMap

@@ -17,6 +17,7 @@ import pytest
 from lsadphoto.cli import main as cli
 from lsadphoto.constants import RADIANCE_RGB_LUMINANCE_WEIGHTS
 from lsadphoto.io import read_exr
+from lsadphoto.solver.formats.radiance import RTRACE_UNBIASED
 
 from .conftest import radiance_tool
 
@@ -51,8 +52,8 @@ def test_worked_example_renders_as_radiance_renders_it(tmp_path, capsys):
     runs = []
     for order in (slice(None), slice(None, None, -1)):  # two runs, independent noise
         subset = np.ascontiguousarray(rays.reshape(-1, 6)[pick][order])
-        rgb = np.frombuffer(_radiance(["rtrace", "-h", "-ff", "-aa", "0", "-ab", "8", "-ad", "256",
-                                       "-lw", "1e-5", "-dj", "0", str(octree)], input=subset.tobytes()),
+        rgb = np.frombuffer(_radiance(["rtrace", "-h", "-ff", "-ab", "8", "-ad", "256",
+                                       *RTRACE_UNBIASED, str(octree)], input=subset.tobytes()),
                             np.float32).reshape(-1, 3)
         runs.append((179.0 * rgb.astype(float) @ RADIANCE_RGB_LUMINANCE_WEIGHTS)[order])
     reference = np.mean(runs, axis=0)

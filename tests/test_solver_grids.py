@@ -10,6 +10,7 @@ import pytest
 from lsadphoto.errors import BadInputError
 from lsadphoto.solver import scene_from_dict, simulate
 from lsadphoto.solver.examples import canonical_room, canonical_room_rad
+from lsadphoto.solver.formats.radiance import RTRACE_UNBIASED
 from lsadphoto.solver.grids import (
     cylindrical_discretisation_bound,
     grid_illuminance,
@@ -92,7 +93,7 @@ def test_work_plane_against_rtrace(tmp_path):
     runs = []
     for ordered in (text, "".join(reversed(text.splitlines(True)))):  # independent noise
         out = subprocess.run([os.path.join(b, "rtrace"), "-I", "-h", "-ab", "8", "-ad", "2048",
-                              "-aa", "0", "-lw", "1e-5", str(tmp_path / "room.oct")],
+                              *RTRACE_UNBIASED, str(tmp_path / "room.oct")],
                              input=ordered.encode(), capture_output=True, env=env, check=True)
         rgb = np.array([[float(v) for v in line.split()] for line in out.stdout.decode().splitlines()])
         runs.append(179.0 * rgb @ [0.265074, 0.670115, 0.064811])  # grey: any weights give ρ

@@ -18,7 +18,7 @@ from lsadphoto.geometry import IdealFisheyeProjection
 from lsadphoto.solver import camera_to_world, load_store, read_scene, render, simulate
 from lsadphoto.solver.direct import direct_illuminance
 from lsadphoto.solver.engine import engine_for
-from lsadphoto.solver.formats.radiance import read_radiance_scene
+from lsadphoto.solver.formats.radiance import RTRACE_UNBIASED, read_radiance_scene
 from lsadphoto.solver.grids import CalculationGrid, grid_illuminance
 from lsadphoto.solver.integrators.path_tracer import render_path_traced
 from lsadphoto.solver.sky import sky_luminance_shape
@@ -166,7 +166,7 @@ def test_daylit_room_matches_rtrace(tmp_path):
     octree.write_bytes(_radiance(["oconv", "daylit_room.rad"], cwd=EXAMPLE))
     runs = 4
     rays = "".join(f"{x} {y} {z} 0 0 1\n" for x, y, z in points) * runs
-    rgb = np.array(_radiance(["rtrace", "-h", "-I", "-aa", "0", "-ab", "8", "-ad", "4096", "-lw", "1e-5",
+    rgb = np.array(_radiance(["rtrace", "-h", "-I", "-ab", "8", "-ad", "4096", *RTRACE_UNBIASED,
                               str(octree)], cwd=EXAMPLE, input=rays.encode()).split(), float)
     E_ref = (179.0 * rgb.reshape(runs, len(points), 3) @ RADIANCE_RGB_LUMINANCE_WEIGHTS)
     ref, ref_se = E_ref.mean(axis=0), E_ref.std(axis=0, ddof=1) / math.sqrt(runs)

@@ -247,6 +247,44 @@ def test_bad_store_files(tmp_path):
         load_store(tmp_path / "other.npz")
 
 
+def _rewritten(path, out, edit):
+    """Copy of the store file ``path`` at ``out`` with its arrays and JSON header edited by
+    ``edit(arrays, meta)`` (in place)."""
+    import json
+
+    with np.load(path) as data:
+        arrays = {k: data[k] for k in data.files}
+    meta = json.loads(arrays.pop("meta").tobytes().decode("utf-8"))
+    edit(arrays, meta)
+    np.savez_compressed(out, meta=np.frombuffer(json.dumps(meta).encode("utf-8"), np.uint8), **arrays)
+    return out
+
+
+def test_store_format_versions(room, store, tmp_path):
+    # A store of format /3 (written before materials had stores: the same layout without the
+    # nodes' incoming directions and sides and the scene's materials) still loads and renders
+    # as before; an unknown format, and a /4 store of a material scene without its nodes'
+    # incoming directions, are one-line errors.
+    from lsadphoto.solver.examples import material_room_rad
+    from lsadphoto.solver.formats.radiance import read_radiance_scene
+    from lsadphoto.solver.store import STORE_FORMAT
+
+    assert STORE_FORMAT == "lsadphoto-lsad-store/4"
+    store.save(tmp_path / "new.npz")
+    old = load_store(_rewritten(tmp_path / "new.npz", tmp_path / "old.npz",
+                                lambda a, m: m.update(format="lsadphoto-lsad-store/3")))
+    proj, pose = view_args(room)
+    assert np.array_equal(render(old, proj, **pose, seed=2).luminance, render(store, proj, **pose, seed=2).luminance,
+                          equal_nan=True)
+    with pytest.raises(UnsupportedFileError, match="unknown store format 'lsadphoto-lsad-store/9'"):
+        load_store(_rewritten(tmp_path / "new.npz", tmp_path / "x.npz",
+                              lambda a, m: m.update(format="lsadphoto-lsad-store/9")))
+    glossy = read_radiance_scene(material_room_rad("glossy floor")[0])
+    simulate(glossy, samples=256).save(tmp_path / "glossy.npz")
+    with pytest.raises(UnsupportedFileError, match="LSAD store lacks 'incoming'"):
+        load_store(_rewritten(tmp_path / "glossy.npz", tmp_path / "y.npz", lambda a, m: a.pop("incoming")))
+
+
 def test_max_depth_truncates(room):
     one = simulate(room, samples=256, seed=1, max_depth=1)
     assert one.depth.max() == 1

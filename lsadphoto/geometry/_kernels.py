@@ -326,12 +326,22 @@ def _ideal_row(p, row, col_offset, ox, oy, oz, corner):
     cx, cy, kind, coefficient, limit = p[0], p[1], int(p[2]), p[3], p[4]
     y = row - cy
     n = ox.size
-    if kind == 0:  # equidistant: t = tan(θ/2), the argument parked in oz
+    if kind == 0:  # equidistant: t = tan(θ/2), the argument parked in ox
         for j in range(n):
             x = (j + col_offset) - cx
-            oz[j] = min(math.sqrt(x * x + y * y) * coefficient, math.pi) * 0.5
+            ox[j] = min(math.sqrt(x * x + y * y) * coefficient, math.pi) * 0.5
+        # The point mirrored about the centre column, k = m − j, has the same x² where 2·cx
+        # is a whole number of columns from the row's start (a centred image): where its
+        # argument is the same (compared, so exact whatever cx), its tan is copied rather
+        # than computed again (a pure function of the argument: the same value).
+        m = 2.0 * (cx - col_offset)
+        mirror = int(m) if m == math.floor(m) and abs(m) < 4.0 * n + 4.0 else -1
         for j in range(n):
-            oz[j] = math.tan(oz[j])
+            k = mirror - j
+            if 0 <= k < j and ox[k] == ox[j]:
+                oz[j] = oz[k]
+            else:
+                oz[j] = math.tan(ox[j])
     for j in range(n):
         x = (j + col_offset) - cx
         r = math.sqrt(x * x + y * y)
@@ -502,12 +512,14 @@ def _field_outputs(i, j0, j1, rows_out, fill):
 
 
 @njit(parallel=True, **_OPTIONS,
-      aot=("void(int64, float64[::1], float64[::1], int64, boolean, float64[:, :, ::1], "
+      aot=("void(int64, float64[::1], float64[::1], int64, int64, boolean, float64[:, :, ::1], "
            "float64[:, ::1], boolean[:, ::1], boolean, float64[::1], float64[::1], "
            "float64[::1], int64, float64, float64[:, ::1], float64[:, ::1])"))
-def fisheye_geometry(model, p, table, band_rows, store_directions, directions, solid_angle,
+def fisheye_geometry(model, p, table, band_rows, row0, store_directions, directions, solid_angle,
                      valid, field, v, u, h, method, cap, position_index, cos_sigma):
-    """Fill ``directions`` (rows, cols, 3), ``solid_angle`` and ``valid`` (rows, cols).
+    """Fill ``directions`` (rows, cols, 3), ``solid_angle`` and ``valid`` (rows, cols): the
+    image rows ``row0`` … ``row0 + rows − 1`` (a block of rows of the image, so that threads
+    can share an image out: :func:`lsadphoto._compiled.run_blocks`; 0 for the whole image).
 
     ``model`` is :data:`IDEAL_FISHEYE` (``p`` = cx, cy, kind code, radial coefficient,
     R·(1 + 1e-12)) or :data:`OPENCV_FISHEYE` (``p`` = cx, cy, fx, fy, k1…k4, θmax, ρmax, table
@@ -537,15 +549,17 @@ def fisheye_geometry(model, p, table, band_rows, store_directions, directions, s
         top = 0
         # Each row of corners is computed over the union of the spans of the two pixel rows
         # that share it (one more corner than pixels).
-        above = _centre_span(model, p, r0 - 1.0, cols)
-        below = _centre_span(model, p, float(r0), cols)
-        _corner_row(model, p, table, r0 - 0.5, min(above[0], below[0]),
+        # Image row g = row0 + r of the output row r (integers: exact as floats).
+        above = _centre_span(model, p, float(row0 + r0) - 1.0, cols)
+        below = _centre_span(model, p, float(row0 + r0), cols)
+        _corner_row(model, p, table, float(row0 + r0) - 0.5, min(above[0], below[0]),
                     max(above[1], below[1]) + 1, corners[0])
         for r in range(r0, r1):
+            g = float(row0 + r)
             j0, j1 = below
-            below = _centre_span(model, p, r + 1.0, cols)
+            below = _centre_span(model, p, g + 1.0, cols)
             bottom = 1 - top
-            _corner_row(model, p, table, r + 0.5, min(j0, below[0]), max(j1, below[1]) + 1,
+            _corner_row(model, p, table, g + 0.5, min(j0, below[0]), max(j1, below[1]) + 1,
                         corners[bottom])
             w = solid_angle[r]
             ok = valid[r]
@@ -565,7 +579,7 @@ def fisheye_geometry(model, p, table, band_rows, store_directions, directions, s
             x1, y1, z1 = corners[bottom, 0, j0:j1 + 1], corners[bottom, 1, j0:j1 + 1], \
                 corners[bottom, 2, j0:j1 + 1]
             cx, cy, cz = centres[0, :n], centres[1, :n], centres[2, :n]
-            _centre_row(model, p, table, float(r), float(j0), cx, cy, cz)
+            _centre_row(model, p, table, g, float(j0), cx, cy, cz)
             # Solid angles by the series on SIMD lanes (−1 where it does not apply)...
             for j in range(n):
                 w[j] = _quad_series(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],

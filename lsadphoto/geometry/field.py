@@ -44,12 +44,12 @@ angle from the four corner directions). FORMULAS.md "Notation", §2.1–2.4.
 
 import json
 import math
-import os
 import threading
 from collections import OrderedDict
 
 import numpy as np
 
+from .._compiled import row_blocks, run_blocks
 from .._validation import check_choice
 from ..errors import BadInputError
 from ._spherical import quad_solid_angle_components
@@ -128,19 +128,6 @@ def _projection_key(projection):
 def _blocks(rows, cols):
     step = max(1, _BLOCK_PIXELS // max(cols, 1))
     return [(r0, min(r0 + step, rows)) for r0 in range(0, rows, step)]
-
-
-def _run(task, blocks):
-    workers = min(os.cpu_count() or 1, len(blocks))
-    if workers <= 1:
-        for block in blocks:
-            task(*block)
-        return
-    from concurrent.futures import ThreadPoolExecutor  # only for models without a kernel
-
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        for future in [pool.submit(task, *block) for block in blocks]:
-            future.result()
 
 
 def _read_only(array):
@@ -317,8 +304,23 @@ def _compute_pixel_geometry(projection, field=None):
         store = rows * cols <= DIRECTION_MAP_MAX_PIXELS
         directions = np.empty((rows, cols, 3) if store else (1, 1, 3))
         field_args = _field_arguments(field, (rows, cols))
-        _kernels.fisheye_geometry(model, p, table, band_rows, store, directions, solid_angle, valid,
-                                  field is not None, *field_args)
+        *constants, position, cos_sigma = field_args
+        on = field is not None
+
+        def rows_of(array, r0, r1):  # the block's rows of a map (a placeholder as it is)
+            return array[r0:r1] if array.shape[0] == rows else array
+
+        def task(r0, r1):
+            _kernels.fisheye_geometry(model, p, table, band_rows, r0, store,
+                                      rows_of(directions, r0, r1), solid_angle[r0:r1],
+                                      valid[r0:r1], on, *constants,
+                                      rows_of(position, r0, r1), rows_of(cos_sigma, r0, r1))
+
+        # Blocks of whole bands, one per thread where the ahead-of-time code runs them.
+        workers = _kernels.fisheye_geometry.threads_for(
+            model, p, table, band_rows, 0, store, directions, solid_angle, valid, on,
+            *field_args)
+        run_blocks(task, row_blocks(rows, workers, band_rows), workers)
         geometry = PixelGeometry(_read_only(directions) if store else None,
                                  _read_only(solid_angle), _read_only(valid), model=compiled)
         if field is None:
@@ -351,7 +353,7 @@ def _compute_pixel_geometry(projection, field=None):
             block[bad] = np.nan
             omega[bad] = 0.0
 
-    _run(task, _blocks(rows, cols))
+    run_blocks(task, _blocks(rows, cols))
     return PixelGeometry(_read_only(directions), _read_only(solid_angle), _read_only(valid))
 
 

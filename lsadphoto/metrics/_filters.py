@@ -24,9 +24,9 @@ at 786² (docs/performance.md), so the two operations are the project's own kern
 
 import numpy as np
 
-from .._compiled import njit, prange
+from .._compiled import njit, prange, run_blocks
 
-__all__ = ["correlate_separable", "erode_square"]
+__all__ = ["correlate_separable", "correlate_separable_each", "erode_square"]
 
 _OPTIONS = {"cache": True, "error_model": "numpy", "nogil": True}
 #: Output rows per band of :func:`_correlate`: bands are shared out among the threads, each
@@ -131,12 +131,26 @@ def correlate_separable(image, kx, ky):
     each row) and the row kernel ``ky`` (along each column), odd lengths, each symmetric or
     antisymmetric, as float32; NaN on the border where the stencil leaves the image (see the
     module's docstring)."""
+    return correlate_separable_each(image, [(kx, ky)])[0]
+
+
+def correlate_separable_each(image, kernels):
+    """:func:`correlate_separable` of ``image`` with each pair ``(kx, ky)`` of ``kernels``,
+    a list of float32 maps; the filters run at the same time, one per thread, where the
+    ahead-of-time code runs them (:func:`lsadphoto._compiled.run_blocks`): the same values."""
     image = np.ascontiguousarray(image, dtype=np.float32)
-    kx = np.asarray(kx, dtype=np.float32).reshape(-1).astype(np.float64)
-    ky = np.asarray(ky, dtype=np.float32).reshape(-1).astype(np.float64)
-    out = np.empty(image.shape, dtype=np.float32)
-    _correlate(image, kx, ky, _parity(kx), _parity(ky), _BAND_ROWS, out)
-    return out
+    calls = []
+    for kx, ky in kernels:
+        kx = np.asarray(kx, dtype=np.float32).reshape(-1).astype(np.float64)
+        ky = np.asarray(ky, dtype=np.float32).reshape(-1).astype(np.float64)
+        calls.append((image, kx, ky, _parity(kx), _parity(ky), _BAND_ROWS,
+                      np.empty(image.shape, dtype=np.float32)))
+
+    def run(*args):
+        _correlate(*args)
+        return args[-1]
+
+    return run_blocks(run, calls, _correlate.threads_for(*calls[0]))
 
 
 @njit(**_OPTIONS, aot="void(boolean[:, ::1], int64, boolean[:, ::1], int32[::1], int32[::1])")

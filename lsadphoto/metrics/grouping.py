@@ -326,9 +326,18 @@ def _describe(labels, n, luminance, directions, solid_angle, peak_flags, offset=
     if n == 0:
         return []
     labels = np.asarray(labels)
-    rows, cols = (np.ascontiguousarray(i) for i in np.nonzero(labels))  # row-major order
+    rows, cols = np.nonzero(labels)  # row-major order
+    return _describe_pixels(rows, cols, labels[rows, cols], n, luminance, directions,
+                            solid_angle, peak_flags, offset)
+
+
+def _describe_pixels(rows, cols, label, n, luminance, directions, solid_angle, peak_flags,
+                     offset=(0, 0)):
+    """:func:`_describe` from the labelled pixels: their ``rows`` and ``cols`` in row-major
+    order and their ``label`` (1…n), without a label map."""
+    rows, cols = np.ascontiguousarray(rows), np.ascontiguousarray(cols)
     sums, lmax, lmin, count = _source_sums(
-        labels[rows, cols].astype(np.int64), n,
+        np.asarray(label).astype(np.int64), n,
         np.asarray(luminance)[rows, cols].astype(np.float64),
         np.ascontiguousarray(directions_at(directions, rows + offset[0], cols + offset[1]),
                              dtype=np.float64),
@@ -385,24 +394,33 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
     solid_angle = np.asarray(solid_angle)[box]
     offset = (box[0].start, box[1].start)
     labels, n = _link(mask, directions, separation, offset)
+    # From here on only the source pixels (row-major order) and their labels: no label
+    # maps of the box (8 bytes per pixel each, most of them 0) are made or written.
+    rows, cols = np.nonzero(mask)
+    label = labels[rows, cols]
     peak_flags = [False] * n
     if peak_luminance is not None and n:
         limit = check_positive(peak_luminance, "peak_luminance")
         with np.errstate(invalid="ignore"):
-            peak_mask = mask & (luminance >= limit)
-        if peak_mask.any():
+            peak = luminance[rows, cols] >= limit
+        if peak.any():
+            peak_mask = np.zeros(mask.shape, dtype=bool)
+            peak_mask[rows[peak], cols[peak]] = True
             peak_labels, n_peak = _link(peak_mask, directions, separation, offset)
-            rest = np.where(peak_mask, 0, labels)
+            rest = np.where(peak, 0, label)
             # The labels left after peak extraction, in increasing order (np.unique would
             # import numpy.ma, 0.05 s of a short process).
             kept = np.flatnonzero(np.bincount(rest[rest > 0], minlength=n + 1))
             renumber = np.zeros(n + 1, dtype=np.int64)
             renumber[kept] = np.arange(1, kept.size + 1)
-            labels = np.where(peak_mask, peak_labels + kept.size, renumber[rest])
+            label = np.where(peak, peak_labels[rows, cols] + kept.size, renumber[rest])
             n = kept.size + n_peak
             peak_flags = [False] * kept.size + [True] * n_peak
-    sources = _describe(labels, n, luminance, directions, solid_angle, peak_flags, offset)
+    labelled = label > 0
+    rows, cols, label = rows[labelled], cols[labelled], label[labelled]
+    sources = _describe_pixels(rows, cols, label, n, luminance, directions, solid_angle,
+                               peak_flags, offset) if n else []
     offset_row, offset_col = offset
     sources = [replace(s, row=s.row + offset_row, col=s.col + offset_col) for s in sources]
-    labels_full[box] = labels
+    labels_full[rows + offset_row, cols + offset_col] = label
     return sources, labels_full

@@ -86,7 +86,7 @@ from .._compiled import njit, prange
 from .._validation import check_choice, check_positive
 from ..errors import BadInputError
 from ..geometry.field import PixelGeometry
-from ._filters import correlate_separable, erode_square
+from ._filters import correlate_separable, correlate_separable_each, erode_square
 from .adrian import threshold_luminance_difference
 
 __all__ = [
@@ -589,8 +589,7 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
         return out
     # Pixel derivatives of the smoothed map (correlation; kx runs along each row). The border
     # the filters leave undefined never reaches an evaluated pixel.
-    lu = correlate_separable(filled, derivative, smooth)
-    lv = correlate_separable(filled, smooth, derivative)
+    lu, lv = correlate_separable_each(filled, [(derivative, smooth), (smooth, derivative)])
 
     # Candidates: evaluated pixels that may pass the smallest cut-off n_min·ΔL_thr. Indices
     # into the box (``local``) and into the whole image (``index``).
@@ -871,8 +870,8 @@ def gradient_components(filled, directions, index, *, sigma_px):
     """
     smooth, derivative, _ = _kernels(float(sigma_px))
     image = np.ascontiguousarray(filled, dtype=np.float32)
-    lu = correlate_separable(image, derivative, smooth).ravel()[index].astype(np.float64)
-    lv = correlate_separable(image, smooth, derivative).ravel()[index].astype(np.float64)
+    lu, lv = (g.ravel()[index].astype(np.float64) for g in
+              correlate_separable_each(image, [(derivative, smooth), (smooth, derivative)]))
     e, f, g = _metrics_at(np.asarray(index, dtype=np.int64), directions, image.shape[1]).T
     det = e * g - f * f
     with np.errstate(invalid="ignore", divide="ignore"):

@@ -37,7 +37,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from .._compiled import njit, prange
+from .._compiled import njit, prange, row_blocks, run_blocks
 
 from .._provenance import build_provenance
 from .._validation import check_choice, check_positive, check_positive_int
@@ -113,10 +113,12 @@ def _field_inputs(image, geometry, evaluated, cos_sigma):
     pages: faulting in 400 MB of small pages costs more than the pass itself.)"""
     shape = evaluated.shape
     luminance = np.empty(shape)
-    dropped = _field_luminance_kernel(np.ascontiguousarray(image).reshape(-1),
-                                      np.ascontiguousarray(evaluated).reshape(-1),
-                                      np.ascontiguousarray(cos_sigma).reshape(-1),
-                                      luminance.reshape(-1))
+    flat = (np.ascontiguousarray(image).reshape(-1), np.ascontiguousarray(evaluated).reshape(-1),
+            np.ascontiguousarray(cos_sigma).reshape(-1), luminance.reshape(-1))
+    # Blocks of whole chunks, one per thread where the ahead-of-time code runs them.
+    workers = _field_luminance_kernel.threads_for(*flat)
+    dropped = sum(run_blocks(lambda a, b: _field_luminance_kernel(*(x[a:b] for x in flat)),
+                             row_blocks(luminance.size, workers, _CHUNK), workers))
     if dropped == 0 and evaluated is geometry.valid:
         return geometry.valid, luminance, geometry.solid_angle
     valid = np.empty(shape, dtype=bool)

@@ -375,21 +375,29 @@ def _material_block_group(scene, engine, sampler, seed, blocks, batches, limit):
     return {key: v[order] for key, v in nodes.items()}
 
 
-def trace_material_chains(scene, engine, *, seed, blocks, batches, max_depth=None, sampler=None):
-    """Light-chain nodes of a scene with non-Lambertian materials (``scene.bsdf``).
+def trace_material_chains(scene, engine, *, seed, first_block, blocks, batches, max_depth=None, sampler=None,
+                          progress=None):
+    """An :class:`LsadStore` with the chains of blocks ``first_block … first_block+blocks−1``
+    of a scene with non-Lambertian materials (``scene.bsdf``).
 
     As :func:`trace_chains` with ``absorption="weight"``, but at every hit the chain samples
     the material's BSDF (:meth:`~lsadphoto.solver.materials.MaterialTable.sample`: the weight
     W is multiplied by f·|μ_i|/p, or R, T through a delta), and the node it leaves is
     recorded with coefficient W (not W·ρ/π), its incoming direction and whether it was hit on
-    the front side, so that the local estimate evaluates W·f(ω_in, ω_out)·|cos θ_out| towards
-    any point. Hits on purely specular surfaces (mirror, glass) leave no node. Returns a dict
-    of node arrays (those of :class:`~lsadphoto.solver.store.LsadStore` plus ``incoming``
-    and ``front``), ``chains`` and ``batches``.
+    the front side (the store's ``incoming`` and ``front``), so that the local estimate
+    evaluates W·f(ω_in, ω_out)·|cos θ_out| towards any point. Hits on purely specular
+    surfaces (mirror, glass) leave no node. Blocks are traced :data:`MATERIAL_GROUP` at a
+    time, each from its own stream, so the nodes do not depend on how the blocks are split
+    between calls; ``progress(blocks_done)`` is called after each group.
     """
     sampler = sampler or EmissionSampler(scene)
-    parts = [_material_block_group(scene, engine, sampler, seed, range(first, min(first + MATERIAL_GROUP, blocks)),
-                                   batches, MAX_BOUNCES if max_depth is None else int(max_depth))
-             for first in range(0, blocks, MATERIAL_GROUP)]
+    limit = MAX_BOUNCES if max_depth is None else int(max_depth)
+    parts = []
+    for lo in range(0, blocks, MATERIAL_GROUP):
+        hi = min(lo + MATERIAL_GROUP, blocks)
+        parts.append(_material_block_group(scene, engine, sampler, seed, range(first_block + lo, first_block + hi),
+                                           batches, limit))
+        if progress is not None:
+            progress(hi)
     nodes = {key: np.concatenate([q[key] for q in parts]) for key in parts[0]}
-    return {**nodes, "chains": blocks * CHAIN_BLOCK, "batches": batches}
+    return LsadStore(scene, **nodes, chains=blocks * CHAIN_BLOCK, batches=batches, seed=seed)

@@ -28,6 +28,21 @@ Each estimate comes with its sampling variance (the delta-method variance of the
 point luminaires the sample variance over s). Both ignore the stratification, which lowers
 the true variance: conservative (1.2–1.4× the observed variance in the half-shadow test).
 
+Many luminaires (:func:`direct_illuminance`, ``luminaires`` an integer K or ``"auto"``
+above :data:`ALL_LUMINAIRES_UP_TO`) are sampled, not all evaluated. A compiled planning pass
+(:func:`_plan`) weighs at each point only the :data:`LUMINAIRE_CANDIDATES` luminaires of
+largest bound in its region of a :class:`LuminaireTable` — their exact unoccluded values
+(Lambert's Π, or I·cos⁺θ/r² from the intensity tables by
+:func:`~.photometry.packed_intensity`) — and gives every other luminaire its region's
+weight. A luminaire giving at least 1/K of the point's total weight is taken whole (the
+*closed-form path* where one luminaire dominates: its Lambert or I·cos/r² value times the
+visibility of its samples, exact where it is fully visible); K stratified draws take the
+rest with p ∝ weight, each one estimate weighted 1/(K·p) (one point of a luminous
+rectangle per draw). Every luminaire keeps p > 0 wherever it may give light, so the sum is
+unbiased (for area luminaires: as unbiased as their ratio estimate above); it is exact —
+zero variance — where nothing is in the way and every luminaire is a candidate with an
+exact value. Shadow rays of all the point luminaires' samples go to Embree in one call.
+
 References
 ----------
 Lambert, J. H. (1760). *Photometria*, §§ 170–176 (the polygon formula); in modern form
@@ -38,25 +53,32 @@ bias and delta-method variance). FORMULAS.md §6.1.
 """
 
 import math
+import threading
 
 import numpy as np
 from numba import njit
 
 from .._validation import check_positive_int
 from ._sampling import stream
+from .photometry import pack_photometries, packed_intensity
 from .sky import distant_illuminance, distant_uniforms
 
-__all__ = ["ALL_LUMINAIRES_UP_TO", "DIRECT_SAMPLES", "LUMINAIRE_DRAWS", "LuminaireTable",
-           "direct_illuminance", "projected_solid_angle", "sampled_direct_illuminance",
-           "unoccluded_illuminance"]
+__all__ = ["ALL_LUMINAIRES_UP_TO", "DIRECT_SAMPLES", "LUMINAIRE_CANDIDATES", "LUMINAIRE_DRAWS",
+           "REGION_CELL", "LuminaireTable", "direct_illuminance", "projected_solid_angle",
+           "sampled_direct_illuminance", "unoccluded_illuminance"]
 
 #: Default shadow-ray samples per luminaire and point.
 DIRECT_SAMPLES = 4
 #: ``luminaires="auto"`` of :func:`direct_illuminance` evaluates every luminaire up to this
 #: many, and samples them above it …
 ALL_LUMINAIRES_UP_TO = 8
-#: … with this many draws per point (besides the luminaires taken whole).
-LUMINAIRE_DRAWS = 8
+#: … with this many draws per point (besides the luminaires taken whole) …
+LUMINAIRE_DRAWS = 32
+#: … after weighing exactly, per point, this many candidate luminaires of its region
+#: (:class:`LuminaireTable`) …
+LUMINAIRE_CANDIDATES = 16
+#: … whose regions are cubes of this edge, as a fraction of the scene's bounding-box diagonal.
+REGION_CELL = 1 / 32
 
 _NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
 
@@ -259,38 +281,159 @@ def _area_estimate(sampler, x, n, origins, u, engine, unoccluded=None):
     return E, var
 
 
-def _point_estimate(lum, x, n, origins, u, engine, unoccluded=None):
-    """Direct illuminance [lx] of one point luminaire at points x from uniforms u (P, s, 3)
-    (the first two place emission points on its luminous rectangle; one ray without one),
-    and the sample variance of the mean. ``unoccluded``: its exact unoccluded illuminance at
-    x where already known (a luminaire without a rectangle), which then needs only the
-    shadow rays."""
-    length, width = lum.extent
-    ns = u.shape[1] if (length > 0 and width > 0) else 1
-    P = len(x)
-    if unoccluded is not None and ns == 1:
-        e = np.zeros(P)
-        lit = np.flatnonzero(unoccluded > 0)
-        if lit.size:
-            vis = engine.visible(origins[lit], np.broadcast_to(lum.position, (lit.size, 3)))
-            e[lit] = np.where(vis, unoccluded[lit], 0.0)
-        return e, np.zeros(P)
-    offs = (u[:, :ns, :2] - 0.5) * np.asarray([length, width])
-    y = (lum.position + offs[..., :1] * lum.frame[0] + offs[..., 1:] * lum.frame[1])
-    r = y - x[:, None, :]
-    r2 = np.einsum("psk,psk->ps", r, r)
-    cos_x = np.einsum("psk,pk->ps", r, n) / np.sqrt(r2)
-    terms = np.zeros((P, ns))
-    cand = np.flatnonzero((cos_x.ravel() > 0) & (r2.ravel() > 0))
-    if cand.size:
-        p_of = cand // ns
-        rr = r.reshape(-1, 3)[cand]
-        dist = np.sqrt(r2.ravel()[cand])
-        value = lum.intensity(-rr / dist[:, None]) * cos_x.ravel()[cand] / r2.ravel()[cand]
-        vis = engine.visible(origins[p_of], y.reshape(-1, 3)[cand])
-        terms.ravel()[cand] = np.where(vis, value, 0.0)
-    var = terms.var(axis=1, ddof=1) / ns if ns > 1 else np.zeros(P)
-    return terms.mean(axis=1), var
+class _Lights:
+    """Every luminaire of a scene packed for the compiled kernels, in the scene's order (area
+    luminaires first).
+
+    ``points``: (position (L, 3), frame (L, 3, 3), multiplier (L,), extent (L, 2), table (L,),
+    tables) of the point luminaires (:func:`~.photometry.pack_photometries`); ``areas``:
+    (start (A + 1,), triangles (T, 3, 3), front normals (T, 3), luminance (A,)) of the area
+    luminaires' triangles; ``exact[l]``: whether l's unoccluded value (:func:`_unoccluded`)
+    is exact (area luminaires, points) or a guide (a luminous rectangle's centre).
+    """
+
+    def __init__(self, scene):
+        samplers = _samplers(scene)
+        lums = scene.point_luminaires
+        index, tables = pack_photometries([lum.photometry for lum in lums])
+        self.points = (np.array([lum.position for lum in lums], dtype=np.float64).reshape(-1, 3),
+                       np.array([lum.frame for lum in lums], dtype=np.float64).reshape(-1, 3, 3),
+                       np.array([lum.multiplier for lum in lums], dtype=np.float64),
+                       np.array([lum.extent for lum in lums], dtype=np.float64).reshape(-1, 2),
+                       index, tables)
+        start = np.concatenate([[0], np.cumsum([len(s.triangles) for s in samplers])]).astype(np.int64)
+        self.areas = (start,
+                      np.concatenate([s.triangles for s in samplers]) if samplers else np.zeros((0, 3, 3)),
+                      np.concatenate([s.front for s in samplers]) if samplers else np.zeros((0, 3)),
+                      np.array([s.luminance for s in samplers], dtype=np.float64))
+        self.n_area = len(samplers)
+        self.count = self.n_area + len(lums)
+        rect = (self.points[3] > 0).all(axis=1)
+        self.exact = np.concatenate([np.ones(self.n_area, dtype=bool), ~rect])
+
+
+def _lights(scene):
+    lights = getattr(scene, "_packed_lights", None)
+    if lights is None:  # built once per scene (scenes are not modified after loading)
+        lights = scene._packed_lights = _Lights(scene)
+    return lights
+
+
+@njit(inline="always", **_NUMBA)
+def _point_value(points, k, x, n, y0, y1, y2):
+    """I(ω_{y→x})·cos⁺θ_x/r² [lx] of point luminaire k emitting from y at point x (normal n)."""
+    rx, ry, rz = y0 - x[0], y1 - x[1], y2 - x[2]
+    r2 = rx * rx + ry * ry + rz * rz
+    if not r2 > 0.0:
+        return 0.0
+    r = math.sqrt(r2)
+    cos_x = (rx * n[0] + ry * n[1] + rz * n[2]) / r
+    if not cos_x > 0.0:
+        return 0.0
+    frame = points[1]
+    return (points[2][k] * packed_intensity(points[5], points[4][k], -rx / r, -ry / r, -rz / r, frame[k])
+            * cos_x / r2)
+
+
+@njit(inline="always", **_NUMBA)
+def _unoccluded(points, areas, n_area, l, x, n):
+    """Unoccluded illuminance [lx] of luminaire l at x (normal n): L·Π for an area luminaire
+    (Lambert's closed form over its triangles, front sides only), I·cos⁺θ/r² from the centre
+    of a point luminaire (for a luminous rectangle a guide)."""
+    if l >= n_area:
+        k = l - n_area
+        pos = points[0]
+        return _point_value(points, k, x, n, pos[k, 0], pos[k, 1], pos[k, 2])
+    start, tris, front, luminance = areas
+    total = 0.0
+    for t in range(start[l], start[l + 1]):
+        tri = tris[t]
+        side = ((x[0] - tri[0, 0]) * front[t, 0] + (x[1] - tri[0, 1]) * front[t, 1]
+                + (x[2] - tri[0, 2]) * front[t, 2])
+        if side > 0.0:
+            total += _triangle_projected_solid_angle(x, n, tri[0], tri[1], tri[2])
+    return luminance[l] * total
+
+
+@njit(**_NUMBA)
+def _unoccluded_all(x, n, points, areas, n_area, out):
+    """``out[i, l]`` = :func:`_unoccluded` of every luminaire l at every point i."""
+    for i in range(x.shape[0]):
+        for l in range(out.shape[1]):
+            out[i, l] = _unoccluded(points, areas, n_area, l, x[i], n[i])
+
+
+@njit(**_NUMBA)
+def _point_terms(x, n, offset, point, lum, guide, count, u, u_start, points, values, o32, d32, t32,
+                 ray):
+    """Terms of the estimates of point luminaires ``lum[e]`` (index among the point
+    luminaires) at points ``point[e]``: ``values[e, j]`` = I·cos⁺θ_x/r² from emission point j
+    < ``count[e]`` of the luminous rectangle (uniforms ``u[u_start[e] + j, :2]``; one point, the centre,
+    with the exact ``guide[e]`` as its value, for a luminaire without one); returns the number m of nonzero
+    terms, whose flat index and float32 shadow ray (from x moved ``offset`` along n to the
+    emission point, stopped ``offset`` short) are in ``ray``, ``o32``, ``d32``, ``t32`` [:m].
+    Returns also how many terms each estimate has (``ns``)."""
+    E, s = values.shape
+    pos, frame, _, extent = points[0], points[1], points[2], points[3]
+    ns = np.ones(E, dtype=np.int64)
+    m = 0
+    for e in range(E):
+        i, k = point[e], lum[e]
+        length, width = extent[k, 0], extent[k, 1]
+        rect = length > 0.0 and width > 0.0
+        if rect:
+            ns[e] = count[e]
+        ox, oy, oz = x[i, 0] + offset * n[i, 0], x[i, 1] + offset * n[i, 1], x[i, 2] + offset * n[i, 2]
+        for j in range(s):
+            values[e, j] = 0.0
+            if j >= ns[e]:
+                continue
+            if rect:
+                a = (u[u_start[e] + j, 0] - 0.5) * length
+                b = (u[u_start[e] + j, 1] - 0.5) * width
+                y0 = pos[k, 0] + a * frame[k, 0, 0] + b * frame[k, 1, 0]
+                y1 = pos[k, 1] + a * frame[k, 0, 1] + b * frame[k, 1, 1]
+                y2 = pos[k, 2] + a * frame[k, 0, 2] + b * frame[k, 1, 2]
+                v = _point_value(points, k, x[i], n[i], y0, y1, y2)
+            else:
+                y0, y1, y2 = pos[k, 0], pos[k, 1], pos[k, 2]
+                v = guide[e]
+            values[e, j] = v
+            if v > 0.0:
+                ex, ey, ez = y0 - ox, y1 - oy, y2 - oz
+                d = math.sqrt(ex * ex + ey * ey + ez * ez)
+                if d > offset:  # (else: taken as visible, as RayEngine.visible does)
+                    ray[m] = e * s + j
+                    o32[m, 0], o32[m, 1], o32[m, 2] = ox, oy, oz
+                    d32[m, 0], d32[m, 1], d32[m, 2] = ex / d, ey / d, ez / d
+                    t32[m] = d - offset
+                    m += 1
+    return m, ns
+
+
+def _point_estimates(lights, x, n, point, lum, guide, u, u_start, count, engine):
+    """Direct illuminance [lx] of point luminaires ``lum`` (index among the point luminaires)
+    at points ``x[point]``, and the sample variance of each mean: the mean over ``count[e]``
+    emission points of a luminous rectangle (placed by the uniforms ``u[u_start[e]:][:count[e],
+    :2]``), or the exact ``guide`` times the visibility of the centre; all shadow rays in one
+    Embree call."""
+    E = len(point)
+    s = max(int(count.max(initial=1)), 1)
+    values = np.empty((E, s))
+    o32 = np.empty((E * s, 3), dtype=np.float32)
+    d32 = np.empty((E * s, 3), dtype=np.float32)
+    t32 = np.empty(E * s, dtype=np.float32)
+    ray = np.empty(E * s, dtype=np.int64)
+    m, ns = _point_terms(x, n, engine.epsilon, point, lum, guide, count, u, u_start, lights.points,
+                         values, o32, d32, t32, ray)
+    if m:
+        values.ravel()[ray[:m][engine.occluded(o32[:m], d32[:m], t32[:m])]] = 0.0
+    mean = values.sum(axis=1) / ns
+    var = np.zeros(E)
+    for k in np.unique(ns[ns > 1]):
+        sel = ns == k
+        var[sel] = values[sel, :k].var(axis=1, ddof=1) / k
+    return mean, var
 
 
 def unoccluded_illuminance(scene, points, normals):
@@ -298,32 +441,17 @@ def unoccluded_illuminance(scene, points, normals):
 
     Area luminaires: L·Π_l, Lambert's closed form; point luminaires: I(ω)·cos⁺θ/r² from the
     luminaire's centre, which for a luminous rectangle is a guide, not the exact value.
-    Returns ``(u, exact)``: ``u`` of
-    shape (P, luminaires) in the scene's order (area luminaires first), and a boolean per
-    luminaire, true where ``u`` is exact. The weights by which :func:`direct_illuminance`
-    samples luminaires.
+    Returns ``(u, exact)``: ``u`` of shape (P, luminaires) in the scene's order (area
+    luminaires first), and a boolean per luminaire, true where ``u`` is exact. One compiled
+    pass over points × luminaires (intensity tables by
+    :func:`~.photometry.packed_intensity`).
     """
     x = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.ascontiguousarray(normals, dtype=np.float64).reshape(-1, 3)
-    samplers = _samplers(scene)
-    u = np.zeros((len(x), len(samplers) + len(scene.point_luminaires)))
-    exact = np.ones(u.shape[1], dtype=bool)
-    for li, sampler in enumerate(samplers):
-        u[:, li] = sampler.luminance * _projected_solid_angle(x, n, sampler.triangles,
-                                                              sampler.front).sum(axis=1)
-    for k, lum in enumerate(scene.point_luminaires):
-        li = len(samplers) + k
-        length, width = lum.extent
-        exact[li] = not (length > 0 and width > 0)
-        r = lum.position - x
-        r2 = np.einsum("pk,pk->p", r, r)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            d = r / np.sqrt(r2)[:, None]
-            cos_x = np.einsum("pk,pk->p", d, n)
-        ok = (r2 > 0) & (cos_x > 0)
-        if ok.any():
-            u[ok, li] = lum.intensity(-d[ok]) * cos_x[ok] / r2[ok]
-    return u, exact
+    lights = _lights(scene)
+    u = np.zeros((len(x), lights.count))
+    _unoccluded_all(x, n, lights.points, lights.areas, lights.n_area, u)
+    return u, lights.exact.copy()
 
 
 def _samplers(scene):
@@ -334,40 +462,83 @@ def _samplers(scene):
     return samplers
 
 
-def _luminaire_weights(u, exact, draws, picks):
-    """Per point and luminaire, the weight of its estimate in the sampled sum.
+@njit(**_NUMBA)
+def _plan(x, n, row, cand, n_cand, rest_w, rest_cum, picks, points, areas, n_area, exact,
+          ev_lum, ev_weight, ev_count, ev_prob, ev_guide, ev_n):
+    """Which luminaires each point i evaluates, with what weight: the planning pass of
+    :func:`direct_illuminance`.
 
-    Luminaires giving at least 1/``draws`` of a point's unoccluded total are taken whole
-    (weight 1); ``draws`` luminaires are drawn from the rest with probability p ∝ u (with a
-    floor of 10⁻³ of the rest's mean for luminaires whose u is only a guide, so that p > 0
-    wherever light may arrive), each draw weighted 1/(draws·p). Returns the weights (P, N),
-    the draw counts (P, N) and the probabilities (P, N).
-    """
-    P, N = u.shape
-    total = u.sum(axis=1, keepdims=True)
-    whole = (u > 0) & (u >= total / draws)
-    rest = np.where(whole, 0.0, u)
-    guide = ~whole & ~exact[None, :]
-    floor = 1e-3 * rest.sum(axis=1, keepdims=True) / max(N, 1)
-    rest = np.where(guide, np.maximum(rest, np.maximum(floor, 1e-300)), rest)
-    mass = rest.sum(axis=1, keepdims=True)
-    prob = np.divide(rest, mass, out=np.zeros_like(rest), where=mass > 0)
-    counts = np.zeros((P, N), dtype=np.int64)
-    sampled = np.flatnonzero(mass[:, 0] > 0)
-    if sampled.size:
-        # Stratified draws, one in each 1/draws slice of a point's cumulative probability;
-        # all points' CDFs in one sorted array (row r shifted by r) for one binary search.
-        cdf = np.cumsum(prob[sampled], axis=1)
-        cdf[:, -1] = 1.0
-        row = np.arange(sampled.size)[:, None]
-        v = (np.arange(draws)[None, :] + picks[sampled]) / draws + row
-        flat = np.searchsorted((cdf + row).ravel(), v.ravel(), side="right")
-        pick = np.minimum(flat - np.repeat(row[:, 0], draws) * N, N - 1)
-        np.add.at(counts, (np.repeat(sampled, draws), pick), 1)
-    weight = whole.astype(float)
-    drawn = counts > 0
-    weight[drawn] += counts[drawn] / (draws * prob[drawn])
-    return weight, counts, prob
+    Point i's region ``row[i]`` lists its candidates ``cand[r, :n_cand[r]]``, whose
+    unoccluded values u_c (:func:`_unoccluded`) are computed here, and gives every other
+    luminaire l a weight ``rest_w[r, l]`` > 0 (cumulative ``rest_cum[r]``) on the same scale.
+    With M = Σu_c + Σ rest weights, candidates with u_c ≥ M/D are taken whole (weight 1);
+    D = ``picks.shape[1]`` stratified draws (uniforms ``picks[i]``) go to the rest —
+    candidates with p ∝ u_c (guides floored at 10⁻³ of the mean, so p > 0 wherever light
+    may arrive), other luminaires with p ∝ their region weight — each draw an evaluation of
+    its own, weighted 1/(D·p). Writes, per point, ``ev_n[i]`` ≤ 2D evaluations: luminaire,
+    weight, draw count (0: whole, 1: drawn), probability and unoccluded value (exact or
+    guide)."""
+    P, D = picks.shape
+    N = rest_w.shape[1]
+    K = cand.shape[1]
+    u = np.empty(K)
+    up = np.empty(K)
+    whole = np.empty(K, dtype=np.bool_)
+    for i in range(P):
+        r = row[i]
+        k = n_cand[r]
+        total = rest_cum[r, N - 1]
+        rest = total
+        for c in range(k):
+            u[c] = _unoccluded(points, areas, n_area, cand[r, c], x[i], n[i])
+            total += u[c]
+        m = 0
+        for c in range(k):
+            whole[c] = u[c] > 0.0 and u[c] * D >= total
+            if whole[c]:
+                ev_lum[i, m], ev_weight[i, m], ev_count[i, m] = cand[r, c], 1.0, 0
+                ev_prob[i, m], ev_guide[i, m] = 0.0, u[c]
+                m += 1
+            else:
+                rest += u[c]
+        floor = max(1e-3 * rest / N, 1e-300)
+        mass_c = 0.0
+        for c in range(k):
+            up[c] = 0.0 if whole[c] else (u[c] if exact[cand[r, c]] else max(u[c], floor))
+            mass_c += up[c]
+        mass = mass_c + rest_cum[r, N - 1]
+        if mass > 0.0:
+            for j in range(D):
+                t = (j + picks[i, j]) / D * mass
+                if t < mass_c or rest_cum[r, N - 1] <= 0.0:
+                    c, acc, last = 0, 0.0, -1
+                    while c < k:
+                        if up[c] > 0.0:
+                            last = c
+                            acc += up[c]
+                            if acc > t:
+                                break
+                        c += 1
+                    c = last if c >= k else c
+                    lum, prob, guide = cand[r, c], up[c] / mass, u[c]
+                else:
+                    t -= mass_c
+                    a, b = 0, N  # first l with rest_cum > t
+                    while a < b:
+                        mid = (a + b) // 2
+                        if rest_cum[r, mid] <= t:
+                            a = mid + 1
+                        else:
+                            b = mid
+                    lum = min(a, N - 1)
+                    while rest_w[r, lum] <= 0.0:  # rounding past the end: the last one
+                        lum -= 1
+                    prob = rest_w[r, lum] / mass
+                    guide = _unoccluded(points, areas, n_area, lum, x[i], n[i])
+                ev_lum[i, m], ev_count[i, m], ev_prob[i, m] = lum, 1, prob
+                ev_weight[i, m], ev_guide[i, m] = 1.0 / (D * prob), guide
+                m += 1
+        ev_n[i] = m
 
 
 def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES, seed=0,
@@ -394,11 +565,12 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         Distinguishes independent uses (e.g. pixels and cache points) within one seed.
     luminaires : "all", int or "auto"
         ``"all"``: every luminaire at every point. An integer K: at each point the
-        luminaires that give at least 1/K of its unoccluded illuminance
-        (:func:`unoccluded_illuminance`) are taken whole and K more are drawn from the rest
-        in proportion to their unoccluded illuminance, each weighted by 1/(K·p) — unbiased
-        importance sampling of luminaires (Shirley et al. 1996), exact where every
-        luminaire is fully visible and its unoccluded value exact, at the cost of ≤ 2K
+        candidate luminaires of its region (:class:`LuminaireTable`; all of them up to
+        :data:`LUMINAIRE_CANDIDATES`) that give at least 1/K of its unoccluded illuminance
+        (:func:`unoccluded_illuminance`; the other luminaires counted by their region's
+        weights) are taken whole and K draws are made from the rest in proportion to
+        those values and weights, each weighted by 1/(K·p) — unbiased importance sampling
+        of luminaires (Shirley et al. 1996; module docstring), at the cost of ≤ 2K
         luminaire estimates per point instead of all. ``"auto"`` (default): all up to
         :data:`ALL_LUMINAIRES_UP_TO` luminaires, else K = :data:`LUMINAIRE_DRAWS`.
     distant_samples : int, optional
@@ -408,9 +580,11 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     Returns
     -------
     (E, variance) : tuple of ndarray, shape (P,)
-        Exact where luminaires are fully visible or hidden, never negative; in a partial
-        shadow of an area luminaire a ratio estimate (bias of order 1/s, module docstring).
-        With sampled luminaires the variance adds the draws' spread (their sample variance).
+        Exact where luminaires are fully visible or hidden and none is drawn, never
+        negative; in a partial shadow of an area luminaire a ratio estimate (bias of order
+        1/s, module docstring). With sampled luminaires the variance is that of the whole
+        ones plus the draws' spread (the sample variance of Ê/p over the K draws, / K;
+        conservative: the draws are stratified).
 
     References
     ----------
@@ -423,8 +597,8 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     P = len(x)
     E = np.zeros(P)
     var = np.zeros(P)
-    samplers = _samplers(scene)
-    n_lum = len(samplers) + len(scene.point_luminaires)
+    lights = _lights(scene)
+    n_lum = lights.count
     draws = _luminaire_draws(luminaires, n_lum)
     blocks = np.zeros(P, dtype=np.int64) if block_ids is None else np.asarray(block_ids)
     if scene.distant_sources:  # the sun and the sky, next-event estimated (solver/sky.py)
@@ -434,58 +608,89 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     if P == 0 or n_lum == 0:
         return E, var
     origins = x + engine.epsilon * n
-    lums = [(sampler, _area_estimate) for sampler in samplers] + [
-        (lum, _point_estimate) for lum in scene.point_luminaires]
     if draws is None:
+        # Every luminaire at every point; the uniforms of luminaire l are slot l.
         u = np.empty((P, n_lum, s, 3))
         for j in np.unique(blocks):
             m = blocks == j
             u[m] = stream(seed, "direct", purpose_key, j).random((int(m.sum()), n_lum, s, 3))
-        for li, (lum, estimate) in enumerate(lums):
-            e, v = estimate(lum, x, n, origins, u[:, li], engine)
-            E += e
-            var += v
-        return E, var
-    # Importance sampling of luminaires: each point evaluates its whole and drawn ones; the
-    # uniforms of the m-th evaluated luminaire of a point (in luminaire order) are slot m.
-    guide, exact = unoccluded_illuminance(scene, x, n)
+        guide = np.zeros((P, n_lum))
+        _unoccluded_all(x, n, lights.points, lights.areas, lights.n_area, guide)
+        point, lum = np.nonzero((guide > 0) | ~lights.exact[None, :])
+        e, v = _estimates(scene, lights, engine, x, n, origins, point, lum, guide[point, lum],
+                          u[point, lum].reshape(-1, 3), np.full(len(point), s, dtype=np.int64))
+        return E + np.bincount(point, e, P), var + np.bincount(point, v, P)
+    # Importance sampling of luminaires (_plan): each point evaluates its whole luminaires
+    # and its draws; a block's stream gives first its draws, then the evaluations' uniforms.
+    table = _luminaire_table(scene)
     picks = np.empty((P, draws))
     slots = []
     for j in np.unique(blocks):
         m = np.flatnonzero(blocks == j)
         g = stream(seed, "direct", purpose_key, j)
         picks[m] = g.random((m.size, draws))
-        slots.append((m, g))
-    weight, counts, prob = _luminaire_weights(guide, exact, draws, picks)
-    used = weight > 0
-    slot = np.cumsum(used, axis=1) - 1
-    n_used = used.sum(axis=1)
-    u = np.empty((P, int(n_used.max(initial=0)), s, 3))
-    for m, g in slots:
-        # as many slots as the block's own points use, so a block's draws do not depend on
-        # which other blocks share the call (chunking)
-        k = int(n_used[m].max(initial=0))
-        u[m, :k] = g.random((m.size, k, s, 3))
-    sum_v = np.zeros(P)   # Σ over draws of Ê/p (for the draws' spread)
-    sum_v2 = np.zeros(P)
-    for li, (lum, estimate) in enumerate(lums):
-        pts = np.flatnonzero(used[:, li])
-        if pts.size == 0:
-            continue
-        known = {"unoccluded": guide[pts, li]} if exact[li] else {}
-        e, v = estimate(lum, x[pts], n[pts], origins[pts], u[pts, slot[pts, li]], engine, **known)
-        E[pts] += weight[pts, li] * e
-        var[pts] += weight[pts, li] ** 2 * v
-        c = counts[pts, li]
-        drawn = c > 0
-        if drawn.any():
-            ratio = e[drawn] / prob[pts[drawn], li]
-            sum_v[pts[drawn]] += c[drawn] * ratio
-            sum_v2[pts[drawn]] += c[drawn] * ratio ** 2
-    if draws > 1:
-        mean_v = sum_v / draws
-        var += np.maximum(sum_v2 / draws - mean_v ** 2, 0.0) / (draws - 1)
+        slots.append((j, g))
+    row, cand, n_cand, rest_w, rest_cum = table.plan_rows(x, n)
+    S = 2 * draws  # at most draws whole luminaires (each ≥ 1/draws of the total) + draws drawn
+    ev_lum = np.empty((P, S), dtype=np.int64)
+    ev_count = np.empty((P, S), dtype=np.int64)
+    ev_weight, ev_prob, ev_guide = np.empty((P, S)), np.empty((P, S)), np.empty((P, S))
+    ev_n = np.empty(P, dtype=np.int64)
+    _plan(x, n, row, cand, n_cand, rest_w, rest_cum, picks, lights.points, lights.areas,
+          lights.n_area, lights.exact, ev_lum, ev_weight, ev_count, ev_prob, ev_guide, ev_n)
+    point, slot = np.nonzero(np.arange(S)[None, :] < ev_n[:, None])
+    lum, weight = ev_lum[point, slot], ev_weight[point, slot]
+    drawn = ev_count[point, slot] > 0
+    # Samples per evaluation: s for an area luminaire (its ratio estimate) and for a luminous
+    # rectangle taken whole, one point of the rectangle per draw, none for a point.
+    rect = ~lights.exact[lum]
+    count = np.where(lum < lights.n_area, s, np.where(rect, np.where(drawn, 1, s), 0))
+    u = np.empty((int(count.sum()), 3))
+    u_start = np.cumsum(count) - count
+    order = np.argsort(blocks[point], kind="stable")
+    bounds = np.searchsorted(blocks[point][order], [j for j, _ in slots] + [np.inf])
+    for k, (_, g) in enumerate(slots):
+        # in the order of the block's own points and evaluations, so that a block's draws do
+        # not depend on which other blocks share the call (chunking)
+        sel = order[bounds[k]:bounds[k + 1]]
+        need = count[sel]
+        rows = np.repeat(u_start[sel] - (np.cumsum(need) - need), need) + np.arange(int(need.sum()))
+        u[rows] = g.random((rows.size, 3))
+    e, v = _estimates(scene, lights, engine, x, n, origins, point, lum, ev_guide[point, slot],
+                      u, count)
+    E += np.bincount(point, weight * e, P)
+    var += np.bincount(point[~drawn], v[~drawn], P)
+    if draws > 1 and drawn.any():
+        # the draws' spread: the sample variance of Ê/p over a point's draws, / draws
+        ratio = e[drawn] / ev_prob[point, slot][drawn]
+        mean_v = np.bincount(point[drawn], ratio, P) / draws
+        sum_v2 = np.bincount(point[drawn], ratio ** 2, P)
+        var += np.maximum(sum_v2 - draws * mean_v ** 2, 0.0) / (draws * (draws - 1))
     return E, var
+
+
+def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count):
+    """Direct illuminance [lx] of luminaire ``lum[e]`` at point ``point[e]`` and its
+    sampling variance, for every pair e (``guide``: the unoccluded value, exact for area
+    luminaires and points), from ``count[e]`` samples (uniforms: the rows of ``u`` (U, 3) in
+    order, ``count[e]`` per pair): point luminaires in one compiled pass and one Embree call,
+    area luminaires by :func:`_area_estimate` per luminaire."""
+    e = np.zeros(len(point))
+    v = np.zeros(len(point))
+    u_start = np.cumsum(count) - count
+    is_point = lum >= lights.n_area
+    if is_point.any():
+        sel = np.flatnonzero(is_point)
+        e[sel], v[sel] = _point_estimates(lights, x, n, point[sel], lum[sel] - lights.n_area,
+                                          guide[sel], u, u_start[sel], count[sel], engine)
+    samplers = _samplers(scene)
+    for li in np.unique(lum[~is_point]):
+        sel = np.flatnonzero(lum == li)
+        p = point[sel]
+        u3 = u[u_start[sel, None] + np.arange(int(count[sel[0]]))]
+        e[sel], v[sel] = _area_estimate(samplers[li], x[p], n[p], origins[p], u3, engine,
+                                        unoccluded=guide[sel])
+    return e, v
 
 
 def _luminaire_draws(luminaires, n_lum):
@@ -498,21 +703,85 @@ def _luminaire_draws(luminaires, n_lum):
     return None if k >= n_lum else k
 
 
+@njit(**_NUMBA)
+def _region_weights(q, axes, r_min2, points, areas, n_area, area_flux, area_centre, bound, rep):
+    """Per region i and luminaire l: ``bound[i, l]``, the largest over the probe points
+    ``q[i]`` of strength/max(r², r_min²)·max(0, cos θ_a + 0.82) (:class:`LuminaireTable`),
+    and ``rep[i, l]``, l's unoccluded value at the region's centre ``q[i, 0]`` for the normal
+    ``axes[i]``."""
+    pos, frame, mult, _, table, tables = points
+    for i in range(q.shape[0]):
+        a = axes[i]
+        for l in range(bound.shape[1]):
+            k = l - n_area
+            b = 0.0
+            for p in range(q.shape[1]):
+                if k < 0:
+                    c0, c1, c2 = area_centre[l, 0], area_centre[l, 1], area_centre[l, 2]
+                else:
+                    c0, c1, c2 = pos[k, 0], pos[k, 1], pos[k, 2]
+                r0, r1, r2_ = c0 - q[i, p, 0], c1 - q[i, p, 1], c2 - q[i, p, 2]
+                r2 = r0 * r0 + r1 * r1 + r2_ * r2_
+                dist = math.sqrt(max(r2, 1e-300))
+                cos_a = (r0 * a[0] + r1 * a[1] + r2_ * a[2]) / dist
+                if k < 0:
+                    strength = area_flux[l]
+                else:
+                    strength = mult[k] * packed_intensity(tables, table[k], -r0 / dist, -r1 / dist,
+                                                          -r2_ / dist, frame[k])
+                b = max(b, strength / max(r2, r_min2) * max(0.0, cos_a + 0.82))
+            bound[i, l] = b
+            rep[i, l] = _unoccluded(points, areas, n_area, l, q[i, 0], a)
+
+
+@njit(**_NUMBA)
+def _unoccluded_pairs(x, n, point, lum, points, areas, n_area, out):
+    """``out[e]`` = :func:`_unoccluded` of luminaire ``lum[e]`` at point ``point[e]``."""
+    for e in range(point.size):
+        out[e] = _unoccluded(points, areas, n_area, lum[e], x[point[e]], n[point[e]])
+
+
+@njit(**_NUMBA)
+def _pick_rows(cdf, row, u, pick, prob):
+    """Inverse-CDF draw of one luminaire per point from its region's row ``cdf[row[i]]``
+    (uniform ``u[i]``), with its probability."""
+    N = cdf.shape[1]
+    for i in range(row.size):
+        c = cdf[row[i]]
+        a, b = 0, N - 1  # first l with cdf > u (the last one at worst)
+        while a < b:
+            mid = (a + b) // 2
+            if c[mid] <= u[i]:
+                a = mid + 1
+            else:
+                b = mid
+        pick[i] = a
+        prob[i] = c[a] - (c[a - 1] if a > 0 else 0.0)
+
+
 class LuminaireTable:
     """A per-region importance table over many luminaires: which to sample, without
     evaluating them all at every point.
 
     Space is cut into cubes of edge ``cell`` [m], and each cube into six regions by the
-    dominant axis (and sign) of a point's normal. A region's weight of luminaire l bounds
-    what l can give there: the largest over nine probe points q (the cube's centre and
-    corners) of I_l(ω_{l→q})/max(r², (cell/2)²)·max(0, cos θ_a + 0.82), θ_a the angle between
-    the direction to l and the region's axis (a normal in the region lies within 54.7° of
-    it, so cos θ_a ≥ −0.82 wherever l can lie in front of it); area luminaires: L·A/max(r²,
-    (cell/2)²) from their centroid, with the same factor. Every luminaire keeps at least
-    10⁻³ of the region's mean weight, so that p > 0 wherever light may arrive: sampling by
-    the table is unbiased however rough it is. Rows are built once per region, for all
-    luminaires in one vectorised pass per luminaire (cost ∝ regions × luminaires, never
-    points × luminaires).
+    dominant axis (and sign) of a point's normal. A region's *bound* of luminaire l is what
+    l can give there at most, roughly: the largest over nine probe points q (the cube's
+    centre and corners) of I_l(ω_{l→q})/max(r², (cell/2)²)·max(0, cos θ_a + 0.82), θ_a the
+    angle between the direction to l and the region's axis (a normal in the region lies
+    within 54.7° of it, so cos θ_a ≥ −0.82 wherever l can lie in front of it); area
+    luminaires: L·A/max(r², (cell/2)²) from their centroid, with the same factor. Every
+    luminaire keeps at least 10⁻³ of the region's mean bound. Per region the table holds
+
+    * the bounds' CDF (:meth:`cdf`: one luminaire drawn per point by
+      :func:`sampled_direct_illuminance`);
+    * the ``candidates`` luminaires of largest bound, whose exact unoccluded values
+      :func:`direct_illuminance` computes at each point, and for every other luminaire a
+      weight: its unoccluded value at the region's centre for the region's axis, at least
+      10⁻² of its bound (:meth:`plan_rows`).
+
+    Every weight is > 0, so that p > 0 wherever light may arrive: sampling by the table is
+    unbiased however rough it is. Rows are built once per region, for all luminaires in one
+    compiled pass (cost ∝ regions × luminaires, never points × luminaires).
 
     References
     ----------
@@ -522,68 +791,116 @@ class LuminaireTable:
     testing for ray tracing. *Eurographics Workshop on Rendering* (importance per region).
     """
 
-    def __init__(self, scene, cell):
+    def __init__(self, scene, cell, *, candidates=None):
         self.scene = scene
         self.cell = float(cell)
         tris = scene.triangles.reshape(-1, 3)
         self.origin = tris.min(axis=0) if len(tris) else np.zeros(3)
         samplers = _samplers(scene)
-        self.area = [(s.luminance * s.area, (s.triangles.mean(axis=1) * (scene.areas[l.triangles]
-                      / s.area)[:, None]).sum(axis=0)) for s, l in zip(samplers, scene.area_luminaires)]
-        self.count = len(samplers) + len(scene.point_luminaires)
-        self.rows = {}
+        self.lights = _lights(scene)
+        self.area_flux = np.array([s.luminance * s.area for s in samplers], dtype=np.float64)
+        self.area_centre = np.array(
+            [(s.triangles.mean(axis=1) * (scene.areas[l.triangles] / s.area)[:, None]).sum(axis=0)
+             for s, l in zip(samplers, scene.area_luminaires)], dtype=np.float64).reshape(-1, 3)
+        self.count = self.lights.count
+        k = LUMINAIRE_CANDIDATES if candidates is None else check_positive_int(candidates, "candidates")
+        self.candidates = min(k, self.count)
+        self.rows = {}  # region key → row of the arrays below (grown by doubling)
+        N, K = self.count, self.candidates
+        self._store = {"cdf": np.zeros((0, N)), "cand": np.zeros((0, K), dtype=np.int64),
+                       "rest_w": np.zeros((0, N)), "rest_cum": np.zeros((0, N))}
+        self._lock = threading.Lock()  # renderers call from several threads
+
+    def __getattr__(self, name):  # _cdf, _cand, _rest_w, _rest_cum: the rows built so far
+        store = self.__dict__.get("_store")
+        if store is None or name[1:] not in store:
+            raise AttributeError(name)
+        return store[name[1:]][:len(self.rows)]
 
     def _keys(self, x, n):
-        cube = np.floor((x - self.origin) / self.cell).astype(np.int64)
+        """One int64 key per point: its cube (offset by 1, 20 bits per axis) and face."""
+        cube = np.floor((x - self.origin) / self.cell).astype(np.int64) + 1
         axis = np.abs(n).argmax(axis=1)
         sign = n[np.arange(len(n)), axis] < 0
-        return cube, 2 * axis + sign
+        face = 2 * axis + sign
+        return (cube[:, 0] << 43) | (cube[:, 1] << 23) | (cube[:, 2] << 3) | face
 
-    def _build(self, cubes, faces):
-        """CDF rows (k, N) of the regions (cube, face)."""
+    def _build(self, keys):
+        """Append the rows of the regions ``keys``."""
+        cubes = np.column_stack([keys >> 43, (keys >> 23) & 0xFFFFF, (keys >> 3) & 0xFFFFF]) - 1
+        faces = keys & 7
         corners = np.array([[0.5, 0.5, 0.5]] + [[i, j, k] for i in (0, 1) for j in (0, 1)
                                                for k in (0, 1)], dtype=float)
-        q = self.origin + (cubes[:, None, :] + corners[None]) * self.cell  # (k, 9, 3)
+        q = np.ascontiguousarray(self.origin + (cubes[:, None, :] + corners[None]) * self.cell)
         a = np.zeros((len(faces), 3))
         a[np.arange(len(faces)), faces // 2] = np.where(faces % 2, -1.0, 1.0)
-        r_min2 = (self.cell / 2) ** 2
-        weights = np.zeros((len(faces), self.count))
+        bound = np.empty((len(faces), self.count))
+        rep = np.empty_like(bound)
+        L = self.lights
+        _region_weights(q, a, (self.cell / 2) ** 2, L.points, L.areas, L.n_area, self.area_flux,
+                        self.area_centre, bound, rep)
+        bound = np.maximum(bound, np.maximum(1e-3 * bound.mean(axis=1, keepdims=True), 1e-300))
+        cdf = np.cumsum(bound, axis=1)
+        cand = np.argsort(-bound, axis=1, kind="stable")[:, :self.candidates]
+        rest_w = np.maximum(rep, 1e-2 * bound)
+        np.put_along_axis(rest_w, cand, 0.0, axis=1)
+        first = len(self.rows)
+        for name, new in (("cdf", cdf / cdf[:, -1:]), ("cand", cand), ("rest_w", rest_w),
+                          ("rest_cum", np.cumsum(rest_w, axis=1))):
+            old = self._store[name]
+            if first + len(new) > len(old):
+                grown = np.empty((max(2 * len(old), first + len(new)), old.shape[1]), dtype=old.dtype)
+                grown[:first] = old[:first]
+                self._store[name] = old = grown
+            old[first:first + len(new)] = new
+        for k, key in enumerate(keys.tolist()):
+            self.rows[key] = first + k
 
-        def bound(centre, strength):
-            r = centre - q
-            r2 = np.einsum("kpi,kpi->kp", r, r)
-            dist = np.sqrt(np.maximum(r2, 1e-300))
-            cos_a = np.einsum("kpi,ki->kp", r, a) / dist
-            return (strength(r / dist[..., None]) / np.maximum(r2, r_min2)
-                    * np.maximum(0.0, cos_a + 0.82)).max(axis=1)
-
-        for li, (flux_like, centre) in enumerate(self.area):
-            weights[:, li] = bound(centre, lambda d, f=flux_like: np.full(d.shape[:-1], f))
-        for k, lum in enumerate(self.scene.point_luminaires):
-            weights[:, len(self.area) + k] = bound(lum.position, lambda d, lum=lum: lum.intensity(-d))
-        mean = weights.mean(axis=1, keepdims=True)
-        weights = np.maximum(weights, np.maximum(1e-3 * mean, 1e-300))
-        cdf = np.cumsum(weights, axis=1)
-        return cdf / cdf[:, -1:]
+    def _rows(self, x, n, *names):
+        """The row of each point's region, built where missing, and the arrays ``names``
+        (``"cdf"``, ``"cand"``, ``"rest_w"``, ``"rest_cum"``) as they are then (one thread
+        builds at a time; arrays read later by another thread stay valid: views)."""
+        keys, inverse = np.unique(self._keys(x, n), return_inverse=True)
+        with self._lock:
+            missing = np.asarray([k for k in keys.tolist() if k not in self.rows], dtype=np.int64)
+            if missing.size:
+                self._build(missing)
+            rows = np.asarray([self.rows[k] for k in keys.tolist()], dtype=np.int64)[inverse.ravel()]
+            return (rows, *(self._store[name][:len(self.rows)] for name in names))
 
     def cdf(self, x, n):
-        """CDF rows (P, N) of the regions of points ``x`` with normals ``n``."""
-        cube, face = self._keys(x, n)
-        keys = [(int(c[0]), int(c[1]), int(c[2]), int(f)) for c, f in zip(cube, face)]
-        missing = sorted({k for k in keys if k not in self.rows})
-        if missing:
-            m = np.asarray(missing, dtype=np.int64)
-            for key, row in zip(missing, self._build(m[:, :3], m[:, 3])):
-                self.rows[key] = row
-        return np.stack([self.rows[k] for k in keys]) if keys else np.zeros((0, self.count))
+        """CDF rows (P, N) of the bounds in the regions of points ``x`` with normals ``n``."""
+        rows, cdf = self._rows(x, n, "cdf")
+        return cdf[rows]
+
+    def plan_rows(self, x, n):
+        """What the planning pass of :func:`direct_illuminance` reads for points ``x``
+        (normals ``n``): (row of each point, candidates (R, K), their count per row (R,),
+        the other luminaires' weights (R, N) and their cumulative sums (R, N)). With at
+        most ``candidates`` luminaires, one row: every luminaire a candidate."""
+        N = self.count
+        if self.candidates >= N:
+            return (np.zeros(len(x), dtype=np.int64), np.arange(N, dtype=np.int64)[None, :],
+                    np.array([N], dtype=np.int64), np.zeros((1, N)), np.zeros((1, N)))
+        row, cand, rest_w, rest_cum = self._rows(x, n, "cand", "rest_w", "rest_cum")
+        return (row, cand, np.full(len(cand), self.candidates, dtype=np.int64), rest_w, rest_cum)
+
+
+def _luminaire_table(scene):
+    """The scene's table of :func:`direct_illuminance` (cells of :data:`REGION_CELL` × its
+    diagonal), built on first use and kept on the scene."""
+    table = getattr(scene, "_luminaire_table", None)
+    if table is None:
+        table = scene._luminaire_table = LuminaireTable(scene, REGION_CELL * scene.size)
+    return table
 
 
 def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0, block_ids=None,
                                purpose_key=0):
     """Direct illuminance [lx] at points by one luminaire drawn from a :class:`LuminaireTable`.
 
-    Each point draws one luminaire l with the probability p_l of its region's row and
-    returns Ê_l/p_l, Ê_l the one-sample estimate of l (one shadow ray to a point of a
+    Each point draws one luminaire l with the probability p_l of its region's row of bounds
+    and returns Ê_l/p_l, Ê_l the one-sample estimate of l (one shadow ray to a point of a
     luminous rectangle or of an area luminaire: unbiased, unlike the ratio form of
     :func:`direct_illuminance`). Unbiased for any table (every p_l > 0), with a variance that
     depends on how well the table ranks the luminaires; meant for many cheap estimates that
@@ -616,23 +933,27 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
     for j in np.unique(blocks):
         m = blocks == j
         u[m] = stream(seed, "direct", purpose_key, j, 1).random((int(m.sum()), 4))
-    cdf = table.cdf(x, n)
-    pick = np.minimum((cdf < u[:, :1]).sum(axis=1), table.count - 1)
-    prob = np.diff(np.concatenate([np.zeros((P, 1)), cdf], axis=1), axis=1)[np.arange(P), pick]
+    pick = np.empty(P, dtype=np.int64)
+    prob = np.empty(P)
+    rows, cdf = table._rows(x, n, "cdf")
+    _pick_rows(cdf, rows, np.ascontiguousarray(u[:, 0]), pick, prob)
+    lights = _lights(scene)
+    of_point = np.flatnonzero(pick >= lights.n_area)
+    if of_point.size:
+        guide = np.empty(of_point.size)
+        _unoccluded_pairs(x, n, of_point, pick[of_point], lights.points, lights.areas,
+                          lights.n_area, guide)
+        E[of_point] = _point_estimates(lights, x, n, of_point, pick[of_point] - lights.n_area, guide,
+                                       np.ascontiguousarray(u[of_point, 1:]), np.arange(of_point.size),
+                                       np.ones(of_point.size, dtype=np.int64), engine)[0]
     origins = x + engine.epsilon * n
     samplers = _samplers(scene)
-    for li in np.unique(pick):
+    for li in np.unique(pick[pick < lights.n_area]):
         m = np.flatnonzero(pick == li)
-        uu = u[m, None, 1:]
-        if li < len(samplers):
-            s = samplers[li]
-            targets, g = s.sample(x[m], n[m], uu, engine.epsilon)
-            lit = np.flatnonzero(g[:, 0] > 0)
-            if lit.size:
-                vis = engine.visible(origins[m[lit]], targets[lit, 0])
-                E[m[lit]] = np.where(vis, s.luminance * s.area * g[lit, 0], 0.0)
-        else:
-            e, _ = _point_estimate(scene.point_luminaires[li - len(samplers)], x[m], n[m],
-                                   origins[m], uu, engine)
-            E[m] = e
+        s = samplers[li]
+        targets, g = s.sample(x[m], n[m], u[m, None, 1:], engine.epsilon)
+        lit = np.flatnonzero(g[:, 0] > 0)
+        if lit.size:
+            vis = engine.visible(origins[m[lit]], targets[lit, 0])
+            E[m[lit]] = np.where(vis, s.luminance * s.area * g[lit, 0], 0.0)
     return E / prob + sky

@@ -227,6 +227,7 @@ def grid_illuminance(store, grid, *, nodes=CACHE_NODES, direct_samples=DIRECT_SA
     """
     if not isinstance(store, LsadStore):
         raise BadInputError("grid_illuminance needs a simulated store (LsadStore)")
+    store.require_lambertian("grid_illuminance (direct light and the surface cache)")
     if not isinstance(grid, CalculationGrid):
         raise BadInputError("grid_illuminance needs a CalculationGrid (see work_plane_grid)")
     check_positive_int(nodes, "nodes")

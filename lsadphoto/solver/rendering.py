@@ -5,7 +5,10 @@ scene, simulated first) by one of ``ESTIMATORS``: ``"local"``, the double local 
 (:mod:`lsadphoto.solver.integrators.local_estimate`, the unbiased reference), or ``"cache"``,
 direct light per pixel and indirect light from a surface cache
 (:func:`~lsadphoto.solver.integrators.surface_cache.render_cached`); ``"auto"`` chooses
-(:func:`choose_estimator`) and says why. With ``target_error`` a scene is simulated and
+(:func:`choose_estimator`) and says why. Scenes with glossy, specular or transmitting
+materials render by the double local estimate with materials
+(:func:`~lsadphoto.solver.integrators.local_estimate.render_local_estimate_materials`), from
+their store like Lambertian ones. With ``target_error`` a scene is simulated and
 rendered in rounds until the median per-pixel relative error is reached. The path tracer
 (:func:`~lsadphoto.solver.integrators.path_tracer.render_path_traced`) is the independent
 cross-check.
@@ -17,7 +20,7 @@ import warnings
 from .._validation import check_choice
 from ..errors import BadInputError, SolverWarning
 from .direct import DIRECT_SAMPLES
-from .integrators.local_estimate import (AUTO_NODES_PER_PIXEL, render_local_estimate,
+from .integrators.local_estimate import (AUTO_NODES_PER_PIXEL, RAYS_PER_VERTEX, render_local_estimate,
                                          render_local_estimate_materials)
 from .integrators.path_tracer import render_path_traced
 from .integrators.surface_cache import CACHE_NODES, build_surface_cache, render_cached
@@ -47,15 +50,21 @@ DEFAULT_TARGET_ERROR = 0.02
 #: shadow-ray samples per luminaire and pixel.
 MAX_CACHE_NODES = 1 << 17
 MAX_DIRECT_SAMPLES = 256
+#: Caps of a ``target_error`` render of a scene with non-Lambertian materials: nodes per pixel
+#: and batch, and BSDF-sampled rays per eye vertex (their first round's are the defaults,
+#: :data:`~.local_estimate.AUTO_NODES_PER_PIXEL` and :data:`~.local_estimate.RAYS_PER_VERTEX`).
+MAX_MATERIAL_NODES = 1024
+MAX_RAYS_PER_VERTEX = 256
 
 
 def choose_estimator(store_or_scene, *, samples=None, target_error=None):
     """The estimator ``"auto"`` renders with, and why (one line).
 
     A store renders from its surface cache if it holds one, else by the double local estimate
-    (building a cache is a choice for ``simulate --surface-cache``). A scene with glossy,
-    specular or transmitting materials renders by the double local estimate (the cache is
-    Lambertian). A Lambertian scene with a fixed number
+    (building a cache is a choice for ``simulate --surface-cache``). A store or scene with
+    glossy, specular or transmitting materials renders by the double local estimate with
+    materials (the cache is Lambertian; a target is reached by its rounds). A Lambertian
+    scene with a fixed number
     of chains and no target renders by the double local estimate, the unbiased reference; a
     scene with a per-pixel target (or neither) by the surface cache, which reaches a per-pixel
     error at a small fraction of the per-pixel estimate's cost (docs/accuracy.md: 0.63 % mean
@@ -65,9 +74,12 @@ def choose_estimator(store_or_scene, *, samples=None, target_error=None):
     if isinstance(store_or_scene, LsadStore):
         if store_or_scene.surface_cache is not None:
             return "cache", "the store holds a surface cache"
+        if store_or_scene.materials:
+            return "local", "non-Lambertian materials: the surface cache models Lambertian surfaces only"
         return "local", "the store holds no surface cache (simulate --surface-cache builds one)"
     if not store_or_scene.lambertian:
-        return "local", "non-Lambertian materials: the surface cache models Lambertian surfaces only"
+        return "local", ("non-Lambertian materials: the surface cache models Lambertian surfaces only"
+                         + ("" if target_error is None else "; the per-pixel target by rounds of chains"))
     if samples is not None and target_error is None:
         return "local", "a fixed number of chains: the unbiased double local estimate"
     return "cache", ("a per-pixel target: the surface cache reaches it at a fraction of the double "
@@ -107,7 +119,9 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
         pixels with light (``provenance["pixel_relative_error_median"]``). The scene is
         simulated in rounds, each with the chains that 1/√chains predicts from the last
         (2–16 times as many; with ``"cache"`` the cache's node draws and the direct light's
-        samples grow by the same factor), up to ``max_samples``; a
+        samples grow by the same factor; with non-Lambertian materials the nodes per pixel
+        and the BSDF-sampled rays per eye vertex, up to :data:`MAX_MATERIAL_NODES` and
+        :data:`MAX_RAYS_PER_VERTEX`), up to ``max_samples``; a
         :class:`~lsadphoto.errors.SolverWarning` says when the target is not reached, or
         when the error stops falling with more chains because each pixel connects to a
         fixed number of nodes (``nodes_per_pixel``: then ask for ``"all"`` or a larger K).
@@ -117,7 +131,8 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
     seed : int
         Seed of the near-field rays (and of the simulation when given a scene).
     near_field : {"unbiased", "clamp"}, optional
-        Near-field treatment (:mod:`~lsadphoto.solver.integrators.local_estimate`); default the store's.
+        Near-field treatment (:mod:`~lsadphoto.solver.integrators.local_estimate`); default the store's
+        ("clamp" is an error for non-Lambertian materials).
     near_distance : float, optional
         ε [m]; default :data:`~lsadphoto.solver.integrators.local_estimate.RELATIVE_NEAR_DISTANCE` × scene size.
     cache_spacing, cache_nodes : float [m], int, optional
@@ -134,6 +149,8 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
         cost ∝ pixels × K × batches. ``"all"`` (or None) connects every node: the full
         double local estimate, cost ∝ pixels × nodes. ``"auto"`` (default): all nodes when
         pixels × nodes ≤ :data:`~.local_estimate.FULL_GATHER_PAIRS`, else :data:`~.local_estimate.AUTO_NODES_PER_PIXEL`.
+        With non-Lambertian materials an integer, or ``"auto"`` for
+        :data:`~.local_estimate.AUTO_NODES_PER_PIXEL` (``"all"`` is an error).
     chunk_pixels : int
         Pixels per processing chunk (rounded up to a multiple of :data:`~.eye.PIXEL_BLOCK`);
         bounds memory, never changes the result.
@@ -220,23 +237,13 @@ def _render_local(store_or_scene, projection, *, samples, target_error, max_samp
     options = {k: rest[k] for k in ("position", "rotation", "seed", "near_field", "near_distance",
                                     "nodes_per_pixel", "chunk_pixels", "workers")}
     seed, near_field = rest["seed"], rest["near_field"]
+    scene = store_or_scene.scene if isinstance(store_or_scene, LsadStore) else store_or_scene
+    if not scene.lambertian:
+        return _render_local_materials(store_or_scene, projection, samples=samples, target_error=target_error,
+                                       max_samples=max_samples, progress=progress, **rest)
     if isinstance(store_or_scene, LsadStore):
-        if samples is not None or target_error is not None:
-            raise BadInputError("samples and target_error apply when rendering a scene; a store's "
-                                f"{store_or_scene.chains} chains are fixed (simulate again for more)")
+        _refuse_chains_for_store(store_or_scene, samples, target_error)
         return render_local_estimate(store_or_scene, projection, progress=progress, **options)
-    if not store_or_scene.lambertian:
-        # glossy, specular, transmitting materials: chains and view in one go (no store)
-        if target_error is not None or near_field == "clamp":
-            raise BadInputError("scenes with non-Lambertian materials render with samples and the "
-                                "unbiased near field only (no target_error, no near_field='clamp')")
-        k = rest["nodes_per_pixel"]
-        return render_local_estimate_materials(
-            store_or_scene, projection, position=rest["position"], rotation=rest["rotation"],
-            samples=DEFAULT_CHAINS if samples is None else samples, seed=seed,
-            nodes_per_pixel=AUTO_NODES_PER_PIXEL if k in ("auto", None) else k,
-            near_distance=rest["near_distance"], chunk_pixels=rest["chunk_pixels"],
-            workers=rest["workers"], progress=progress)
     if target_error is None:
         store = simulate(store_or_scene, samples=samples, seed=seed,
                          near_field=near_field or "unbiased")
@@ -254,6 +261,53 @@ def _render_local(store_or_scene, projection, *, samples, target_error, max_samp
                              first_chains=FIRST_RENDER_CHAINS, render_round=render_round)
 
 
+def _refuse_chains_for_store(store, samples, target_error):
+    """One-line error: a store's chains are fixed."""
+    if samples is not None or target_error is not None:
+        raise BadInputError("samples and target_error apply when rendering a scene; a store's "
+                            f"{store.chains} chains are fixed (simulate again for more)")
+
+
+def _render_local_materials(store_or_scene, projection, *, samples, target_error, max_samples, progress,
+                            **rest):
+    """The double local estimate with materials (options as :func:`render`'s): a store of
+    chains that sample the BSDFs, simulated like any other (one path: a render of the scene
+    is :func:`simulate` + the render of its store, the same map bit for bit)."""
+    if rest["near_field"] == "clamp":
+        raise BadInputError("scenes with non-Lambertian materials render with the unbiased near field only "
+                            "(near_field='clamp' applies to Lambertian scenes)")
+    k = rest["nodes_per_pixel"]
+    if k is None or k == "all":
+        raise BadInputError("nodes_per_pixel='all' applies to Lambertian scenes; with non-Lambertian materials "
+                            f"each pixel connects to a number of nodes per batch (default {AUTO_NODES_PER_PIXEL})")
+    first_k = AUTO_NODES_PER_PIXEL if k == "auto" else k
+    view = {key: rest[key] for key in ("position", "rotation", "seed", "near_distance", "chunk_pixels", "workers")}
+    view["progress"] = progress
+    if isinstance(store_or_scene, LsadStore):
+        _refuse_chains_for_store(store_or_scene, samples, target_error)
+        return render_local_estimate_materials(store_or_scene, projection, nodes_per_pixel=first_k, **view)
+    if target_error is None:
+        store = simulate(store_or_scene, samples=samples, seed=rest["seed"])
+        return render_local_estimate_materials(store, projection, nodes_per_pixel=first_k, **view)
+
+    def render_round(store, growth):
+        # the node draws and the sampled rays per pixel grow with the chains: each noise of the
+        # map falls as 1/√ of its samples (the secondary vertices keep K/rays nodes each)
+        nodes = min(MAX_MATERIAL_NODES, max(first_k, round(first_k * growth)))
+        rays = min(MAX_RAYS_PER_VERTEX, max(RAYS_PER_VERTEX, round(RAYS_PER_VERTEX * growth)))
+        lmap = render_local_estimate_materials(store, projection, nodes_per_pixel=nodes, rays_per_vertex=rays,
+                                               **view)
+        capped = nodes == MAX_MATERIAL_NODES or rays == MAX_RAYS_PER_VERTEX
+        advice = (f"the material local estimate reached its caps ({MAX_MATERIAL_NODES} nodes per pixel and "
+                  f"batch, {MAX_RAYS_PER_VERTEX} sampled rays per eye vertex); give a larger target or "
+                  "render_path_traced") if capped else None
+        return lmap, {"nodes_per_pixel": nodes, "rays_per_vertex": rays}, advice
+
+    return _render_to_target(store_or_scene, samples=samples, target_error=target_error,
+                             max_samples=max_samples, seed=rest["seed"], near_field="unbiased",
+                             first_chains=FIRST_RENDER_CHAINS, render_round=render_round)
+
+
 def _render_from_cache(store_or_scene, projection, *, position, rotation, samples, target_error,
                        max_samples, seed, spacing, nodes, direct_samples, chunk_pixels, workers,
                        progress):
@@ -266,11 +320,11 @@ def _render_from_cache(store_or_scene, projection, *, position, rotation, sample
     def cache_of(store, node_draws):
         return build_surface_cache(store, spacing=spacing, nodes=node_draws, seed=seed, workers=workers)
 
+    (store_or_scene.scene if isinstance(store_or_scene, LsadStore) else store_or_scene).require_lambertian(
+        "the surface cache", "--estimator local (the double local estimate with materials)")
     if isinstance(store_or_scene, LsadStore):
         store = store_or_scene
-        if samples is not None or target_error is not None:
-            raise BadInputError("samples and target_error apply when rendering a scene; a store's "
-                                f"{store.chains} chains are fixed (simulate again for more)")
+        _refuse_chains_for_store(store, samples, target_error)
         cache = store.surface_cache
         if cache is not None and (spacing is not None or nodes is not None):
             raise BadInputError(f"cache_spacing and cache_nodes cannot apply: the store already holds a "

@@ -16,9 +16,19 @@ from .._provenance import build_provenance
 from .._validation import check_choice
 from .._version import __version__
 from ..errors import BadInputError, SolverWarning
-from .chains import ABSORPTION_MODES, CHAIN_BLOCK, EmissionSampler, trace_chains
+from .chains import (
+    ABSORPTION_MODES,
+    CHAIN_BLOCK,
+    EmissionSampler,
+    trace_chains,
+    trace_material_chains,
+)
 from .engine import engine_for
-from .integrators.local_estimate import NEAR_FIELD_TREATMENTS, render_local_estimate
+from .integrators.local_estimate import (
+    NEAR_FIELD_TREATMENTS,
+    render_local_estimate,
+    render_local_estimate_materials,
+)
 from .scene import Scene
 
 __all__ = ["DEFAULT_BATCHES", "DEFAULT_CHAINS", "MAX_CHAINS", "ChainRun", "check_simulation_options", "simulate"]
@@ -45,22 +55,25 @@ def _error_estimate(store):
     """Relative standard error [–] of the field-mean luminance of the first view.
 
     Rendered at ≤ 24 px per side from the store, 128 nodes per pixel and batch (the
-    estimate includes that subsampling noise, so it errs on the safe side). Without views: of the area-mean exitance
-    of all surfaces (collision estimate, per batch).
+    estimate includes that subsampling noise, so it errs on the safe side; with
+    non-Lambertian materials by the material local estimate, with its sampled rays). Without
+    views: of the area-mean exitance of all surfaces (collision estimate, per batch; with
+    non-Lambertian materials of the flux arriving on them, the nodes' weights).
     """
     scene = store.scene
     if scene.views:
         view = scene.views[0]
         factor = max(1, math.ceil(max(view.projection.shape) / _ERROR_VIEW_SIDE))
         proj = view.projection.binned(factor) if factor > 1 else view.projection
-        lmap = render_local_estimate(store, proj, position=view.position, rotation=view.rotation,
-                                     seed=store.seed, nodes_per_pixel=_ERROR_VIEW_NODES)
+        renderer = render_local_estimate_materials if store.materials else render_local_estimate
+        lmap = renderer(store, proj, position=view.position, rotation=view.rotation, seed=store.seed,
+                        nodes_per_pixel=_ERROR_VIEW_NODES)
         return lmap.provenance["achieved_relative_error"], "field-mean luminance of view " + repr(view.name)
     total = np.zeros(store.batches)
     surf = store.depth > 0
     np.add.at(total, store.batch[surf], store.coefficient[surf])
     rel = total.std(ddof=1) / math.sqrt(store.batches) / total.mean() if total.mean() > 0 else 0.0
-    return float(rel), "area-mean reflected exitance"
+    return float(rel), "surface-incident flux" if store.materials else "area-mean reflected exitance"
 
 
 class ChainRun:
@@ -98,9 +111,12 @@ class ChainRun:
                     elapsed = time.perf_counter() - self.started
                     self._progress(frac, elapsed * (1 - frac) / frac if frac > 0 else float("nan"))
 
-            part = trace_chains(self.scene, self.engine, seed=self.seed, first_block=self.blocks,
-                                blocks=blocks, batches=self.batches, max_depth=self.max_depth,
-                                absorption=self.absorption, sampler=self.sampler, progress=report)
+            common = {"seed": self.seed, "first_block": self.blocks, "blocks": blocks, "batches": self.batches,
+                      "max_depth": self.max_depth, "sampler": self.sampler, "progress": report}
+            if self.scene.lambertian:
+                part = trace_chains(self.scene, self.engine, absorption=self.absorption, **common)
+            else:
+                part = trace_material_chains(self.scene, self.engine, **common)
             if self.store is None:
                 self.store = part
             else:
@@ -128,6 +144,9 @@ def check_simulation_options(scene, *, near_field, absorption, batches, max_dept
         raise BadInputError("simulate needs a Scene (see load_scene)")
     check_choice(near_field, "near_field", NEAR_FIELD_TREATMENTS)
     check_choice(absorption, "absorption", ABSORPTION_MODES)
+    if not scene.lambertian and (near_field != "unbiased" or absorption != "weight"):
+        raise BadInputError("scenes with non-Lambertian materials simulate with near_field='unbiased' and "
+                            "absorption='weight' only (the material chains and local estimate)")
     if int(batches) != batches or batches < 8 or CHAIN_BLOCK % int(batches):
         raise BadInputError(f"batches must be a divisor of {CHAIN_BLOCK} and at least 8, got {batches}")
     if max_depth is not None and (int(max_depth) != max_depth or max_depth < 1):
@@ -140,6 +159,11 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
              near_field="unbiased", absorption="weight", batches=DEFAULT_BATCHES,
              max_samples=MAX_CHAINS, progress=None):
     """Trace light chains from the luminaires of ``scene``; return an :class:`LsadStore`.
+
+    In a scene with glossy, specular or transmitting materials the chains sample the BSDFs
+    (:func:`~lsadphoto.solver.chains.trace_material_chains`) and the store holds what the
+    material local estimate needs (the nodes' incoming directions and sides, the scene's
+    materials); such scenes take ``near_field="unbiased"`` and ``absorption="weight"`` only.
 
     Parameters
     ----------
@@ -182,9 +206,6 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
     """
     check_simulation_options(scene, near_field=near_field, absorption=absorption, batches=batches,
                              max_depth=max_depth, samples=samples)
-    scene.require_lambertian("a stored simulation (simulate, and the surface cache through it)",
-                             "render with the scene itself (lsadphoto render SCENE --estimator local; "
-                             "lsadphoto.solver.render or render_path_traced)")
     batches = int(batches)
     if target_error is not None and not (MIN_TARGET_ERROR <= float(target_error) < 1):
         raise BadInputError(f"target_error must be a relative error from {MIN_TARGET_ERROR:g} to below 1, "

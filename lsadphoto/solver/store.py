@@ -4,7 +4,10 @@ For a Lambertian scene the nodes of the light chains (position, normal, incident
 coefficient, kind, batch) are all a renderer needs: any view is rendered from them by
 tracing only its primary rays and the visibility rays to the nodes (the double local
 estimate, :func:`lsadphoto.solver.render`). This is the "view independence" of the seed
-paper: one simulation serves every observer.
+paper: one simulation serves every observer. For a scene with glossy, specular or
+transmitting materials the nodes also hold each chain's incoming direction and the side it
+hit (the BSDF at a node depends on both), and the scene its
+:class:`~lsadphoto.solver.materials.Material` list.
 
 The file is a NumPy ``.npz`` archive (written atomically: temporary file + rename) with the
 node arrays, the triangulated scene and a JSON header (``meta``) holding luminaires,
@@ -19,7 +22,7 @@ storage of the computed LSAD). Keller, A. (1997). Instant radiosity. *SIGGRAPH '
 
 import json
 import zipfile
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -29,20 +32,26 @@ from ..errors import BadInputError, UnsupportedFileError
 from ..geometry.base import projection_from_dict
 from .._atomic import atomic_path
 from .cache_grid import SurfaceCache
+from .materials import Material
 from .photometry import Photometry
 from .scene import AreaLuminaire, PointLuminaire, Scene, View
 from .sky import DistantSource
 
-__all__ = ["STORE_FORMAT", "LsadStore", "load_store"]
+__all__ = ["READABLE_FORMATS", "STORE_FORMAT", "LsadStore", "load_store"]
 
-#: Identifier and version of the store file layout.
-STORE_FORMAT = "lsadphoto-lsad-store/3"
+#: Identifier and version of the store file layout written: /4 adds the nodes' ``incoming``
+#: and ``front`` and the scene's ``surface_materials`` (scenes with non-Lambertian materials).
+STORE_FORMAT = "lsadphoto-lsad-store/4"
+#: Layouts :func:`load_store` reads: /3 (Lambertian scenes only) is /4 without those.
+READABLE_FORMATS = ("lsadphoto-lsad-store/3", STORE_FORMAT)
 
 #: Node kinds: 0 = cosine lobe (Lambertian surface or emitter), 1 = intensity distribution
 #: of a point luminaire (index in ``luminaire``).
 KIND_COSINE, KIND_POINT = 0, 1
 
 _NODE_FIELDS = ("position", "normal", "coefficient", "kind", "luminaire", "batch", "depth", "triangle")
+#: Further node fields of a store of a scene with non-Lambertian materials.
+_MATERIAL_FIELDS = ("incoming", "front")
 
 
 @dataclass
@@ -55,11 +64,18 @@ class LsadStore:
     position, normal : ndarray, shape (k, 3)
         Node position [m] and the unit normal of the side the node was reached from.
     coefficient : ndarray, shape (k,)
-        For cosine nodes, W·ρ/π (W·1/π at an emitter) [lm·sr⁻¹]; for point nodes
-        Φ_total/Φ_luminaire [–]. Both before division by the chains per batch.
+        For cosine nodes, W·ρ/π (W·1/π at an emitter) [lm·sr⁻¹] — in a scene with
+        non-Lambertian materials (``materials``) the chain's weight W [lm] at surface nodes,
+        the BSDF being evaluated at rendering; for point nodes Φ_total/Φ_luminaire [–]. All
+        before division by the chains per batch.
     kind, luminaire, batch, depth, triangle : ndarray of int, shape (k,)
         Node kind, point-luminaire index (−1 otherwise), batch index, bounce number
         (0 at the source) and triangle id (−1 for point luminaires).
+    incoming : ndarray, shape (k, 3), or None
+        Non-Lambertian scenes: the unit direction back along the chain's arriving ray
+        (zero at source nodes); None for Lambertian scenes.
+    front : ndarray of bool, shape (k,), or None
+        Non-Lambertian scenes: whether the node was reached on its triangle's front side.
     chains : int
         Number of light chains; each of the ``batches`` batches holds ``chains/batches``.
     surface_cache : SurfaceCache or None
@@ -82,6 +98,13 @@ class LsadStore:
     near_field: str = "unbiased"
     provenance: dict = field(default_factory=dict)
     surface_cache: object = None
+    incoming: np.ndarray = None
+    front: np.ndarray = None
+
+    def __post_init__(self):
+        if (self.incoming is None) != self.scene.lambertian:
+            raise BadInputError("a store of a scene with non-Lambertian materials needs the nodes' incoming "
+                                "directions and sides (and a Lambertian scene's store none)")
 
     def __repr__(self):
         return (f"LsadStore({self.scene!r}, {self.chains} chains in {self.batches} batches, "
@@ -93,6 +116,17 @@ class LsadStore:
         return len(self.coefficient)
 
     @property
+    def materials(self):
+        """Whether the scene has non-Lambertian materials (nodes of BSDF-sampled chains)."""
+        return self.incoming is not None
+
+    def require_lambertian(self, estimator):
+        """Raise :class:`BadInputError` (one line) when the store's scene has non-Lambertian
+        materials and ``estimator`` models Lambertian surfaces only."""
+        self.scene.require_lambertian(estimator, "render (estimator 'local': the double local estimate "
+                                                 "with materials)")
+
+    @property
     def chains_per_batch(self):
         """Light chains in each batch."""
         return self.chains // self.batches
@@ -100,7 +134,7 @@ class LsadStore:
     def extend(self, other):
         """Append the nodes and chains of another store of the same scene (in place); a
         surface cache built from the old nodes is dropped."""
-        for name in _NODE_FIELDS:
+        for name in _NODE_FIELDS + (_MATERIAL_FIELDS if self.materials else ()):
             setattr(self, name, np.concatenate([getattr(self, name), getattr(other, name)]))
         self.chains += other.chains
         self.surface_cache = None
@@ -132,7 +166,9 @@ class LsadStore:
                 "distant_sources": [d.to_dict() for d in scene.distant_sources],
             },
         }
-        arrays = {name: getattr(self, name) for name in _NODE_FIELDS}
+        if scene.surface_materials is not None:
+            meta["scene"]["surface_materials"] = [asdict(m) for m in scene.surface_materials]
+        arrays = {name: getattr(self, name) for name in _NODE_FIELDS + (_MATERIAL_FIELDS if self.materials else ())}
         arrays.update(
             triangles=scene.triangles, material=scene.material, reflectance=scene.reflectance,
             emitter=scene.emitter,
@@ -165,7 +201,7 @@ def load_store(path):
         meta = json.loads(arrays.pop("meta").tobytes().decode("utf-8"))
     except (KeyError, ValueError, UnicodeDecodeError):
         raise UnsupportedFileError(f"{path}: not an LSAD store (no header)") from None
-    if meta.get("format") != STORE_FORMAT:
+    if meta.get("format") not in READABLE_FORMATS:
         raise UnsupportedFileError(f"{path}: unknown store format {meta.get('format')!r}")
     try:
         s = meta["scene"]
@@ -180,10 +216,13 @@ def load_store(path):
                                          np.asarray(l["frame"]), tuple(l["extent"]), l["multiplier"]))
         views = [View(v["name"], np.asarray(v["position"]), np.asarray(v["rotation"]),
                       projection_from_dict(v["projection"])) for v in s["views"]]
+        materials = s.get("surface_materials")
         scene = Scene(arrays["triangles"], arrays["material"], s["material_names"],
                       arrays["reflectance"], emitter, area, points, views, name=s["name"],
-                      distant_sources=[DistantSource.from_dict(d) for d in s.get("distant_sources", [])])
-        nodes = {name: arrays[name] for name in _NODE_FIELDS}
+                      distant_sources=[DistantSource.from_dict(d) for d in s.get("distant_sources", [])],
+                      surface_materials=None if materials is None else [
+                          Material(**{**m, "colour": tuple(m["colour"])}) for m in materials])
+        nodes = {name: arrays[name] for name in _NODE_FIELDS + (() if scene.lambertian else _MATERIAL_FIELDS)}
         cache = None
         if "surface_cache" in meta:
             c = meta["surface_cache"]

@@ -54,7 +54,6 @@ from ...errors import BadInputError
 from .._sampling import GroupStreams, stream
 from ..engine import engine_for
 from ..materials import KINDS, shadow_transmittance
-from ..scene import Scene
 from ..sky import (GATHER_DISTANT_SAMPLES, background_luminance, distant_illuminance, distant_reflection,
                    distant_uniforms, stratified)
 from ..store import KIND_COSINE, LsadStore
@@ -309,6 +308,9 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
     """
     if not isinstance(store, LsadStore):
         raise BadInputError("render needs an LsadStore or a Scene")
+    if store.materials:
+        raise BadInputError("the store's scene has non-Lambertian materials: render it with "
+                            "render_local_estimate_materials (lsadphoto.solver.render does)")
     near_field = check_choice(near_field or store.near_field, "near_field", NEAR_FIELD_TREATMENTS)
     scene = store.scene
     if near_distance is None:
@@ -402,7 +404,8 @@ GATHER_PAIRS = 1 << 17
 class _MaterialGatherer:
     """Node terms W·f_n(ω_in, ω_out)|cos θ_n|·f_p(ω_{p→n}, ω_o)|cos θ_p|/r²·T at points.
 
-    ``nodes`` is :func:`~lsadphoto.solver.chains.trace_material_chains`' dict. Each point
+    ``nodes`` is the :class:`~lsadphoto.solver.store.LsadStore` of
+    :func:`~lsadphoto.solver.chains.trace_material_chains`. Each point
     draws K nodes of its batch uniformly with replacement, K/2 from the source nodes (direct
     light) and K/2 from the surface nodes, each stratum scaled by its size over its draws
     (unbiased). T is the shadow transmittance (glass passes light straight through).
@@ -430,26 +433,26 @@ class _MaterialGatherer:
         self.rays = int(rays)
         self.k_secondary = max(1, self.k // self.rays)
         self.eps2 = near_distance ** 2
-        self.n_b = nodes["chains"] / nodes["batches"]
-        B = nodes["batches"]
-        order = np.argsort(nodes["batch"], kind="stable")
-        bounds = np.searchsorted(nodes["batch"][order], np.arange(B + 1))
+        self.n_b = nodes.chains / nodes.batches
+        B = nodes.batches
+        order = np.argsort(nodes.batch, kind="stable")
+        bounds = np.searchsorted(nodes.batch[order], np.arange(B + 1))
         # emission-point density per unit area [m⁻²] of each area luminaire: (Φ_l/Φ)/A_l
         self.area_density = np.array([lum.flux / (sampler.total_flux * scene.areas[lum.triangles].sum())
                                       for lum in scene.area_luminaires])
         # the strata (0: source nodes, 1: surface nodes) of every batch, each as one array of
         # node indices in batch order with each batch's offset and size
-        per_batch = [(idx[nodes["depth"][idx] == 0], idx[nodes["depth"][idx] > 0])
+        per_batch = [(idx[nodes.depth[idx] == 0], idx[nodes.depth[idx] > 0])
                      for idx in (order[bounds[b]:bounds[b + 1]] for b in range(B))]
         self.stratum_nodes = [np.concatenate([st[j] for st in per_batch]) for j in (0, 1)]
         self.stratum_size = np.array([[st[j].size for j in (0, 1)] for st in per_batch], np.int64)   # (B, 2)
         self.stratum_offset = np.cumsum(self.stratum_size, axis=0) - self.stratum_size
         self.strata = (self.stratum_size > 0).sum(axis=1)
         # each surface node's BSDF components towards its incoming direction (fixed per node)
-        surface = np.flatnonzero(nodes["depth"] > 0)
-        mu = np.clip(np.einsum("ij,ij->i", nodes["normal"][surface], nodes["incoming"][surface]), 1e-3, 1.0)
-        self.node_parts = scene.bsdf.parts(self.scene.material[nodes["triangle"][surface]], mu)
-        self.node_row = np.full(len(nodes["depth"]), -1, np.int64)
+        surface = np.flatnonzero(nodes.depth > 0)
+        mu = np.clip(np.einsum("ij,ij->i", nodes.normal[surface], nodes.incoming[surface]), 1e-3, 1.0)
+        self.node_parts = scene.bsdf.parts(self.scene.material[nodes.triangle[surface]], mu)
+        self.node_row = np.full(nodes.nodes, -1, np.int64)
         self.node_row[surface] = np.arange(surface.size)
         # planar mirrors as virtual sources (Radiance's -dr 1): mirror triangles, when few
         kind = scene.bsdf.code[scene.material]
@@ -525,7 +528,7 @@ class _MaterialGatherer:
         nd = self.nodes
         bsdf = self.scene.bsdf
         eps = self.engine.epsilon
-        y, ny = nd["position"][pick], nd["normal"][pick]
+        y, ny = nd.position[pick], nd.normal[pick]
         v = y - x[owner]
         r2 = np.einsum("ij,ij->i", v, v)
         w = v / np.sqrt(np.maximum(r2, 1e-300))[:, None]
@@ -533,8 +536,8 @@ class _MaterialGatherer:
         cos_p = np.einsum("ij,ij->i", w, np_)
         f_d, f_g = bsdf.evaluate(mat[owner], np_, wo[owner], w, split=True,
                                  parts={key: v[owner] for key, v in parts.items()})
-        kind = nd["kind"][pick]
-        surface = nd["depth"][pick] > 0
+        kind = nd.kind[pick]
+        surface = nd.depth[pick] > 0
         cos_n = -np.einsum("ij,ij->i", w, ny)
         f_pg = np.where(kind == KIND_COSINE, 0.0, f_g)
         emitter = np.flatnonzero((kind == KIND_COSINE) & ~surface & (f_g > 0))
@@ -542,20 +545,20 @@ class _MaterialGatherer:
             p_b = bsdf.pdf(mat[owner[emitter]], np_[emitter], wo[owner[emitter]], w[emitter],
                            parts={key: v[owner[emitter]] for key, v in parts.items()})
             f_pg[emitter] = f_g[emitter] * self.light_weight(
-                batch[owner[emitter]], nd["triangle"][pick[emitter]], r2[emitter], np.maximum(cos_n[emitter], 0.0),
+                batch[owner[emitter]], nd.triangle[pick[emitter]], r2[emitter], np.maximum(cos_n[emitter], 0.0),
                 p_b, primary)
-        intensity = np.where(kind == KIND_COSINE, nd["coefficient"][pick] * np.maximum(cos_n, 0.0), 0.0)
+        intensity = np.where(kind == KIND_COSINE, nd.coefficient[pick] * np.maximum(cos_n, 0.0), 0.0)
         if surface.any():
             s = np.flatnonzero(surface)
-            m_n = self.scene.material[nd["triangle"][pick[s]]]
+            m_n = self.scene.material[nd.triangle[pick[s]]]
             rows = self.node_row[pick[s]]
-            f_n, _ = bsdf.evaluate(m_n, ny[s], nd["incoming"][pick[s]], -w[s], split=True,
+            f_n, _ = bsdf.evaluate(m_n, ny[s], nd.incoming[pick[s]], -w[s], split=True,
                                    parts={key: v[rows] for key, v in self.node_parts.items()})
-            intensity[s] = nd["coefficient"][pick[s]] * f_n * np.abs(cos_n[s])
+            intensity[s] = nd.coefficient[pick[s]] * f_n * np.abs(cos_n[s])
         point = np.flatnonzero(kind != KIND_COSINE)
         if point.size:
-            intensity[point] = nd["coefficient"][pick[point]] * self.sampler.point_intensity(
-                nd["luminaire"][pick[point]], -w[point])
+            intensity[point] = nd.coefficient[pick[point]] * self.sampler.point_intensity(
+                nd.luminaire[pick[point]], -w[point])
         near = (kind == KIND_COSINE) & (r2 < self.eps2)
         geometry = np.where(near | (r2 <= 0), 0.0, np.abs(cos_p) * intensity / np.maximum(r2, 1e-300))
         val = np.stack([f_d * geometry, f_pg * geometry])
@@ -581,7 +584,7 @@ class _MaterialGatherer:
         scene, nd, eps = self.scene, self.nodes, self.engine.epsilon
         out = np.zeros((2, pick.size))
         p0, nm = scene.triangles[t, 0], scene.normals[t]
-        y, xp = nd["position"][pick], x[owner]
+        y, xp = nd.position[pick], x[owner]
         hy, hx = (y - p0) @ nm, (xp - p0) @ nm
         live = np.flatnonzero((hy > 0) & (hx > 0))             # both in front of the mirror
         if not live.size:
@@ -602,18 +605,18 @@ class _MaterialGatherer:
         to_q = q - y[live]
         to_q /= np.linalg.norm(to_q, axis=1, keepdims=True)
         k = pick[live]
-        is_cos = nd["kind"][k] == KIND_COSINE
-        intensity = np.where(is_cos, nd["coefficient"][k] * np.maximum(np.einsum("ij,ij->i", to_q, nd["normal"][k]),
+        is_cos = nd.kind[k] == KIND_COSINE
+        intensity = np.where(is_cos, nd.coefficient[k] * np.maximum(np.einsum("ij,ij->i", to_q, nd.normal[k]),
                                                                        0.0), 0.0)
         point = np.flatnonzero(~is_cos)
         if point.size:
-            intensity[point] = nd["coefficient"][k[point]] * self.sampler.point_intensity(
-                nd["luminaire"][k[point]], to_q[point])
+            intensity[point] = nd.coefficient[k[point]] * self.sampler.point_intensity(
+                nd.luminaire[k[point]], to_q[point])
         o = owner[live]
         reflectance = scene.bsdf.delta(np.full(live.size, scene.material[t]), np.abs(w @ nm),
                                        np.ones(live.size, bool))[0]
         geometry = reflectance * np.abs(cos_p) * intensity / (length * length)
-        geometry *= self.engine.visible(q + eps * nm, y[live] + eps * nd["normal"][k] * is_cos[:, None])
+        geometry *= self.engine.visible(q + eps * nm, y[live] + eps * nd.normal[k] * is_cos[:, None])
         f_d, f_g = scene.bsdf.evaluate(mat[o], np_, wo[o], w, split=True,
                                        parts={key: value[o] for key, value in parts.items()})
         out[:, live] = np.stack([f_d * geometry, f_g * geometry])
@@ -797,15 +800,16 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     return total
 
 
-def render_local_estimate_materials(scene, projection, *, position, rotation, samples=65536, seed=0,
-                                    batches=16, nodes_per_pixel=AUTO_NODES_PER_PIXEL, rays_per_vertex=RAYS_PER_VERTEX,
-                                    near_distance=None, max_depth=None, chunk_pixels=2048, workers=1,
-                                    progress=None):
-    """Luminance map [cd·m⁻²] of a scene with glossy, specular or transmitting materials by the
-    double local estimate.
+def render_local_estimate_materials(store, projection, *, position, rotation, seed=0,
+                                    nodes_per_pixel=AUTO_NODES_PER_PIXEL, rays_per_vertex=RAYS_PER_VERTEX,
+                                    near_distance=None, chunk_pixels=2048, workers=1, progress=None):
+    """Luminance map [cd·m⁻²] of a view of a scene with glossy, specular or transmitting
+    materials by the double local estimate, from the store of its light chains.
 
-    ``samples`` light chains (:func:`~lsadphoto.solver.chains.trace_material_chains`, each
-    sampling the BSDFs) in ``batches`` batches; for each pixel and batch the eye path is
+    ``store``: an :class:`~lsadphoto.solver.store.LsadStore` of such a scene
+    (:func:`~lsadphoto.solver.simulate`, whose chains sample the BSDFs:
+    :func:`~lsadphoto.solver.chains.trace_material_chains`); any number of views render from
+    one store. For each pixel and batch the eye path is
     followed through perfectly specular surfaces (mirror, glass, smooth plastic's mirror part:
     :func:`_material_paths`) and at every vertex the
     non-delta BSDF is evaluated towards the eye and connected to ``nodes_per_pixel`` chain
@@ -818,7 +822,8 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
     (:data:`MAX_VIRTUAL_MIRRORS` mirror triangles at most); connections to surface nodes use
     the nodes' diffuse part. The rest — glossy light of surfaces, light after other delta
     reflections (the reflection of a luminaire in glass on a floor), the near field — comes
-    from the sampled rays (:func:`_scattered`).
+    from the sampled rays (:func:`_scattered`). ``seed`` keys the eye paths' random streams
+    (rendering with the store's own seed gives the map of a render of the scene itself).
 
     References
     ----------
@@ -827,15 +832,13 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
     lighting simulation and rendering system. *SIGGRAPH '94*, 459–472 (virtual light sources
     for planar mirrors).
     """
-    from ..chains import CHAIN_BLOCK as _BLOCK
-    from ..chains import EmissionSampler, trace_material_chains
+    from ..chains import EmissionSampler
 
-    if not isinstance(scene, Scene) or scene.bsdf is None:
-        raise BadInputError("render_local_estimate_materials needs a Scene with non-Lambertian materials")
+    if not isinstance(store, LsadStore) or not store.materials:
+        raise BadInputError("render_local_estimate_materials needs the LsadStore of a scene with non-Lambertian "
+                            "materials")
+    scene, batches = store.scene, store.batches
     position, rotation = check_pose(position, rotation)
-    samples, batches = int(samples), int(batches)
-    if batches < 2 or _BLOCK % batches or samples < _BLOCK:
-        raise BadInputError(f"samples ({samples}) must be ≥ {_BLOCK} and batches ({batches} ≥ 2) divide {_BLOCK}")
     near_distance = float(RELATIVE_NEAR_DISTANCE * scene.size if near_distance is None else near_distance)
     if not near_distance > 0:
         raise BadInputError(f"near_distance must be positive, got {near_distance!r}")
@@ -845,9 +848,7 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
     t0 = time.perf_counter()
     engine = engine_for(scene)
     sampler = EmissionSampler(scene)
-    nodes = trace_material_chains(scene, engine, seed=seed, blocks=-(-samples // _BLOCK), batches=batches,
-                                  max_depth=max_depth, sampler=sampler)
-    gatherer = _MaterialGatherer(scene, engine, sampler, nodes, per_pixel=nodes_per_pixel,
+    gatherer = _MaterialGatherer(scene, engine, sampler, store, per_pixel=nodes_per_pixel,
                                  near_distance=near_distance, rays=rays_per_vertex)
     valid, prim, dist, d = primary_rays(scene, engine, projection, position, rotation)
     hit = np.flatnonzero(prim >= 0)
@@ -873,10 +874,9 @@ def render_local_estimate_materials(scene, projection, *, position, rotation, sa
     return luminance_map_from_batches(
         projection, valid, lum_b, model=scene, estimator="double local estimate (materials)",
         openings=openings,
-        extra={"samples": int(nodes["chains"]), "chains": int(nodes["chains"]),
-               "nodes": int(nodes["position"].shape[0]), "near_field": "unbiased",
+        extra={"samples": int(store.chains), "chains": int(store.chains),
+               "nodes": int(store.nodes), "near_field": "unbiased",
                "near_distance_m": near_distance, "near_field_biased": False,
                "nodes_per_pixel": int(nodes_per_pixel), "rays_per_vertex": int(rays_per_vertex),
-               "seed": int(seed),
-               },
+               "seed": int(seed), "simulation_seed": int(store.seed)},
         elapsed=time.perf_counter() - t0, pose=(position, rotation))

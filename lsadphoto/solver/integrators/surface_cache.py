@@ -344,6 +344,7 @@ def indirect_illuminance(store, points, normals, *, nodes=CACHE_NODES, near_dist
     """
     if not isinstance(store, LsadStore):
         raise BadInputError("indirect_illuminance needs an LsadStore")
+    store.require_lambertian("the indirect illuminance of the surface cache")
     scene = store.scene
     eps = RELATIVE_CACHE_NEAR_DISTANCE * scene.size if near_distance is None else float(near_distance)
     if not eps > 0:
@@ -517,6 +518,7 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     """
     if not isinstance(store, LsadStore):
         raise BadInputError("build_surface_cache needs an LsadStore")
+    store.require_lambertian("the surface cache")
     scene = store.scene
     spacing = RELATIVE_CACHE_SPACING * scene.size if spacing is None else float(spacing)
     if not (spacing > 0 and math.isfinite(spacing)):
@@ -696,6 +698,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     """
     if not isinstance(store, LsadStore):
         raise BadInputError("render_cached needs an LsadStore (simulate the scene first)")
+    store.require_lambertian("the surface cache")
     scene = store.scene
     if cache is None:
         cache = store.surface_cache or build_surface_cache(store, workers=workers)

@@ -14,11 +14,19 @@ ANSI/IES LM-63-19; Stockmar (1990); CIE 121-1996 (C–γ system).
 from pathlib import Path
 
 from ...errors import BadInputError
-from .distribution import PHOTOMETRY_FORMATS, Photometry, local_angles, luminaire_frame
+from .distribution import (
+    PHOTOMETRY_FORMATS,
+    Photometry,
+    local_angles,
+    luminaire_frame,
+    pack_photometries,
+    packed_intensity,
+)
 from .eulumdat import read_eulumdat
 from .ies import read_ies
 
-__all__ = ["PHOTOMETRY_FORMATS", "Photometry", "local_angles", "luminaire_frame", "read_eulumdat",
+__all__ = ["PHOTOMETRY_FORMATS", "Photometry", "local_angles", "luminaire_frame", "pack_photometries",
+           "packed_intensity", "read_eulumdat",
            "read_ies", "read_photometry"]
 
 _READERS = {".ies": read_ies, ".ldt": read_eulumdat}

@@ -62,12 +62,14 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
+from numba import njit
 
 from ..._validation import check_array
 from ...errors import BadInputError
 from ...geometry.observer import orthonormal_pair
 
-__all__ = ["PHOTOMETRY_FORMATS", "Photometry", "local_angles", "luminaire_frame"]
+__all__ = ["PHOTOMETRY_FORMATS", "Photometry", "local_angles", "luminaire_frame", "pack_photometries",
+           "packed_intensity"]
 
 #: Format names a :class:`Photometry` can carry: the photometric files read by
 #: :mod:`lsadphoto.solver.photometry`, and distributions made otherwise.
@@ -483,3 +485,101 @@ def _locate(grid, x):
     t = np.where(np.abs(x - grid[i + 1]) < ANGLE_EPS, 1.0, t)
     return i, t
 
+
+
+# --------------------------------------------------------------------------------------------
+# Compiled look-ups of many distributions
+# --------------------------------------------------------------------------------------------
+
+
+def pack_photometries(photometries):
+    """The intensity tables of several distributions in flat arrays, for :func:`packed_intensity`.
+
+    Distributions that are the same object (luminaires sharing a file) share one table.
+
+    Returns
+    -------
+    (index, tables)
+        ``index`` (n,) int64: the table of each distribution; ``tables``: the tuple
+        ``(c_start, g_start, v_start, c_deg, g_deg, candela, g_step, symmetric)`` — each
+        table's first C angle, γ angle and intensity in the flat arrays of C angles [deg], γ
+        angles [deg] and intensities [cd] (row-major over C, γ), with one end entry each; per
+        table the γ step [deg] where the γ grid is uniform (else 0: searched), and whether
+        every C-plane is the same (rotational symmetry: no C look-up).
+    """
+    seen, distinct = {}, []
+    index = np.empty(len(photometries), dtype=np.int64)
+    for k, p in enumerate(photometries):
+        if id(p) not in seen:
+            seen[id(p)] = len(distinct)
+            distinct.append(p)
+        index[k] = seen[id(p)]
+
+    def starts(sizes):
+        return np.concatenate([[0], np.cumsum(sizes, dtype=np.int64)]).astype(np.int64)
+
+    flat = [np.concatenate([getattr(p, a).ravel() for p in distinct]) if distinct else np.zeros(0)
+            for a in ("c_angles", "gamma_angles", "candela")]
+    tables = (starts([p.c_angles.size for p in distinct]), starts([p.gamma_angles.size for p in distinct]),
+              starts([p.candela.size for p in distinct]),
+              *(np.ascontiguousarray(a, dtype=np.float64) for a in flat),
+              np.array([_uniform_step(p.gamma_angles) for p in distinct], dtype=np.float64),
+              np.array([bool(np.all(p.candela == p.candela[:1])) for p in distinct], dtype=np.bool_))
+    return index, tables
+
+
+def _uniform_step(grid):
+    """The step of an evenly spaced grid (to 1e-9 of it), else 0."""
+    step = np.diff(grid)
+    return float(step.mean()) if np.allclose(step, step[0], rtol=1e-9, atol=0) else 0.0
+
+
+@njit(cache=True, error_model="numpy", nogil=True, inline="always")
+def _locate_one(grid, lo, hi, x, step):
+    """As :func:`_locate` for one value in ``grid[lo:hi]``: (i − lo, t). An evenly spaced
+    grid (``step`` > 0) is indexed directly: off by one cell only where x lies within
+    rounding of a node, where both cells give the node's value."""
+    if step > 0.0:
+        i = min(max(math.floor((x - grid[lo]) / step) + lo, lo), hi - 2)
+    else:
+        a, b = lo, hi  # first index in [lo, hi) with grid > x (searchsorted "right")
+        while a < b:
+            mid = (a + b) // 2
+            if grid[mid] <= x:
+                a = mid + 1
+            else:
+                b = mid
+        i = min(max(a - 1, lo), hi - 2)
+    t = (x - grid[i]) / (grid[i + 1] - grid[i])
+    t = min(max(t, 0.0), 1.0)
+    if abs(x - grid[i]) < ANGLE_EPS:
+        t = 0.0
+    if abs(x - grid[i + 1]) < ANGLE_EPS:
+        t = 1.0
+    return i - lo, t
+
+
+@njit(cache=True, error_model="numpy", nogil=True, inline="always")
+def packed_intensity(tables, table, dx, dy, dz, frame):
+    """Intensity [cd] of table ``table`` of :func:`pack_photometries` towards the world
+    direction (dx, dy, dz) (a unit vector) of a luminaire with ``frame`` (3, 3), as
+    :meth:`Photometry.evaluate` computes it: bilinear in (C, γ) [deg], snapped to the grid
+    within :data:`ANGLE_EPS`, 0 outside the sampled γ range."""
+    c_start, g_start, v_start, c_deg, g_deg, candela, g_step, symmetric = tables
+    l2 = dx * frame[2, 0] + dy * frame[2, 1] + dz * frame[2, 2]
+    g = math.degrees(math.acos(min(max(l2, -1.0), 1.0)))
+    g0, g1 = g_start[table], g_start[table + 1]
+    if g < g_deg[g0] - ANGLE_EPS or g > g_deg[g1 - 1] + ANGLE_EPS:
+        return 0.0
+    j, u = _locate_one(g_deg, g0, g1, g, g_step[table])
+    ng = g1 - g0
+    if symmetric[table]:
+        base = v_start[table] + j
+        return (1 - u) * candela[base] + u * candela[base + 1]
+    l0 = dx * frame[0, 0] + dy * frame[0, 1] + dz * frame[0, 2]
+    l1 = dx * frame[1, 0] + dy * frame[1, 1] + dz * frame[1, 2]
+    c = math.degrees(math.atan2(l1, l0) % (2 * math.pi)) % 360.0
+    i, t = _locate_one(c_deg, c_start[table], c_start[table + 1], c, 0.0)
+    base = v_start[table] + i * ng + j
+    return ((1 - t) * ((1 - u) * candela[base] + u * candela[base + 1])
+            + t * ((1 - u) * candela[base + ng] + u * candela[base + ng + 1]))
