@@ -865,10 +865,10 @@ def cmd_render(args):
               f"{_percent(p.get('pixel_relative_error_median'))}, 95th percentile "
               f"{_percent(p.get('pixel_relative_error_p95'))}"
               f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}"
-              + (f" (noise {_percent(p['pixel_relative_noise_median'])} / "
+              + (f"; in quadrature of noise {_percent(p['pixel_relative_noise_median'])} / "
                  f"{_percent(p['pixel_relative_noise_p95'])} and estimated interpolation bias "
                  f"{_percent(p['pixel_relative_bias_median'])} / {_percent(p['pixel_relative_bias_p95'])}"
-                 " in quadrature)" if "pixel_relative_bias_median" in p else ""))
+                 " (median / 95th percentile)" if "pixel_relative_bias_median" in p else ""))
         if p.get("estimator_choice"):
             print(f"estimator {p['estimator_choice']}")
         if p.get("target_error") is not None:
