@@ -209,6 +209,28 @@ def patch_neighbours(point, radius, reach):
     return start, np.concatenate([np.asarray(x, np.int64) for x in lists])
 
 
+@njit(inline="always", **_NUMBA)
+def _patch_weight(x, n, i, point, normal, j, r2):
+    """Kernel weight of patch point j at point i (normal n[i]) and their offset
+    (point[j] − x[i]): (1 − d²/r²)² within the radius, times how well the normals agree
+    (above cos 60°) and how close j lies to i's tangent plane; 0 outside."""
+    dx = point[j, 0] - x[i, 0]
+    dy = point[j, 1] - x[i, 1]
+    dz = point[j, 2] - x[i, 2]
+    d2 = dx * dx + dy * dy + dz * dz
+    if d2 >= r2:
+        return 0.0, dx, dy, dz
+    agree = n[i, 0] * normal[j, 0] + n[i, 1] * normal[j, 1] + n[i, 2] * normal[j, 2]
+    if agree <= _PATCH_COS:
+        return 0.0, dx, dy, dz
+    d = math.sqrt(d2)
+    tilt = abs(n[i, 0] * dx + n[i, 1] * dy + n[i, 2] * dz) / d if d > 0 else 0.0
+    if tilt >= _PATCH_PLANE:
+        return 0.0, dx, dy, dz
+    q = 1.0 - d2 / r2
+    return q * q * (agree - _PATCH_COS) / (1.0 - _PATCH_COS) * (1.0 - tilt / _PATCH_PLANE), dx, dy, dz
+
+
 @njit(**_NUMBA)
 def _patch_kernel(x, n, own, point, normal, radius, start, index, values, out):
     """out[i] = the kernel average of ``values`` over the patches near point i (see
@@ -223,21 +245,9 @@ def _patch_kernel(x, n, own, point, normal, radius, start, index, values, out):
             out[i, g] = 0.0
         for k in range(start[c], start[c + 1]):
             j = index[k]
-            dx = point[j, 0] - x[i, 0]
-            dy = point[j, 1] - x[i, 1]
-            dz = point[j, 2] - x[i, 2]
-            d2 = dx * dx + dy * dy + dz * dz
-            if d2 >= r2:
+            w, dx, dy, dz = _patch_weight(x, n, i, point, normal, j, r2)
+            if w <= 0.0:
                 continue
-            agree = n[i, 0] * normal[j, 0] + n[i, 1] * normal[j, 1] + n[i, 2] * normal[j, 2]
-            if agree <= _PATCH_COS:
-                continue
-            d = math.sqrt(d2)
-            tilt = abs(n[i, 0] * dx + n[i, 1] * dy + n[i, 2] * dz) / d if d > 0 else 0.0
-            if tilt >= _PATCH_PLANE:
-                continue
-            q = 1.0 - d2 / r2
-            w = q * q * (agree - _PATCH_COS) / (1.0 - _PATCH_COS) * (1.0 - tilt / _PATCH_PLANE)
             total += w
             for g in range(G):
                 out[i, g] += w * values[j, g]
@@ -286,21 +296,9 @@ def _patch_kernel_bias(x, n, own, point, normal, radius, start, index, values, o
         total = 0.0
         for k in range(start[c], start[c + 1]):
             j = index[k]
-            dx = point[j, 0] - x[i, 0]
-            dy = point[j, 1] - x[i, 1]
-            dz = point[j, 2] - x[i, 2]
-            d2 = dx * dx + dy * dy + dz * dz
-            if d2 >= r2:
+            w, dx, dy, dz = _patch_weight(x, n, i, point, normal, j, r2)
+            if w <= 0.0:
                 continue
-            agree = n[i, 0] * normal[j, 0] + n[i, 1] * normal[j, 1] + n[i, 2] * normal[j, 2]
-            if agree <= _PATCH_COS:
-                continue
-            d = math.sqrt(d2)
-            tilt = abs(n[i, 0] * dx + n[i, 1] * dy + n[i, 2] * dz) / d if d > 0 else 0.0
-            if tilt >= _PATCH_PLANE:
-                continue
-            q = 1.0 - d2 / r2
-            w = q * q * (agree - _PATCH_COS) / (1.0 - _PATCH_COS) * (1.0 - tilt / _PATCH_PLANE)
             wk[count] = w
             uk[count, 0] = dx * t1x + dy * t1y + dz * t1z
             uk[count, 1] = dx * t2x + dy * t2y + dz * t2z
