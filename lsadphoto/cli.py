@@ -21,8 +21,17 @@ from pathlib import Path
 if sys.argv[1:2] == ["score"] and not any(
         name in os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")):
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
+# numpy advises the kernel to back arrays of 4 MB and more with transparent huge pages. On a
+# virtual machine whose host backs guest memory on first touch, a fresh 2 MB page costs far
+# more than the 512 small pages the guest reuses (measured on the 2-core VM: 1.15 GB of new
+# arrays 2.1–3.6 s of system time with huge pages, 0.54–0.57 s without; a 24 MP score
+# process 3.1–3.6 → 1.0–1.2 s; docs/performance.md, "Small pages"); on bare metal the two
+# differ by a few hundredths of a second at that size. So ``score`` asks for small pages,
+# unless the user set numpy's own variable (read as numpy loads).
+if sys.argv[1:2] == ["score"]:
+    os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")
 
-import numpy as np  # noqa: E402 (after the BLAS thread setting)
+import numpy as np  # noqa: E402 (after the BLAS thread and huge-page settings)
 
 from ._version import __version__
 from .errors import BadInputError, LsadError

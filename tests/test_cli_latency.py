@@ -66,3 +66,34 @@ def test_score_process_imports_only_what_it_uses(tmp_path):
     assert unused == [], f"lsadphoto score imported {unused}"
     # No idle thread pools: OpenBLAS started none (it would start one per core with numpy).
     assert threads in (None, 1), f"lsadphoto score ended with {threads} threads"
+
+
+HUGEPAGE_SCRIPT = """
+import sys
+from lsadphoto.cli import main
+import numpy._core.multiarray as multiarray
+try:
+    code = main()
+finally:
+    print(multiarray._get_madvise_hugepage(), file=sys.stderr)
+sys.exit(code)
+"""
+
+
+def test_score_process_asks_for_small_pages_unless_told(tmp_path):
+    """A score process turns numpy's huge-page advice off (fresh huge pages cost a virtual
+    machine several times what small ones do, docs/performance.md "Small pages"); a user's
+    own NUMPY_MADVISE_HUGEPAGE is kept, and other commands keep numpy's default."""
+    cam = IdealFisheyeProjection("equidistant", 19.5, 19.5, 20.0, 180.0, 40, 40)
+    L = disk_sources_scene(cam.directions(*cam.pixel_grid()), background=90.0, sources=[])
+    path = tmp_path / "view.hdr"
+    write_hdr(LuminanceMap(L, projection=cam, calibrated=True), path)
+    base = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    for env, command, advised in [(base, ["score", str(path), "--json"], "False"),
+                                  ({**base, "NUMPY_MADVISE_HUGEPAGE": "1"},
+                                   ["score", str(path), "--json"], "True"),
+                                  (base, ["--version"], "True")]:
+        done = subprocess.run([sys.executable, "-c", HUGEPAGE_SCRIPT, *command],
+                              check=False, capture_output=True, text=True, env=env)
+        assert done.returncode == 0, done.stderr
+        assert done.stderr.strip().splitlines()[-1] == advised, (command, done.stderr)
