@@ -21,8 +21,27 @@ from pathlib import Path
 if sys.argv[1:2] == ["score"] and not any(
         name in os.environ for name in ("OPENBLAS_NUM_THREADS", "GOTO_NUM_THREADS", "OMP_NUM_THREADS")):
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
+# numpy advises the kernel to back arrays of 4 MB and more with transparent huge pages. On a
+# virtual machine whose host backs guest memory on first touch, a fresh 2 MB page costs far
+# more than the 512 small pages the guest reuses (the 2-core VM of docs/performance.md,
+# "Small pages": 1.15 GB of new arrays 2.1–3.6 s of system time with huge pages, 0.54–0.57 s
+# without; a 24 MP score process 2.4–3.7 → 1.4–2.4 s), while the few huge pages a small
+# picture needs come back warm from the processes before (786²: small pages 0.015 s more of
+# CPU). So ``score`` asks for small pages when its largest input file has
+# ``_SMALL_PAGES_MIN_BYTES`` or more (a 1572² Radiance picture has 10 MB), unless the user set
+# numpy's own variable (read as numpy loads).
+_SMALL_PAGES_MIN_BYTES = 8 << 20
 
-import numpy as np  # noqa: E402 (after the BLAS thread setting)
+
+def _largest_file(paths):
+    """Size [bytes] of the largest existing file among ``paths`` (0 where none is)."""
+    return max((os.path.getsize(p) for p in paths if os.path.isfile(p)), default=0)
+
+
+if sys.argv[1:2] == ["score"] and _largest_file(sys.argv[2:]) >= _SMALL_PAGES_MIN_BYTES:
+    os.environ.setdefault("NUMPY_MADVISE_HUGEPAGE", "0")
+
+import numpy as np  # noqa: E402 (after the BLAS thread and huge-page settings)
 
 from ._version import __version__
 from .errors import BadInputError, LsadError

@@ -66,3 +66,43 @@ def test_score_process_imports_only_what_it_uses(tmp_path):
     assert unused == [], f"lsadphoto score imported {unused}"
     # No idle thread pools: OpenBLAS started none (it would start one per core with numpy).
     assert threads in (None, 1), f"lsadphoto score ended with {threads} threads"
+
+
+HUGEPAGE_SCRIPT = """
+import sys
+from lsadphoto.cli import main
+import numpy._core.multiarray as multiarray
+try:
+    code = main()
+finally:
+    print(multiarray._get_madvise_hugepage(), file=sys.stderr)
+sys.exit(code)
+"""
+
+
+def test_score_process_asks_for_small_pages_unless_told(tmp_path):
+    """A score process of a large file turns numpy's huge-page advice off (fresh huge pages
+    cost a virtual machine several times what small ones do, docs/performance.md "Small
+    pages"); a small picture, a user's own NUMPY_MADVISE_HUGEPAGE and other commands keep
+    numpy's default."""
+    from lsadphoto.cli import _SMALL_PAGES_MIN_BYTES, _largest_file
+
+    cam = IdealFisheyeProjection("equidistant", 19.5, 19.5, 20.0, 180.0, 40, 40)
+    L = disk_sources_scene(cam.directions(*cam.pixel_grid()), background=90.0, sources=[])
+    small = tmp_path / "view.hdr"
+    write_hdr(LuminanceMap(L, projection=cam, calibrated=True), small)
+    large = tmp_path / "large.hdr"  # not a picture: the command fails after the preamble
+    large.write_bytes(bytes(_SMALL_PAGES_MIN_BYTES))
+    base = {k: v for k, v in os.environ.items() if k != "NUMPY_MADVISE_HUGEPAGE"}
+    for env, command, code, advised in [
+            (base, ["score", str(large), "--json"], 2, "False"),
+            (base, ["score", str(small), "--json"], 0, "True"),
+            ({**base, "NUMPY_MADVISE_HUGEPAGE": "1"}, ["score", str(large), "--json"], 2, "True"),
+            (base, ["calibrate", str(large)], 2, "True")]:
+        done = subprocess.run([sys.executable, "-c", HUGEPAGE_SCRIPT, *command],
+                              check=False, capture_output=True, text=True, env=env)
+        assert done.returncode == code, done.stderr
+        assert done.stderr.strip().splitlines()[-1] == advised, (command, done.stderr)
+    assert _largest_file([str(small), str(large), str(tmp_path), "no-such-file"]) == \
+        _SMALL_PAGES_MIN_BYTES
+    assert _largest_file([]) == 0
