@@ -161,11 +161,9 @@ def test_integrating_sphere_from_the_cache(rho):
     assert abs(p["field_mean_luminance"] / expected - 1) <= REL_TOL
 
 
-def test_interpolation_reproduces_linear_fields_in_plain_and_refined_cells():
-    # A small room with a low contrast threshold so that many cells are refined; the cache
-    # values are then replaced by a linear function of position: linear interpolation must
-    # reproduce it at any surface point, up to the inset of the cache points (10 ray
-    # offsets ≈ 2e-4 m × |∇f| = 1 → 1e-3 absolute at most).
+def _refined_small_room_cache():
+    """A 2 × 1.5 × 1 m grey room under a point light and its cache with refined cells (low
+    contrast threshold)."""
     scene = scene_from_dict({
         "materials": {"grey": {"reflectance": 0.5}},
         "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [2, 1.5, 1], "facing": "inward",
@@ -175,19 +173,7 @@ def test_interpolation_reproduces_linear_fields_in_plain_and_refined_cells():
     store = simulate(scene, samples=2048, seed=1)
     cache = build_surface_cache(store, spacing=0.4, nodes=32, contrast=0.05, seed=2)
     assert cache.refined_key.size > 0
-    f = lambda p: 3.0 + p[:, 0] - 2.0 * p[:, 1] + 0.5 * p[:, 2]
-    cache.values = np.repeat(f(cache.positions)[:, None], cache.values.shape[1], axis=1)
-    rng = np.random.default_rng(0)
-    t = rng.integers(0, len(scene.triangles), 5000)
-    u = rng.random((5000, 2))
-    su = np.sqrt(u[:, 0])
-    tri = scene.triangles[t]
-    x = ((1 - su)[:, None] * tri[:, 0] + (u[:, 1] * su)[:, None] * tri[:, 1]
-         + (su - u[:, 1] * su)[:, None] * tri[:, 2])
-    got = cache.interpolate(scene, t, x, np.zeros(len(t), int))
-    assert np.allclose(got[:, 0], f(x), rtol=0, atol=1e-3)
-    index, _ = cache.corners(scene, t, x, np.zeros(len(t), int))
-    assert np.any(index >= cache.refined_offset.min())  # refined cells were used
+    return scene, cache
 
 
 def _random_surface_points(scene, triangles, n, seed):
@@ -201,6 +187,21 @@ def _random_surface_points(scene, triangles, n, seed):
                + (su - u[:, 1] * su)[:, None] * tri[:, 2])
 
 
+def test_interpolation_reproduces_linear_fields_in_plain_and_refined_cells():
+    # A small room with a low contrast threshold so that many cells are refined; the cache
+    # values are then replaced by a linear function of position: linear interpolation must
+    # reproduce it at any surface point, up to the inset of the cache points (10 ray
+    # offsets ≈ 2e-4 m × |∇f| = 1 → 1e-3 absolute at most).
+    scene, cache = _refined_small_room_cache()
+    f = lambda p: 3.0 + p[:, 0] - 2.0 * p[:, 1] + 0.5 * p[:, 2]
+    cache.values = np.repeat(f(cache.positions)[:, None], cache.values.shape[1], axis=1)
+    t, x = _random_surface_points(scene, np.arange(len(scene.triangles)), 5000, 0)
+    got = cache.interpolate(scene, t, x, np.zeros(len(t), int))
+    assert np.allclose(got[:, 0], f(x), rtol=0, atol=1e-3)
+    index, _ = cache.corners(scene, t, x, np.zeros(len(t), int))
+    assert np.any(index >= cache.refined_offset.min())  # refined cells were used
+
+
 def test_interpolation_bias_is_exact_for_quadratic_fields_and_linear_fields_on_patches():
     # Linear interpolation errs for a quadratic field by ½Σ w_a w_b e_abᵀHe_ab, which the
     # second differences of the grid give exactly (Hessian constant); the patch kernel
@@ -210,15 +211,7 @@ def test_interpolation_bias_is_exact_for_quadratic_fields_and_linear_fields_on_p
     # normal times the points' offsets from the tangent plane (up to sin 30° × the kernel
     # radius, and the corners where fewer than three points qualify) is not fitted: the
     # error's rms must fall at least 2× (measured 2.5×).
-    scene = scene_from_dict({
-        "materials": {"grey": {"reflectance": 0.5}},
-        "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [2, 1.5, 1], "facing": "inward",
-                      "material": "grey"}],
-        "luminaires": [{"type": "point", "position": [0.5, 0.5, 0.9], "flux": 1000}],
-    })
-    store = simulate(scene, samples=2048, seed=1)
-    cache = build_surface_cache(store, spacing=0.4, nodes=32, contrast=0.05, seed=2)
-    assert cache.refined_key.size > 0
+    scene, cache = _refined_small_room_cache()
     f = lambda p: 3.0 + p[:, 0] ** 2 - 2.0 * p[:, 1] * p[:, 0] + 0.5 * p[:, 2] ** 2 + p[:, 1] * p[:, 2]
     cache.values = np.repeat(f(cache.positions)[:, None], cache.values.shape[1], axis=1)
     t, x = _random_surface_points(scene, np.arange(len(scene.triangles)), 5000, 0)
