@@ -450,6 +450,12 @@ class SurfaceCache:
         to leading order (grid triangles: :meth:`_grid_bias`; the patches of small
         triangles: the kernel average's first-order bias, :func:`_patch_kernel_bias`).
         """
+        return self._by_level(scene, prim, x, side, self._grid_bias, _patch_kernel_bias)
+
+    def _by_level(self, scene, prim, x, side, on_grid, patch_kernel):
+        """``on_grid`` (a method of grid triangles' points) where ``prim`` has a grid (level
+        ≥ 1), ``patch_kernel`` (through :meth:`_patch_call`) on small triangles (level 0):
+        per group, shape (n, groups)."""
         prim = np.asarray(prim)
         side = np.broadcast_to(np.asarray(side), prim.shape)
         m = self.level[prim]
@@ -458,11 +464,10 @@ class SurfaceCache:
         out = np.zeros((len(prim), self.values.shape[1]))
         grid = np.flatnonzero(m >= 1)
         if grid.size:
-            out[grid] = self._grid_bias(scene, prim[grid], x[grid], side[grid])
+            out[grid] = on_grid(scene, prim[grid], x[grid], side[grid])
         small = np.flatnonzero(m == 0)
         if small.size:
-            out[small] = self._patch_call(_patch_kernel_bias, scene, prim[small], x[small],
-                                          side[small])
+            out[small] = self._patch_call(patch_kernel, scene, prim[small], x[small], side[small])
         return out
 
     def _grid_bias(self, scene, prim, x, side):
@@ -510,20 +515,12 @@ class SurfaceCache:
         < ½ (q_j within 30° of the tangent plane at x, which keeps the far side of a column
         or a parallel sheet out); the side's own patch where no point qualifies.
         """
-        prim = np.asarray(prim)
-        side = np.broadcast_to(np.asarray(side), prim.shape)
-        m = self.level[prim]
-        if np.any(m < 0):
-            raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
-        out = np.empty((len(prim), self.values.shape[1]))
-        grid = np.flatnonzero(m >= 1)
-        if grid.size:
-            index, weight = self.corners(scene, prim[grid], x[grid], side[grid])
-            out[grid] = np.einsum("nk,nkg->ng", weight, self.values[index])
-        small = np.flatnonzero(m == 0)
-        if small.size:
-            out[small] = self._patch_call(_patch_kernel, scene, prim[small], x[small], side[small])
-        return out
+        return self._by_level(scene, prim, x, side, self._grid_interpolate, _patch_kernel)
+
+    def _grid_interpolate(self, scene, prim, x, side):
+        """The linear interpolation of the cell's corners at points on grid triangles."""
+        index, weight = self.corners(scene, prim, x, side)
+        return np.einsum("nk,nkg->ng", weight, self.values[index])
 
     def _patch_call(self, kernel, scene, prim, x, side):
         """``kernel`` (:func:`_patch_kernel` or :func:`_patch_kernel_bias`) at points ``x``
