@@ -73,8 +73,8 @@ from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance, luminance_map_from_batches,
                   luminous_openings, near_step, primary_rays, run_chunks, warn_odd_view)
 
-__all__ = ["CACHE_NODES", "RELATIVE_CACHE_SPACING", "build_surface_cache",
-           "indirect_illuminance", "render_cached"]
+__all__ = ["CACHE_NODES", "GLOSSY_RAYS", "RELATIVE_CACHE_SPACING", "build_surface_cache",
+           "check_cache_materials", "indirect_illuminance", "render_cached"]
 
 #: Default cache spacing as a fraction of the scene's bounding-box diagonal.
 RELATIVE_CACHE_SPACING = 1 / 24
@@ -354,8 +354,8 @@ def indirect_illuminance(store, points, normals, *, nodes=CACHE_NODES, near_dist
     """
     if not isinstance(store, LsadStore):
         raise BadInputError("indirect_illuminance needs an LsadStore")
-    store.require_lambertian("the indirect illuminance of the surface cache")
     scene = store.scene
+    check_cache_materials(scene, "the indirect illuminance of the surface cache")
     eps = RELATIVE_CACHE_NEAR_DISTANCE * scene.size if near_distance is None else float(near_distance)
     if not eps > 0:
         raise BadInputError(f"near_distance must be positive, got {near_distance!r}")
@@ -363,8 +363,9 @@ def indirect_illuminance(store, points, normals, *, nodes=CACHE_NODES, near_dist
     x = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     n = np.asarray(normals, dtype=np.float64).reshape(-1, 3)
     blocks = np.arange(len(x)) // POINT_BLOCK if block_ids is None else np.asarray(block_ids)
-    est = _IndirectEstimator(store, engine_for(scene), nodes=nodes, near_distance=eps,
-                             direct_samples=direct_samples, seed=seed, key=key)
+    estimator = _IndirectEstimator if scene.lambertian else _MaterialIndirectEstimator
+    est = estimator(store, engine_for(scene), nodes=nodes, near_distance=eps, direct_samples=direct_samples,
+                    seed=seed, key=key)
     return est.estimate(x, n, blocks)
 
 
