@@ -198,12 +198,12 @@ def main(argv=None):
 
         rows, accuracy = [], []
         for method in methods:
-            ref_best, ref_worst, ref = timed(lambda: rawpy_reference(path, method), args.repeat)
+            ref_best, ref_worst, ref = timed(lambda m=method: rawpy_reference(path, m), args.repeat)
             del ref
-            dec_best, dec_worst, image = timed(lambda: decode_raw(path, demosaic=method), args.repeat)
+            dec_best, dec_worst, image = timed(lambda m=method: decode_raw(path, demosaic=m), args.repeat)
             del image
             e2e_best, e2e_worst, result = timed(
-                lambda: luminance_from_raw([path], profile=prof, demosaic=method), args.repeat)
+                lambda m=method: luminance_from_raw([path], profile=prof, demosaic=m), args.repeat)
             truth, smooth = truths["binned" if method == "superpixel" else "full"]
             err = errors(result.map.luminance, truth, smooth)
             del result

@@ -59,9 +59,10 @@ def main():
         engine = engine_for(scene)
         direct_illuminance(scene, engine, pts[:256], nrm[:256])  # compile, build the BVH
         blocks = np.arange(args.points) // 256
-        (exact, _), t_all = cpu(lambda: direct_illuminance(scene, engine, pts, nrm, luminaires="all",
-                                                          block_ids=blocks))
-        (est, var), t_auto = cpu(lambda: direct_illuminance(scene, engine, pts, nrm, block_ids=blocks))
+        (exact, _), t_all = cpu(lambda s=scene, e=engine, b=blocks: direct_illuminance(
+            s, e, pts, nrm, luminaires="all", block_ids=b))
+        (est, var), t_auto = cpu(lambda s=scene, e=engine, b=blocks: direct_illuminance(
+            s, e, pts, nrm, block_ids=b))
         lit = exact > 0  # "all" is exact for points, 4 rays per rectangle (a reference too)
         rms = float(np.sqrt(np.mean(((est[lit] - exact[lit]) / exact[lit]) ** 2)))
         sigma = float(np.mean(np.sqrt(var[lit]) / exact[lit]))

@@ -232,41 +232,15 @@ def _patch_weight(x, n, i, point, normal, j, r2):
 
 
 @njit(**_NUMBA)
-def _patch_kernel(x, n, own, point, normal, radius, start, index, values, out):
+def _patch_kernel(x, n, own, point, normal, radius, start, index, values, with_bias, out, bias):
     """out[i] = the kernel average of ``values`` over the patches near point i (see
-    :meth:`SurfaceCache.interpolate`); its own patch's value where none qualifies."""
-    P = x.shape[0]
-    G = values.shape[1]
-    for i in range(P):
-        c = own[i]
-        r2 = radius[c] * radius[c]
-        total = 0.0
-        for g in range(G):
-            out[i, g] = 0.0
-        for k in range(start[c], start[c + 1]):
-            j = index[k]
-            w, dx, dy, dz = _patch_weight(x, n, i, point, normal, j, r2)
-            if w <= 0.0:
-                continue
-            total += w
-            for g in range(G):
-                out[i, g] += w * values[j, g]
-        if total > 0:
-            for g in range(G):
-                out[i, g] /= total
-        else:
-            for g in range(G):
-                out[i, g] = values[c, g]
-
-
-@njit(**_NUMBA)
-def _patch_kernel_bias(x, n, own, point, normal, radius, start, index, values, out):
-    """out[i] = the first-order bias of :func:`_patch_kernel`'s average at point i, per
-    group: g·ū, ū the weights' centroid of the patch points' offsets u_j = q_j − x projected
-    on the tangent plane, g the gradient of a weighted least-squares plane through their
-    values (g = (C + λI)⁻¹ Σ w_j (u_j − ū)(E_j − Ē), C = Σ w_j (u_j − ū)(u_j − ū)ᵀ, λ =
-    10⁻³·trace C): the kernel average minus the weighted linear fit's value at x, exact for a
-    linear field. 0 where fewer than two points qualify (no gradient to fit)."""
+    :meth:`SurfaceCache.interpolate`), its own patch's value where none qualifies; and, with
+    ``with_bias``, bias[i] = that average's first-order bias per group: g·ū, ū the weights'
+    centroid of the patch points' offsets u_j = q_j − x projected on the tangent plane, g the
+    gradient of a weighted least-squares plane through their values (g = (C + λI)⁻¹ Σ w_j
+    (u_j − ū)(E_j − Ē), C = Σ w_j (u_j − ū)(u_j − ū)ᵀ, λ = 10⁻³·trace C): the kernel average
+    minus the weighted linear fit's value at x, exact for a linear field; 0 where fewer than
+    two points qualify (no gradient to fit). One walk over the neighbours gives both."""
     P = x.shape[0]
     G = values.shape[1]
     K = 1
@@ -276,8 +250,6 @@ def _patch_kernel_bias(x, n, own, point, normal, radius, start, index, values, o
     uk = np.empty((K, 2))
     jk = np.empty(K, np.int64)
     for i in range(P):
-        for g in range(G):
-            out[i, g] = 0.0
         c = own[i]
         r2 = radius[c] * radius[c]
         # a tangent basis (t1, t2) at x
@@ -294,18 +266,30 @@ def _patch_kernel_bias(x, n, own, point, normal, radius, start, index, values, o
         t2z = n[i, 0] * t1y - n[i, 1] * t1x
         count = 0
         total = 0.0
+        for g in range(G):
+            out[i, g] = 0.0
+            bias[i, g] = 0.0
         for k in range(start[c], start[c + 1]):
             j = index[k]
             w, dx, dy, dz = _patch_weight(x, n, i, point, normal, j, r2)
             if w <= 0.0:
                 continue
-            wk[count] = w
-            uk[count, 0] = dx * t1x + dy * t1y + dz * t1z
-            uk[count, 1] = dx * t2x + dy * t2y + dz * t2z
-            jk[count] = j
             total += w
+            for g in range(G):
+                out[i, g] += w * values[j, g]
+            if with_bias:
+                wk[count] = w
+                uk[count, 0] = dx * t1x + dy * t1y + dz * t1z
+                uk[count, 1] = dx * t2x + dy * t2y + dz * t2z
+                jk[count] = j
             count += 1
-        if count < 2 or total <= 0:
+        if total > 0:
+            for g in range(G):
+                out[i, g] /= total
+        else:
+            for g in range(G):
+                out[i, g] = values[c, g]
+        if not with_bias or count < 2 or total <= 0:
             continue
         m0 = 0.0
         m1 = 0.0
@@ -329,10 +313,7 @@ def _patch_kernel_bias(x, n, own, point, normal, radius, start, index, values, o
         if not det > 0:
             continue
         for g in range(G):
-            mean = 0.0
-            for k in range(count):
-                mean += wk[k] * values[jk[k], g]
-            mean /= total
+            mean = out[i, g]
             s0 = 0.0
             s1 = 0.0
             for k in range(count):
@@ -341,7 +322,7 @@ def _patch_kernel_bias(x, n, own, point, normal, radius, start, index, values, o
                 s1 += e * (uk[k, 1] - m1)
             g0 = (c11 * s0 - c01 * s1) / det
             g1 = (c00 * s1 - c01 * s0) / det
-            out[i, g] = g0 * m0 + g1 * m1
+            bias[i, g] = g0 * m0 + g1 * m1
 
 
 @dataclass
@@ -414,15 +395,11 @@ class SurfaceCache:
         """Number of cache points."""
         return len(self.values)
 
-    def corners(self, scene, prim, x, side):
-        """Indices of the three grid points around points ``x`` on grid triangles ``prim``
-        (level ≥ 1; side 0 front, 1 back) and their linear-interpolation weights, each (n, 3)."""
-        index, weight, _ = self._cells(scene, prim, x, side)
-        return index, weight
-
     def _cells(self, scene, prim, x, side):
-        """:meth:`corners`, and the cells as (level, first vertex, i, j, upper) of the grid
-        they lie in (the triangle's, or a refined cell's level-``refine`` grid)."""
+        """Indices of the three grid points around points ``x`` on grid triangles ``prim``
+        (level ≥ 1; side 0 front, 1 back) and their linear-interpolation weights, each (n, 3),
+        and the cells as (level, first vertex, i, j, upper) of the grid they lie in (the
+        triangle's, or a refined cell's level-``refine`` grid)."""
         b1, b2 = _barycentric(scene.triangles[prim], x)
         m = self.level[prim]
         base = self.offset[prim, side]
@@ -444,35 +421,54 @@ class SurfaceCache:
                 m[fine], base[fine], i[fine], j[fine], upper[fine] = r, start, fi, fj, fu
         return index, weight, (m, base, i, j, upper)
 
-    def interpolation_bias(self, scene, prim, x, side):
-        """Estimated bias of :meth:`interpolate` [lx] per group at points ``x`` on triangles
-        ``prim``, side 0 (front) or 1, shape (n, groups): the estimate minus the true E_ind,
-        to leading order (grid triangles: :meth:`_grid_bias`; the patches of small
-        triangles: the kernel average's first-order bias, :func:`_patch_kernel_bias`).
-        """
-        return self._by_level(scene, prim, x, side, self._grid_bias, _patch_kernel_bias)
+    def interpolate(self, scene, prim, x, side):
+        """E_ind per group [lx] at points ``x`` on triangles ``prim``, side 0 (front) or 1.
 
-    def _by_level(self, scene, prim, x, side, on_grid, patch_kernel):
-        """``on_grid`` (a method of grid triangles' points) where ``prim`` has a grid (level
-        ≥ 1), ``patch_kernel`` (through :meth:`_patch_call`) on small triangles (level 0):
-        per group, shape (n, groups)."""
+        On grid triangles the linear interpolation of the cell's corners; on small
+        triangles the kernel average over patch points q_j within the kernel radius R,
+
+            E(x) = Σ_j w_j E_j / Σ_j w_j,   w_j = (1 − d²/R²)² · (c_j − ½)/½ · (1 − 2 s_j),
+
+        with d = |q_j − x|, c_j = n·n_j > ½ (normals within 60°) and s_j = |n·(q_j − x)|/d
+        < ½ (q_j within 30° of the tangent plane at x, which keeps the far side of a column
+        or a parallel sheet out); the side's own patch where no point qualifies.
+        """
+        return self._interpolate(scene, prim, x, side, False)[0]
+
+    def interpolate_with_bias(self, scene, prim, x, side):
+        """:meth:`interpolate` and its estimated bias [lx] per group, each shape (n, groups),
+        in one pass: the estimate minus the true E_ind, to leading order (grid triangles:
+        :meth:`_grid_bias`; the patches of small triangles: the kernel average's first-order
+        bias, :func:`_patch_kernel`)."""
+        return self._interpolate(scene, prim, x, side, True)
+
+    def _interpolate(self, scene, prim, x, side, with_bias):
+        """E_ind per group, shape (n, groups), and with ``with_bias`` its bias (else None):
+        the grid's interpolation where ``prim`` has a grid (level ≥ 1), the patches' kernel
+        average on small triangles (level 0)."""
         prim = np.asarray(prim)
         side = np.broadcast_to(np.asarray(side), prim.shape)
         m = self.level[prim]
         if np.any(m < 0):
             raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
-        out = np.zeros((len(prim), self.values.shape[1]))
+        value = np.zeros((len(prim), self.values.shape[1]))
+        bias = np.zeros_like(value) if with_bias else None
         grid = np.flatnonzero(m >= 1)
         if grid.size:
-            out[grid] = on_grid(scene, prim[grid], x[grid], side[grid])
+            index, weight, cells = self._cells(scene, prim[grid], x[grid], side[grid])
+            value[grid] = np.einsum("nk,nkg->ng", weight, self.values[index])
+            if with_bias:
+                bias[grid] = self._grid_bias(weight, cells)
         small = np.flatnonzero(m == 0)
         if small.size:
-            out[small] = self._patch_call(patch_kernel, scene, prim[small], x[small], side[small])
-        return out
+            value[small], b = self._on_patches(scene, prim[small], x[small], side[small], with_bias)
+            if with_bias:
+                bias[small] = b
+        return value, bias
 
-    def _grid_bias(self, scene, prim, x, side):
-        """Estimated bias of the linear interpolation [lx] per group at points ``x`` on grid
-        triangles ``prim`` (level ≥ 1), shape (n, groups).
+    def _grid_bias(self, weight, cells):
+        """Estimated bias of the linear interpolation [lx] per group at points in ``cells``
+        (:meth:`_cells`) with corner weights ``weight``, shape (n, groups).
 
         Linear interpolation over a cell with corners P_a and barycentric weights w_a errs
         for a field f of Hessian H by (I − f)(x) = ½ Σ_(a<b) w_a·w_b·(P_a − P_b)ᵀH(P_a − P_b)
@@ -483,7 +479,7 @@ class SurfaceCache:
         neighbouring vertices (a stencil of 2h), i.e. the Richardson estimate of the
         leading error with its order p = 2. Level-1 grids (no stencil) give 0.
         """
-        _, weight, (m, base, i, j, upper) = self._cells(scene, prim, x, side)
+        m, base, i, j, upper = cells
         v = self.values
         out = np.zeros((len(m), v.shape[1]))
         ok = np.flatnonzero(m >= 2)
@@ -503,37 +499,19 @@ class SurfaceCache:
                          + w[:, 1:2] * w[:, 2:] * q12)
         return out
 
-    def interpolate(self, scene, prim, x, side):
-        """E_ind per group [lx] at points ``x`` on triangles ``prim``, side 0 (front) or 1.
-
-        On grid triangles the linear interpolation of the cell's corners; on small
-        triangles the kernel average over patch points q_j within the kernel radius R,
-
-            E(x) = Σ_j w_j E_j / Σ_j w_j,   w_j = (1 − d²/R²)² · (c_j − ½)/½ · (1 − 2 s_j),
-
-        with d = |q_j − x|, c_j = n·n_j > ½ (normals within 60°) and s_j = |n·(q_j − x)|/d
-        < ½ (q_j within 30° of the tangent plane at x, which keeps the far side of a column
-        or a parallel sheet out); the side's own patch where no point qualifies.
-        """
-        return self._by_level(scene, prim, x, side, self._grid_interpolate, _patch_kernel)
-
-    def _grid_interpolate(self, scene, prim, x, side):
-        """The linear interpolation of the cell's corners at points on grid triangles."""
-        index, weight = self.corners(scene, prim, x, side)
-        return np.einsum("nk,nkg->ng", weight, self.values[index])
-
-    def _patch_call(self, kernel, scene, prim, x, side):
-        """``kernel`` (:func:`_patch_kernel` or :func:`_patch_kernel_bias`) at points ``x``
-        on small triangles ``prim``, side 0 (front) or 1: per group, shape (n, groups)."""
+    def _on_patches(self, scene, prim, x, side, with_bias):
+        """:func:`_patch_kernel` at points ``x`` on small triangles ``prim``, side 0 (front)
+        or 1: the kernel average and its bias (zeros without ``with_bias``), each (n, groups)."""
         own = self.patch[prim, side]
         if np.any(own < 0):
             raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
         sign = np.where(side == 0, 1.0, -1.0)[:, None]
         n = np.ascontiguousarray(sign * scene.normals[prim], dtype=np.float64)
-        res = np.empty((len(prim), self.values.shape[1]))
-        kernel(np.ascontiguousarray(x, dtype=np.float64), n, own,
-               np.ascontiguousarray(self.positions[self.patch_row]),
-               np.ascontiguousarray(self.patch_normal), self.patch_radius,
-               self.patch_start, self.patch_index,
-               np.ascontiguousarray(self.values[self.patch_row]), res)
-        return res
+        value = np.empty((len(prim), self.values.shape[1]))
+        bias = np.empty_like(value)
+        _patch_kernel(np.ascontiguousarray(x, dtype=np.float64), n, own,
+                      np.ascontiguousarray(self.positions[self.patch_row]),
+                      np.ascontiguousarray(self.patch_normal), self.patch_radius,
+                      self.patch_start, self.patch_index,
+                      np.ascontiguousarray(self.values[self.patch_row]), with_bias, value, bias)
+        return value, bias

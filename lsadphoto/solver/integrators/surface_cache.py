@@ -40,7 +40,7 @@ the estimate of E_ind at every cache point is unbiased, the interpolation adds a
 order spacing² × (curvature of E_ind) — largest next to concave edges; on patches, whose
 kernel average reproduces constants but not gradients, of order spacing × |∇E_ind| where the
 points lie on one side (an edge of a mesh). :func:`render_cached` estimates it per pixel
-from the cached values themselves (:meth:`~lsadphoto.solver.cache_grid.SurfaceCache.interpolation_bias`)
+from the cached values themselves (:meth:`~lsadphoto.solver.cache_grid.SurfaceCache.interpolate_with_bias`)
 and adds it to the reported uncertainty in quadrature. It is measured against per-pixel
 estimates in docs/accuracy.md; halve ``spacing`` to quarter it.
 
@@ -710,7 +710,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     LuminanceMap
         Luminance, per-pixel uncertainty σ_total = √(σ_noise² + b²) — σ_noise from the
         direct part's sampling variance and the spread of the interpolated groups, b the
-        estimated interpolation bias (:meth:`SurfaceCache.interpolation_bias`, per group:
+        estimated interpolation bias (:meth:`SurfaceCache.interpolate_with_bias`, per group:
         b² is its squared mean less that mean's variance) — and provenance, which keeps the
         parts apart (``pixel_relative_noise_*``, ``pixel_relative_bias_*``, and
         ``field_mean_relative_bias_estimate``, signed).
@@ -754,12 +754,12 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                                             block_ids=c.block[refl],
                                             distant_samples=DISTANT_RAYS_PER_DIRECT_SAMPLE * direct_samples)
             side = np.where(c.front[refl], 0, 1)
-            e_ind = cache.interpolate(scene, c.triangle[refl], x, side)
+            e_ind, b = cache.interpolate_with_bias(scene, c.triangle[refl], x, side)
             k = (c.reflectance[refl] / math.pi)[:, None]
             out[refl] += k * (e_dir[:, None] + e_ind)
             direct_var[c.index[refl]] = k[:, 0] ** 2 * var
             # the interpolation's bias per group: its mean, and the variance of that mean
-            b = k * cache.interpolation_bias(scene, c.triangle[refl], x, side)
+            b = k * b
             bias[c.index[refl]] = b.mean(axis=1)
             bias_var[c.index[refl]] = b.var(axis=1, ddof=1) / G
         return c.index, out
