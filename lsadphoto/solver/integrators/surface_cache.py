@@ -1201,8 +1201,9 @@ def _material_chunk(est, cache, c, d, seed, glossy_rays):
                 m = np.flatnonzero(coef > 0)
                 if m.size:
                     k = (coef[m] / math.pi)[:, None]
-                    ind[m] += k * cache.interpolate(scene, tri[diff[m]], x[diff[m]], s[m])
-                    b[m] += k * cache.interpolation_bias(scene, tri[diff[m]], x[diff[m]], s[m])
+                    e_ind, e_bias = cache.interpolate_with_bias(scene, tri[diff[m]], x[diff[m]], s[m])
+                    ind[m] += k * e_ind
+                    b[m] += k * e_bias
             np.add.at(out, pix[diff], weight[diff, None] * (value[:, None] + ind))
             np.add.at(direct_var, pix[diff], weight[diff] ** 2 * var)
             np.add.at(bias, pix[diff], weight[diff, None] * b)
