@@ -68,7 +68,7 @@ from ..direct import (ALL_LUMINAIRES_UP_TO, DIRECT_SAMPLES, LuminaireTable, dire
                       sampled_direct_illuminance)
 from ..engine import engine_for
 from ..materials import shadow_transmittance
-from ..sky import DISTANT_RAYS_PER_DIRECT_SAMPLE
+from ..sky import DISTANT_RAYS_PER_DIRECT_SAMPLE, background_luminance, distant_reflection, stratified
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance, luminance_map_from_batches,
                   luminous_openings, near_step, primary_rays, run_chunks, warn_odd_view)
@@ -101,6 +101,8 @@ _TAG_RAYS, _TAG_GLOSSY, _TAG_DELTA, _TAG_POINT = 1 << 20, (1 << 20) + 1, (1 << 2
 GLOSSY_RAYS = 4
 #: Point-luminaire emission points drawn per vertex for the glossy part's next-event estimate.
 POINT_DRAWS = 4
+#: Directions per distant source (sun, sky) and vertex for the glossy part's next-event estimate.
+DISTANT_GLOSSY_SAMPLES = 4
 #: Vertices a sampled path visits at most (Russian roulette ends nearly all before).
 MAX_PATH_VERTICES = 32
 
@@ -790,16 +792,11 @@ def render_cached(store, projection, *, position, rotation, cache=None,
 
 def check_cache_materials(scene, what="the surface cache"):
     """Raise :class:`BadInputError` (one line, exit 2 on the command line) for the scenes with
-    non-Lambertian materials the surface cache does not model: the sun and sky (distant
-    sources) with such materials, and smooth plastic, metal or trans of specularity ≥ 0.018
-    with a diffuse part (Radiance's (1 − F(μ_i)) factor makes their diffuse part not ρ/π
-    times an irradiance)."""
+    non-Lambertian materials the surface cache does not model: smooth plastic, metal or
+    trans of specularity ≥ 0.018 with a diffuse part (Radiance's (1 − F(μ_i)) factor makes
+    their diffuse part not ρ/π times an irradiance)."""
     if scene.lambertian:
         return
-    if scene.distant_sources:
-        raise BadInputError(f"{scene.name}: {what} does not model the sun and sky in a scene with "
-                            "non-Lambertian materials; use --estimator local (the double local estimate "
-                            "with materials)")
     bsdf = scene.bsdf
     parts = bsdf.parts(np.arange(len(bsdf.materials)), np.ones(len(bsdf.materials)))
     bad = np.flatnonzero(bsdf.fresnel & (parts["kd"] + parts["td"] > 0))
@@ -972,9 +969,23 @@ class _MaterialIndirectEstimator:
         scale = size[owner] / POINT_DRAWS / self.chains_per_group
         return np.bincount(owner, weights=val * scale, minlength=len(x))
 
-    def direct_diffuse(self, y, ny, mat, keys):
+    def distant_glossy(self, x, n, wo, mat, group, blocks, level, tag):
+        """Glossy part [cd·m⁻²] of the light of the distant sources (sun, sky) that points
+        reflect or transmit towards ``wo``, next-event estimated with
+        :data:`DISTANT_GLOSSY_SAMPLES` stratified directions per source
+        (:func:`~lsadphoto.solver.sky.distant_reflection`, through glass with its T); the
+        rays that leave the scene after a non-delta vertex count no background."""
+        sources = len(self.scene.distant_sources)
+        if not sources or not len(x):
+            return np.zeros(len(x))
+        u = _uniforms_by(self.seed, group, blocks, sources * DISTANT_GLOSSY_SAMPLES * 2, tag, level)
+        u = stratified(u.reshape(len(x), sources, DISTANT_GLOSSY_SAMPLES, 2))
+        return distant_reflection(self.scene, self.engine, x, n, wo, mat, u)[1]
+
+    def direct_diffuse(self, y, ny, mat, keys, distant_samples=None):
         """kd/π·E_dir(front) + td/π·E_dir(back) [cd·m⁻²] at points ``y`` (facing normals
-        ``ny``), and its sampling variance."""
+        ``ny``), and its sampling variance (``distant_samples``: shadow rays per distant
+        source, default ``direct_samples``)."""
         out, var = np.zeros(len(y)), np.zeros(len(y))
         for coef, sign in ((self.kd[mat], 1.0), (self.td[mat], -1.0)):
             m = np.flatnonzero(coef > 0)
@@ -983,7 +994,7 @@ class _MaterialIndirectEstimator:
             sub = {k: (v[m] if isinstance(v, np.ndarray) else v) for k, v in keys.items()}
             if self.luminaire_table is None:
                 e, v = direct_illuminance(self.scene, self.engine, y[m], sign * ny[m],
-                                          samples=self.direct_samples, **sub)
+                                          samples=self.direct_samples, distant_samples=distant_samples, **sub)
             else:
                 e, v = sampled_direct_illuminance(self.scene, self.engine, y[m], sign * ny[m],
                                                   table=self.luminaire_table, **sub), 0.0
@@ -1026,6 +1037,7 @@ class _MaterialIndirectEstimator:
         row = np.arange(P * G * R)
         total = np.zeros(P * G * R)
         w, w_e = np.full(row.size, math.pi), np.zeros(row.size)
+        w_bg = np.zeros(row.size)    # weight of the background (sun, sky) if the ray leaves
         covered = np.ones(row.size, bool)
         travelled = np.zeros(row.size)
         u = _uniforms_by(self.seed, group, blocks, 2, _TAG_RAYS, self.key, 0)
@@ -1034,8 +1046,11 @@ class _MaterialIndirectEstimator:
         for level in range(1, MAX_PATH_VERTICES + 1):
             prim, dist = engine.closest_hit(origin, d)
             hit = prim >= 0
-            (row, group, blocks, w, w_e, covered, travelled, origin, d, prim, dist) = (
-                a[hit] for a in (row, group, blocks, w, w_e, covered, travelled, origin, d, prim, dist))
+            away = np.flatnonzero(~hit & (w_bg > 0))
+            if away.size:
+                total[row[away]] += w_bg[away] * background_luminance(scene, d[away])
+            (row, group, blocks, w, w_e, w_bg, covered, travelled, origin, d, prim, dist) = (
+                a[hit] for a in (row, group, blocks, w, w_e, w_bg, covered, travelled, origin, d, prim, dist))
             if not row.size:
                 break
             y = origin + dist[:, None] * d
@@ -1056,6 +1071,8 @@ class _MaterialIndirectEstimator:
                                          wo[nd[m]], mat[nd[m]])
                 value += self.point_glossy(y[nd], ny[nd], wo[nd], mat[nd], group[nd], blocks[nd], level,
                                            _TAG_POINT)
+                value += self.distant_glossy(y[nd], ny[nd], wo[nd], mat[nd], group[nd], blocks[nd], level,
+                                             _TAG_POINT + 2)
                 total[row[nd]] += w[nd] * value
             # the continuation: y's whole BSDF where its non-delta light counted, its deltas elsewhere
             u = _uniforms_by(self.seed, group, blocks, 4, _TAG_RAYS, self.key, level)
@@ -1067,23 +1084,30 @@ class _MaterialIndirectEstimator:
                 glossy_share[full] = f_g / np.maximum(f_d + f_g, 1e-300)
             only = np.flatnonzero(~counted)
             if only.size:
+                # a delta reflection relays light no connection covers, a straight transmission
+                # in this state mostly leads to covered light: where both exist (glass) each is
+                # chosen with probability ½ (weight R/½ or T/½) rather than in proportion
                 r_, t_ = parts["R"][only], parts["T"][only]
-                refl = u[only, 0] * (r_ + t_) < r_
+                p_r = np.where(t_ > 0, np.where(r_ > 0, 0.5, 0.0), 1.0)
+                refl = u[only, 0] < p_r
                 mu = np.einsum("ij,ij->i", ny[only], wo[only])
                 wi[only] = np.where(refl[:, None], 2 * mu[:, None] * ny[only] - wo[only], -wo[only])
-                weight[only], delta[only] = r_ + t_, True
+                weight[only] = np.where(refl, r_ / np.maximum(p_r, 1e-300), t_ / np.maximum(1 - p_r, 1e-300))
+                delta[only] = True
             reflected = delta & (np.einsum("ij,ij->i", wi, ny) > 0)
             straight = delta & ~reflected
             w_e = np.where(reflected, w, np.where(straight, w_e, w * glossy_share)) * weight
+            # the background after a delta reflection (next-event estimates cannot follow one)
+            w_bg = np.where(reflected, w, np.where(straight, w_bg, 0.0)) * weight
             covered = np.where(delta, covered & straight, True)
             travelled = np.where(delta, travelled, 0.0)
             w = w * weight
             q = np.minimum(weight, 1.0)
             go = (weight > 0) & (u[:, 3] < q)
             side = np.where(np.einsum("ij,ij->i", wi, ny) > 0, 1.0, -1.0)[:, None]
-            (row, group, blocks, w, w_e, covered, travelled, origin, d, q) = (
-                a[go] for a in (row, group, blocks, w, w_e, covered, travelled, y + eps * side * ny, wi, q))
-            w, w_e = w / q, w_e / q
+            (row, group, blocks, w, w_e, w_bg, covered, travelled, origin, d, q) = (
+                a[go] for a in (row, group, blocks, w, w_e, w_bg, covered, travelled, y + eps * side * ny, wi, q))
+            w, w_e, w_bg = w / q, w_e / q, w_bg / q
             if not row.size:
                 break
         return total.reshape(P, G, R).mean(axis=2)
@@ -1107,15 +1131,19 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level):
     row = np.arange(len(x))
     u = _uniforms_by(seed, group, blocks, 2, _TAG_GLOSSY, level, 0)
     wi, w = bsdf.sample_glossy(mat, n, wo, u, parts)
+    delta = np.zeros(len(x), bool)   # whether the ray left a delta reflection or transmission
     side = np.where(np.einsum("ij,ij->i", wi, n) > 0, 1.0, -1.0)[:, None]
     origin, d = x + eps * side * n, wi
     for depth in range(1, MAX_PATH_VERTICES + 1):
         go = w > 0
-        row, group, blocks, w, origin, d = row[go], group[go], blocks[go], w[go], origin[go], d[go]
+        row, group, blocks, w, delta, origin, d = (a[go] for a in (row, group, blocks, w, delta, origin, d))
         if not row.size:
             break
         prim, dist = engine.closest_hit(origin, d)
         hit = prim >= 0
+        away = np.flatnonzero(~hit & delta)
+        if away.size and scene.distant_sources:  # after a lobe, the next-event estimate has it
+            total[row[away]] += w[away] * background_luminance(scene, d[away])
         row, group, blocks, w, origin, d, prim, dist = (a[hit] for a in (row, group, blocks, w, origin, d, prim, dist))
         if not row.size:
             break
@@ -1133,6 +1161,8 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level):
         if gl.size:
             value[gl] += est.point_glossy(y[gl], ny[gl], wo_y[gl], mat_y[gl], group[gl], blocks[gl],
                                           64 * level + depth, _TAG_POINT)
+            value[gl] += est.distant_glossy(y[gl], ny[gl], wo_y[gl], mat_y[gl], group[gl], blocks[gl],
+                                            64 * level + depth, _TAG_POINT + 2)
         total[row] += w * value
         # go on by the glossy lobes or the deltas, in proportion to their coefficients
         u = _uniforms_by(seed, group, blocks, 4, _TAG_GLOSSY, level, depth)
@@ -1151,6 +1181,7 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level):
         q = np.minimum(weight, 1.0)
         go = u[:, 3] < q
         w = np.where(go, w * weight / np.maximum(q, 1e-300), 0.0)
+        delta = ~lobe
         side = np.where(np.einsum("ij,ij->i", wi, ny) > 0, 1.0, -1.0)[:, None]
         origin, d = y + eps * side * ny, wi
     return total
@@ -1194,7 +1225,8 @@ def _material_chunk(est, cache, c, d, seed, glossy_rays):
         diff = np.flatnonzero(parts["kd"] + parts["td"] > 0)
         if diff.size:
             keys = {"seed": seed, "block_ids": blocks[diff], "purpose_key": 0 if level == 0 else 20000 + level}
-            value, var = est.direct_diffuse(x[diff], n[diff], mat[diff], keys)
+            value, var = est.direct_diffuse(x[diff], n[diff], mat[diff], keys,
+                                            DISTANT_RAYS_PER_DIRECT_SAMPLE * est.direct_samples)
             side = np.where(front[diff], 0, 1)
             ind, b = np.zeros((diff.size, G)), np.zeros((diff.size, G))
             for coef, s in ((est.kd[mat[diff]], side), (est.td[mat[diff]], 1 - side)):
@@ -1219,6 +1251,8 @@ def _material_chunk(est, cache, c, d, seed, glossy_rays):
             grp = np.tile(np.arange(G), gl.size)
             val += est.point_glossy(x[rep], n[rep], wo[rep], mat[rep], grp, blocks[rep], level,
                                     _TAG_POINT + 1).reshape(gl.size, G)
+            val += est.distant_glossy(x[rep], n[rep], wo[rep], mat[rep], grp, blocks[rep], level,
+                                      _TAG_POINT + 3).reshape(gl.size, G)
             np.add.at(out, pix[gl], weight[gl, None] * val)
         # continue through the delta parts
         r, t = parts["R"], parts["T"]
@@ -1240,6 +1274,8 @@ def _material_chunk(est, cache, c, d, seed, glossy_rays):
         side = np.where(refl, 1.0, -1.0)[:, None]
         prim, dist = engine.closest_hit(x + eps * side * n, dd)
         hit = prim >= 0
+        if scene.distant_sources:  # the sky seen through glass or in a mirror
+            np.add.at(out, pix[~hit], (weight[~hit] * background_luminance(scene, dd[~hit]))[:, None])
         pix, x, n, dd, side, prim, dist, blocks, weight = (a[hit] for a in (pix, x, n, dd, side, prim, dist, blocks,
                                                                             weight))
         if not pix.size:
