@@ -947,7 +947,7 @@ class _MaterialIndirectEstimator:
         if self.sampler is None or not len(x):
             return out
         st = self.store
-        u = _uniforms_by(self.seed, group, blocks, POINT_DRAWS, tag, level)
+        u = _uniforms_by(self.seed, group, blocks, POINT_DRAWS, tag, self.key, level)
         size = np.array([len(p) for p in self.point_pools])[group]
         owner = np.repeat(np.arange(len(x)), POINT_DRAWS)
         live = size[owner] > 0
@@ -978,7 +978,7 @@ class _MaterialIndirectEstimator:
         sources = len(self.scene.distant_sources)
         if not sources or not len(x):
             return np.zeros(len(x))
-        u = _uniforms_by(self.seed, group, blocks, sources * DISTANT_GLOSSY_SAMPLES * 2, tag, level)
+        u = _uniforms_by(self.seed, group, blocks, sources * DISTANT_GLOSSY_SAMPLES * 2, tag, self.key, level)
         u = stratified(u.reshape(len(x), sources, DISTANT_GLOSSY_SAMPLES, 2))
         return distant_reflection(self.scene, self.engine, x, n, wo, mat, u)[1]
 
@@ -1160,9 +1160,9 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level):
         gl = np.flatnonzero(p["rs"] + p["ts"] > 0)
         if gl.size:
             value[gl] += est.point_glossy(y[gl], ny[gl], wo_y[gl], mat_y[gl], group[gl], blocks[gl],
-                                          64 * level + depth, _TAG_POINT)
+                                          64 * level + depth, _TAG_POINT + 4)
             value[gl] += est.distant_glossy(y[gl], ny[gl], wo_y[gl], mat_y[gl], group[gl], blocks[gl],
-                                            64 * level + depth, _TAG_POINT + 2)
+                                            64 * level + depth, _TAG_POINT + 5)
         total[row] += w * value
         # go on by the glossy lobes or the deltas, in proportion to their coefficients
         u = _uniforms_by(seed, group, blocks, 4, _TAG_GLOSSY, level, depth)
