@@ -95,7 +95,8 @@ PATCH_REFINE = 1
 #: Cache points per random-stream block.
 POINT_BLOCK = 256
 
-#: Stream tags of the material cache (keys of the "cache" purpose beyond the node draws').
+#: Stream tags of the material cache (keys of the "cache" purpose beyond the node draws'); the
+#: next-event draws of each use take _TAG_POINT + k, k = 0 … 5.
 _TAG_RAYS, _TAG_GLOSSY, _TAG_DELTA, _TAG_POINT = 1 << 20, (1 << 20) + 1, (1 << 20) + 2, (1 << 20) + 3
 #: Glossy-lobe rays per eye vertex and group of :func:`render_cached` in a material scene.
 GLOSSY_RAYS = 4
