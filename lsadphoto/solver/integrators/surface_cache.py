@@ -1,4 +1,4 @@
-"""Per-surface indirect illuminance of a Lambertian scene, and rendering from it.
+"""Per-surface indirect illuminance of a scene, and rendering from it.
 
 The per-pixel double local estimate (:func:`~lsadphoto.solver.render`) connects every
 pixel to chain nodes: its cost grows with pixels × nodes, and a few thousand nodes per
@@ -43,6 +43,19 @@ points lie on one side (an edge of a mesh). :func:`render_cached` estimates it p
 from the cached values themselves (:meth:`~lsadphoto.solver.cache_grid.SurfaceCache.interpolate_with_bias`)
 and adds it to the reported uncertainty in quadrature. It is measured against per-pixel
 estimates in docs/accuracy.md; halve ``spacing`` to quarter it.
+
+Scenes with glossy, specular and transmitting materials (:mod:`~lsadphoto.solver.materials`)
+cache the same quantity — E_ind, everything but the luminaires seen directly or through
+glass — on the sides of every surface with a diffuse part: far connections to the material
+chains' surface nodes with the node's whole BSDF per pair, and cosine-sampled paths for the
+near field and for light relayed by delta reflections (:class:`_MaterialIndirectEstimator`).
+Per pixel the eye path follows deltas; each vertex takes its diffuse part from E_dir (shadow
+rays through glass with its transmittance) + the interpolated E_ind, and its glossy part from
+lobe-sampled rays whose hits are evaluated the same way, with next-event estimates for what
+rays cannot hit (point luminaires, the sun and sky) (:func:`_material_chunk`). Smooth
+materials whose diffuse part carries Radiance's Fresnel factor are refused
+(:func:`check_cache_materials`). docs/user-guide-solver.md §2a gives the rules and where the
+estimate is not unbiased.
 
 References
 ----------
