@@ -96,12 +96,25 @@ def test_direct_light_through_glass_matches_rtrace(tmp_path):
     assert np.allclose(ours, theirs, rtol=5e-3), (ours, theirs)
 
 
-@pytest.mark.parametrize("variant", ["glossy floor", "glass partition", "mirror", "metal panel"])
+def _room(variant):
+    """A material room of :func:`material_room_rad`, or its glass partition replaced by a
+    ``trans`` one (diffuse reflection and transmission, straight or, with roughness 0.1, a
+    glossy transmitted lobe)."""
+    if "trans" in variant:
+        rad, eye, sight = material_room_rad("glass partition")
+        alpha = "0.1" if "rough" in variant else "0"
+        return rad.replace("void glass gl 0 0 3 0.96 0.96 0.96", f"void trans gl 0 0 7 0.6 0.6 0.6 0 {alpha} 0.5 0.3"), \
+            eye, sight
+    return material_room_rad(variant)
+
+
+@pytest.mark.parametrize("variant", ["glossy floor", "glass partition", "mirror", "metal panel",
+                                     "trans partition", "rough trans partition"])
 def test_cache_agrees_with_the_material_local_estimate(variant):
     # Independent simulations (seeds 1 and 2) and estimators; a coarse cache (1/12 of the
     # diagonal) so that the test runs in seconds — its interpolation bias is in its reported
-    # uncertainty. Measured (12², these settings): median |z| 0.6–0.8, field means 0.2–1.6σ.
-    rad, eye, sight = material_room_rad(variant)
+    # uncertainty. Measured (12², these settings): median |z| 0.6–0.8, field means 0.1–1.6σ.
+    rad, eye, sight = _room(variant)
     scene = read_radiance_scene(rad)
     proj, pose = _pinhole(12), {"position": np.asarray(eye, float), "rotation": camera_to_world(sight)}
     store = simulate(scene, samples=16384, seed=1)
