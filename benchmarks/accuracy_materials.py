@@ -184,11 +184,13 @@ def main(argv=None):
                     setting = (f"{args.chains} chains, spacing {args.cache_spacing:.3g} × diagonal, "
                                f"{args.cache_nodes} nodes/point, {args.glossy_rays} glossy rays/vertex/group")
                     store = simulate(scene, samples=args.chains, seed=1)
-                    cache = build_surface_cache(store, spacing=args.cache_spacing * scene.size, nodes=args.cache_nodes,
-                                                seed=1, workers=args.workers)
-                    lmap = render_cached(store, proj, position=pos, rotation=rot, cache=cache, seed=1,
-                                         glossy_rays=args.glossy_rays, workers=args.workers)
-                    setting += f" ({cache.size} points)"
+                    with Clock() as build:
+                        cache = build_surface_cache(store, spacing=args.cache_spacing * scene.size,
+                                                    nodes=args.cache_nodes, seed=1, workers=args.workers)
+                    with Clock() as view:
+                        lmap = render_cached(store, proj, position=pos, rotation=rot, cache=cache, seed=1,
+                                             glossy_rays=args.glossy_rays, workers=args.workers)
+                    setting += (f" ({cache.size} points; CPU: cache {build.cpu:.0f} s, view {view.cpu:.1f} s)")
                 else:
                     setting = f"{args.paths} paths/px"
                     lmap = render_path_traced(scene, proj, position=pos, rotation=rot, samples=args.paths,
