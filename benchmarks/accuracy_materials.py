@@ -176,10 +176,12 @@ def main(argv=None):
                 if name == "local":
                     setting = (f"{args.chains} chains, {args.nodes_per_pixel} nodes/px, "
                                f"{args.rays_per_vertex} rays/vertex")
-                    lmap = render_local_estimate_materials(
-                        simulate(scene, samples=args.chains, seed=1), proj, position=pos, rotation=rot,
-                        nodes_per_pixel=args.nodes_per_pixel, rays_per_vertex=args.rays_per_vertex, seed=1,
-                        workers=args.workers)
+                    store = simulate(scene, samples=args.chains, seed=1)
+                    with Clock() as view:
+                        lmap = render_local_estimate_materials(
+                            store, proj, position=pos, rotation=rot, nodes_per_pixel=args.nodes_per_pixel,
+                            rays_per_vertex=args.rays_per_vertex, seed=1, workers=args.workers)
+                    setting += f" (CPU: view {view.cpu:.0f} s)"
                 elif name == "cache":
                     setting = (f"{args.chains} chains, spacing {args.cache_spacing:.3g} × diagonal, "
                                f"{args.cache_nodes} nodes/point, {args.glossy_rays} glossy rays/vertex/group")
