@@ -186,7 +186,36 @@ def _far_terms(points, normals, offset, cdf, guide, nodes, u, eps2, tiny, out, p
     return m
 
 
-class _IndirectEstimator:
+class _NodeHull:
+    """What both indirect estimators share: the test for points facing no node, and the
+    stream keys of their direct samples (attributes ``store``, ``engine``, ``key``)."""
+
+    hull = None
+
+    def _facing_nodes(self, x, n):
+        """True where some node lies in front of the point's tangent plane (else the far
+        part is exactly 0: every pair has cos θ_x ≤ 0), by the support function of the
+        nodes' convex hull."""
+        if self.hull is None:
+            from scipy.spatial import ConvexHull, QhullError
+
+            pos = self.store.position[self.store.depth > 0]
+            try:
+                self.hull = pos[ConvexHull(pos).vertices] if len(pos) > 4 else pos
+            except (QhullError, ValueError):  # flat or degenerate node sets: all of them
+                self.hull = pos
+        if self.hull.size == 0:
+            return np.zeros(len(x), dtype=bool)
+        support = (n @ self.hull.T).max(axis=1)
+        return support > np.einsum("ij,ij->i", n, x) + self.engine.epsilon
+
+    def _direct_key(self, level):
+        """Stream key of the direct samples at near hits and path vertices (≥ 1; 0 is the
+        pixels')."""
+        return 1 + self.key * 4096 + level
+
+
+class _IndirectEstimator(_NodeHull):
     """E_ind at points from the depth ≥ 1 nodes of a store, per group of draws."""
 
     def __init__(self, store, engine, *, nodes, near_distance, direct_samples, seed, key,
@@ -227,8 +256,6 @@ class _IndirectEstimator:
         self.chains_per_group = store.chains / self.groups
         self.near_rays = int(near_rays)
         self.near_draws = max(1, self.draws // 8)
-        self.pos = np.ascontiguousarray(store.position)
-        self.hull = None
         # Many luminaires: a near hit draws one of them from a per-region table.
         many = len(self.scene.area_luminaires) + len(self.scene.point_luminaires) > ALL_LUMINAIRES_UP_TO
         self.luminaire_table = LuminaireTable(self.scene, near_distance) if many else None
@@ -258,23 +285,6 @@ class _IndirectEstimator:
             vals.ravel()[pair[:rays][hit]] = 0.0
         return vals.sum(axis=1) * (self.totals[group] / k / self.chains_per_group)
 
-    def _facing_nodes(self, x, n):
-        """True where some node lies in front of the point's tangent plane (else the far
-        part is exactly 0: every pair has cos θ_x ≤ 0), by the support function of the
-        nodes' convex hull."""
-        if self.hull is None:
-            from scipy.spatial import ConvexHull, QhullError
-
-            pos = self.pos[self.store.depth > 0]
-            try:
-                self.hull = pos[ConvexHull(pos).vertices] if len(pos) > 4 else pos
-            except (QhullError, ValueError):  # flat or degenerate node sets: all of them
-                self.hull = pos
-        if self.hull.size == 0:
-            return np.zeros(len(x), dtype=bool)
-        support = (n @ self.hull.T).max(axis=1)
-        return support > np.einsum("ij,ij->i", n, x) + self.engine.epsilon
-
     def estimate(self, x, n, blocks):
         """E_ind [lx] at points ``x`` (normals ``n``), shape (P, groups)."""
         P = len(x)
@@ -283,10 +293,6 @@ class _IndirectEstimator:
         for g in range(self.groups):
             out[lit, g] = self.far(x[lit], n[lit], g, blocks[lit], 0)
         return out + self._near(x, n, blocks)
-
-    def _direct_key(self, level):
-        """Stream key of the direct samples at near hits (≥ 1; 0 is the pixels')."""
-        return 1 + self.key * 4096 + level
 
     def _near(self, x0, n0, blocks0):
         """Unbiased estimates of the part of E_ind from surface points within ε, per group:
@@ -845,7 +851,7 @@ def _uniforms_by(seed, group, blocks, cols, *keys):
     return out
 
 
-class _MaterialIndirectEstimator:
+class _MaterialIndirectEstimator(_NodeHull):
     """E_ind at points of a scene with non-Lambertian materials, per group of node draws.
 
     E_ind is the irradiance from everything but the luminaires seen directly or through
@@ -1021,8 +1027,9 @@ class _MaterialIndirectEstimator:
     def estimate(self, x, n, blocks):
         """E_ind [lx] at points ``x`` (normals ``n``), shape (P, groups)."""
         out = np.zeros((len(x), self.groups))
+        lit = np.flatnonzero(self._facing_nodes(x, n))
         for g in range(self.groups):
-            out[:, g] = self.far(x, n, g, blocks, 0)
+            out[lit, g] = self.far(x[lit], n[lit], g, blocks[lit], 0)
         return out + self._rays(x, n, blocks)
 
     def _rays(self, x0, n0, blocks0):
@@ -1125,10 +1132,6 @@ class _MaterialIndirectEstimator:
             if not row.size:
                 break
         return total.reshape(P, G, R).mean(axis=2)
-
-    def _direct_key(self, level):
-        """Stream key of the direct samples at path vertices (≥ 1; 0 is the pixels')."""
-        return 1 + self.key * 4096 + level
 
 
 def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level):
