@@ -758,7 +758,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     est = None if scene.lambertian else _MaterialIndirectEstimator(
         store, engine, nodes=cache.provenance.get("nodes_per_point", CACHE_NODES),
         near_distance=cache.provenance.get("near_distance_m", RELATIVE_CACHE_NEAR_DISTANCE * scene.size),
-        direct_samples=direct_samples, seed=seed, key=1)
+        direct_samples=direct_samples, seed=seed, key=1, connections=False)
 
     def work(start):
         c = chunk_hits(scene, position, hit, prim, dist, d, start, chunk)
@@ -866,7 +866,9 @@ class _MaterialIndirectEstimator(_NodeHull):
     """
 
     def __init__(self, store, engine, *, nodes, near_distance, direct_samples, seed, key,
-                 near_rays=NEAR_RAYS):
+                 near_rays=NEAR_RAYS, connections=True):
+        """``connections=False``: without the node pools of the far part (rendering from a
+        cache needs only the next-event estimates and the direct part)."""
         from ..chains import EmissionSampler
 
         scene = store.scene
@@ -879,7 +881,7 @@ class _MaterialIndirectEstimator(_NodeHull):
         self.near_draws = max(1, self.draws // 8)
         self.near_rays = int(near_rays)
         self.kd, self.td = _diffuse_coefficients(scene)
-        surface = np.flatnonzero(store.depth > 0)
+        surface = np.flatnonzero(store.depth > 0) if connections else np.zeros(0, np.int64)
         lo = scene.triangles.reshape(-1, 3).min(axis=0)
         extent = float(np.ptp(scene.triangles.reshape(-1, 3), axis=0).max()) or 1.0
         self.pools, self.cdfs, self.totals = [], [], []
