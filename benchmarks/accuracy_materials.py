@@ -149,6 +149,7 @@ def main(argv=None):
     parser.add_argument("--cache-spacing", type=float, default=1 / 24, help="cache spacing / scene diagonal")
     parser.add_argument("--cache-nodes", type=int, default=8192, help="node draws per cache point")
     parser.add_argument("--glossy-rays", type=int, default=4, help="glossy rays per eye vertex and group (cache)")
+    parser.add_argument("--direct-samples", type=int, default=4, help="shadow rays per luminaire and pixel (cache)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--reference-only", action="store_true")
     parser.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "lsadphoto_material_refs"))
@@ -184,14 +185,16 @@ def main(argv=None):
                     setting += f" (CPU: view {view.cpu:.0f} s)"
                 elif name == "cache":
                     setting = (f"{args.chains} chains, spacing {args.cache_spacing:.3g} × diagonal, "
-                               f"{args.cache_nodes} nodes/point, {args.glossy_rays} glossy rays/vertex/group")
+                               f"{args.cache_nodes} nodes/point, {args.glossy_rays} glossy rays/vertex/group, "
+                               f"{args.direct_samples} shadow rays/luminaire/px")
                     store = simulate(scene, samples=args.chains, seed=1)
                     with Clock() as build:
                         cache = build_surface_cache(store, spacing=args.cache_spacing * scene.size,
                                                     nodes=args.cache_nodes, seed=1, workers=args.workers)
                     with Clock() as view:
                         lmap = render_cached(store, proj, position=pos, rotation=rot, cache=cache, seed=1,
-                                             glossy_rays=args.glossy_rays, workers=args.workers)
+                                             glossy_rays=args.glossy_rays, direct_samples=args.direct_samples,
+                                             workers=args.workers)
                     setting += (f" ({cache.size} points; CPU: cache {build.cpu:.0f} s, view {view.cpu:.1f} s)")
                 else:
                     setting = f"{args.paths} paths/px"
