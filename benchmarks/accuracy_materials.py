@@ -148,7 +148,7 @@ def main(argv=None):
     parser.add_argument("--paths", type=int, default=4096, help="paths per pixel of the path tracer")
     parser.add_argument("--cache-spacing", type=float, default=1 / 24, help="cache spacing / scene diagonal")
     parser.add_argument("--cache-nodes", type=int, default=8192, help="node draws per cache point")
-    parser.add_argument("--glossy-rays", type=int, default=4, help="glossy rays per eye vertex and group (cache)")
+    parser.add_argument("--glossy-rays", type=int, default=16, help="glossy rays per eye vertex and group (cache)")
     parser.add_argument("--direct-samples", type=int, default=4, help="shadow rays per luminaire and pixel (cache)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--reference-only", action="store_true")

@@ -117,8 +117,12 @@ POINT_BLOCK = 256
 #: Stream tags of the material cache (keys of the "cache" purpose beyond the node draws'); the
 #: next-event draws of each use take _TAG_POINT + k, k = 0 … 5.
 _TAG_RAYS, _TAG_GLOSSY, _TAG_DELTA, _TAG_POINT = 1 << 20, (1 << 20) + 1, (1 << 20) + 2, (1 << 20) + 3
-#: Glossy-lobe rays per eye vertex and group of :func:`render_cached` in a material scene.
-GLOSSY_RAYS = 4
+#: Glossy-lobe rays per eye vertex and group of :func:`render_cached` in a material scene (as
+#: many per pixel as the material local estimate's default): the glossy reflection of an area
+#: luminaire is found by these rays only, and with 4 the glossy floor's pixels in a lobe's tail
+#: came out ~5 % low with too small an error (most groups miss the luminaire; 24², 16²-point
+#: cache: 86.9 % within 3σ of rtrace, 32 rays: 93.8 %).
+GLOSSY_RAYS = 16
 #: Point-luminaire emission points drawn per vertex for the glossy part's next-event estimate.
 POINT_DRAWS = 4
 #: Directions per distant source (sun, sky) and vertex for the glossy part's next-event estimate.
