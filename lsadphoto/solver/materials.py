@@ -431,9 +431,10 @@ class MaterialTable:
         """Sample ω_i from the glossy lobes only (the reflection lobe rs and the transmission
         lobe ts, one chosen in proportion to its coefficient); ``u`` uniforms (k, 2) (the
         first reused inside the lobe), ``parts``: :meth:`parts` at these points. Returns
-        ``(wi, weight)``, weight = f_g·|μ_i|/p_g with f_g the glossy part of :meth:`evaluate`
-        and p_g = (rs·p_rs + ts·p_ts)/(rs + ts) (one-sample balance heuristic over the two
-        lobes); 0 where there is no glossy part or the direction falls on the wrong side."""
+        ``(wi, weight, pdf)``, weight = f_g·|μ_i|/p_g with f_g the glossy part of
+        :meth:`evaluate` and p_g = (rs·p_rs + ts·p_ts)/(rs + ts) [sr⁻¹] (one-sample balance
+        heuristic over the two lobes); 0 where there is no glossy part or the direction falls
+        on the wrong side."""
         m = np.asarray(m)
         rs, ts = parts["rs"], parts["ts"]
         total = rs + ts
@@ -453,7 +454,14 @@ class MaterialTable:
         _, f_g = self.evaluate(m, n, wo, wi, parts=parts, split=True)
         mu_i = np.abs(_dot(n, wi))
         weight = np.where((total > 0) & (pdf > 0), f_g * mu_i / np.maximum(pdf, 1e-300), 0.0)
-        return wi, weight
+        return wi, weight, pdf
+
+    def pdf_glossy(self, m, n, wo, wi, parts):
+        """Density p_g [sr⁻¹] with which :meth:`sample_glossy` picks ``wi``."""
+        rs, ts = parts["rs"], parts["ts"]
+        total = rs + ts
+        dens = self._pdfs(np.asarray(m), n, wo, wi, parts)
+        return np.where(total > 0, (rs * dens[:, 2] + ts * dens[:, 3]) / np.where(total > 0, total, 1.0), 0.0)
 
     def pdf(self, m, n, wo, wi, front=None, parts=None):
         """Density [sr⁻¹] with which :meth:`sample` picks the non-delta direction ``wi``

@@ -115,7 +115,7 @@ PATCH_REFINE = 1
 POINT_BLOCK = 256
 
 #: Stream tags of the material cache (keys of the "cache" purpose beyond the node draws'); the
-#: next-event draws of each use take _TAG_POINT + k, k = 0 … 5.
+#: next-event draws of each use take _TAG_POINT + k, k = 0 … 7.
 _TAG_RAYS, _TAG_GLOSSY, _TAG_DELTA, _TAG_POINT = 1 << 20, (1 << 20) + 1, (1 << 20) + 2, (1 << 20) + 3
 #: Glossy-lobe rays per eye vertex and group of :func:`render_cached` in a material scene (as
 #: many per pixel as the material local estimate's default): the glossy reflection of an area
@@ -125,6 +125,9 @@ _TAG_RAYS, _TAG_GLOSSY, _TAG_DELTA, _TAG_POINT = 1 << 20, (1 << 20) + 1, (1 << 2
 GLOSSY_RAYS = 16
 #: Point-luminaire emission points drawn per vertex for the glossy part's next-event estimate.
 POINT_DRAWS = 4
+#: Area-luminaire emission points drawn per vertex and group for the glossy part's next-event
+#: estimate (combined with the lobe-sampled rays by the balance heuristic).
+EMITTER_DRAWS = 4
 #: Directions per distant source (sun, sky) and vertex for the glossy part's next-event estimate.
 DISTANT_GLOSSY_SAMPLES = 4
 #: Vertices a sampled path visits at most (Russian roulette ends nearly all before).
@@ -912,7 +915,13 @@ class _MaterialIndirectEstimator(_NodeHull):
         # estimate (no ray can hit a point)
         point = np.flatnonzero((store.depth == 0) & (store.kind != KIND_COSINE))
         self.point_pools = [point[store.batch[point] % G == g] for g in range(G)]
-        self.sampler = EmissionSampler(scene) if point.size else None
+        # area-luminaire emission points per group, and each luminaire's emission-point
+        # density per unit area (Φ_l/Φ)/A_l (the glossy part's next-event estimate)
+        emit = np.flatnonzero((store.depth == 0) & (store.kind == KIND_COSINE) & (store.triangle >= 0))
+        self.emit_pools = [emit[store.batch[emit] % G == g] for g in range(G)]
+        self.sampler = EmissionSampler(scene) if point.size or emit.size else None
+        self.area_density = np.array([lum.flux / (scene.total_flux * scene.areas[lum.triangles].sum())
+                                      for lum in scene.area_luminaires])
         many = len(scene.area_luminaires) + len(scene.point_luminaires) > ALL_LUMINAIRES_UP_TO
         self.luminaire_table = LuminaireTable(scene, near_distance) if many else None
 
@@ -976,7 +985,7 @@ class _MaterialIndirectEstimator(_NodeHull):
         uniformly, (count/k)/N_g·Σ c·I(ω_{y→x})·f_g·|cos θ_x|·T/r² — the next-event estimate
         of what no sampled ray can hit."""
         out = np.zeros(len(x))
-        if self.sampler is None or not len(x):
+        if not self.scene.point_luminaires or not len(x):
             return out
         st = self.store
         u = _uniforms_by(self.seed, group, blocks, POINT_DRAWS, tag, self.key, level)
@@ -999,6 +1008,53 @@ class _MaterialIndirectEstimator(_NodeHull):
             origin = x[owner[ok]] + self.engine.epsilon * np.sign(cos_x[ok])[:, None] * n[owner[ok]]
             val[ok] *= shadow_transmittance(self.scene, self.engine, origin, st.position[pick[ok]])
         scale = size[owner] / POINT_DRAWS / self.chains_per_group
+        return np.bincount(owner, weights=val * scale, minlength=len(x))
+
+    def light_weight(self, prim, r2, cos_y, p_rays):
+        """Balance-heuristic weight w_L = p_L/(p_L + p_rays) of the emitter next-event estimate
+        for points on emitting triangles ``prim`` at squared distance ``r2`` seen at cos θ_y:
+        p_L = :data:`EMITTER_DRAWS`·(Φ_l/Φ)/A_l·r²/cos θ_y, the solid-angle density of its
+        draws; ``p_rays`` = rays × the lobe sampler's density of that direction."""
+        p_l = EMITTER_DRAWS * self.area_density[self.scene.emitter[prim]] * r2 / np.maximum(cos_y, 1e-12)
+        return p_l / np.maximum(p_l + p_rays, 1e-300)
+
+    def emitter_glossy(self, x, n, wo, mat, group, blocks, level, tag, rays, p_scale):
+        """Glossy part [cd·m⁻²] of the area luminaires' light that points reflect or
+        transmit towards ``wo``, by :data:`EMITTER_DRAWS` emission points (source nodes of the
+        row's group) drawn uniformly, (count/k)/N_g·Σ c·cos θ_y·f_g·|cos θ_x|·T/r²·w_L — the
+        next-event half of the balance heuristic whose other half is the lobe-sampled rays
+        (``rays`` of them, each drawn with ``p_scale`` × :meth:`~lsadphoto.solver.materials.MaterialTable.pdf_glossy`;
+        per row)."""
+        out = np.zeros(len(x))
+        if not self.area_density.size or not len(x):
+            return out
+        st, bsdf = self.store, self.scene.bsdf
+        u = _uniforms_by(self.seed, group, blocks, EMITTER_DRAWS, tag, self.key, level)
+        size = np.array([len(p) for p in self.emit_pools])[group]
+        owner = np.repeat(np.arange(len(x)), EMITTER_DRAWS)
+        live = size[owner] > 0
+        owner = owner[live]
+        local = np.minimum((u.ravel()[live] * size[owner]).astype(np.int64), size[owner] - 1)
+        offsets = np.cumsum([0] + [len(p) for p in self.emit_pools])
+        pick = np.concatenate(self.emit_pools)[offsets[group[owner]] + local]
+        y, ny = st.position[pick], st.normal[pick]
+        v = y - x[owner]
+        r2 = np.einsum("ij,ij->i", v, v)
+        w = v / np.sqrt(np.maximum(r2, 1e-300))[:, None]
+        cos_x = np.einsum("ij,ij->i", w, n[owner])
+        cos_y = np.maximum(-np.einsum("ij,ij->i", w, ny), 0.0)
+        m, nx, wx = mat[owner], n[owner], wo[owner]
+        parts = bsdf.parts(m, np.clip(np.einsum("ij,ij->i", nx, wx), 1e-3, 1.0))
+        _, f_g = bsdf.evaluate(m, nx, wx, w, parts=parts, split=True)
+        val = f_g * np.abs(cos_x) * st.coefficient[pick] * cos_y / np.maximum(r2, 1e-300)
+        ok = np.flatnonzero(val > 0)
+        if ok.size:
+            p_rays = (rays * p_scale)[owner[ok]] * bsdf.pdf_glossy(m[ok], nx[ok], wx[ok], w[ok],
+                                                                   {key: v[ok] for key, v in parts.items()})
+            val[ok] *= self.light_weight(st.triangle[pick[ok]], r2[ok], cos_y[ok], p_rays)
+            origin = x[owner[ok]] + self.engine.epsilon * np.sign(cos_x[ok])[:, None] * nx[ok]
+            val[ok] *= shadow_transmittance(self.scene, self.engine, origin, y[ok] + self.engine.epsilon * ny[ok])
+        scale = size[owner] / EMITTER_DRAWS / self.chains_per_group
         return np.bincount(owner, weights=val * scale, minlength=len(x))
 
     def distant_glossy(self, x, n, wo, mat, group, blocks, level, tag):
@@ -1146,7 +1202,7 @@ class _MaterialIndirectEstimator(_NodeHull):
         return total.reshape(P, G, R).mean(axis=2)
 
 
-def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level):
+def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, rays):
     """Per-row estimates [cd·m⁻²] of the glossy part of the luminance leaving ``x`` towards
     ``wo``: a ray from the glossy lobes (:meth:`~lsadphoto.solver.materials.MaterialTable.sample_glossy`,
     weight f_g|μ|/p_g), whose hit y adds its emission, its diffuse part from the cache —
@@ -1159,13 +1215,17 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level):
     total = np.zeros(len(x))
     row = np.arange(len(x))
     u = _uniforms_by(seed, group, blocks, 2, _TAG_GLOSSY, level, 0)
-    wi, w = bsdf.sample_glossy(mat, n, wo, u, parts)
+    wi, w, pdf = bsdf.sample_glossy(mat, n, wo, u, parts)
     delta = np.zeros(len(x), bool)   # whether the ray left a delta reflection or transmission
+    # for the balance heuristic with the emitters' next-event estimate: rays × density of the
+    # last lobe sample (0 after a delta reflection) and the distance travelled since
+    p_rays, travelled = rays * pdf, np.zeros(len(x))
     side = np.where(np.einsum("ij,ij->i", wi, n) > 0, 1.0, -1.0)[:, None]
     origin, d = x + eps * side * n, wi
     for depth in range(1, MAX_PATH_VERTICES + 1):
         go = w > 0
-        row, group, blocks, w, delta, origin, d = (a[go] for a in (row, group, blocks, w, delta, origin, d))
+        row, group, blocks, w, delta, origin, d, p_rays, travelled = (
+            a[go] for a in (row, group, blocks, w, delta, origin, d, p_rays, travelled))
         if not row.size:
             break
         prim, dist = engine.closest_hit(origin, d)
@@ -1173,13 +1233,19 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level):
         away = np.flatnonzero(~hit & delta)
         if away.size and scene.distant_sources:  # after a lobe, the next-event estimate has it
             total[row[away]] += w[away] * background_luminance(scene, d[away])
-        row, group, blocks, w, origin, d, prim, dist = (a[hit] for a in (row, group, blocks, w, origin, d, prim, dist))
+        row, group, blocks, w, origin, d, prim, dist, p_rays, travelled = (
+            a[hit] for a in (row, group, blocks, w, origin, d, prim, dist, p_rays, travelled))
         if not row.size:
             break
+        travelled = travelled + dist
         y = origin + dist[:, None] * d
         ny, front = scene.facing_normals(prim, d)
         wo_y, mat_y = -d, scene.material[prim]
         value = emitted_luminance(scene, prim, wo_y)
+        lit = np.flatnonzero((value > 0) & (p_rays > 0) & (scene.emitter[prim] >= 0))
+        if lit.size:  # the rays' share of the balance heuristic
+            cos_y = np.abs(np.einsum("ij,ij->i", scene.normals[prim[lit]], d[lit]))
+            value[lit] *= 1 - est.light_weight(prim[lit], travelled[lit] ** 2, cos_y, p_rays[lit])
         p = bsdf.parts(mat_y, np.clip(np.einsum("ij,ij->i", ny, wo_y), 1e-3, 1.0), front)
         diff = np.flatnonzero(p["kd"] + p["td"] > 0)
         if diff.size:
@@ -1192,6 +1258,10 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level):
                                           64 * level + depth, _TAG_POINT + 4)
             value[gl] += est.distant_glossy(y[gl], ny[gl], wo_y[gl], mat_y[gl], group[gl], blocks[gl],
                                             64 * level + depth, _TAG_POINT + 5)
+            s_gl = p["rs"][gl] + p["ts"][gl]
+            value[gl] += est.emitter_glossy(y[gl], ny[gl], wo_y[gl], mat_y[gl], group[gl], blocks[gl],
+                                            64 * level + depth, _TAG_POINT + 6, np.ones(gl.size),
+                                            s_gl / (s_gl + p["R"][gl] + p["T"][gl]))
         total[row] += w * value
         # go on by the glossy lobes or the deltas, in proportion to their coefficients
         u = _uniforms_by(seed, group, blocks, 4, _TAG_GLOSSY, level, depth)
@@ -1205,8 +1275,13 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level):
         k = np.flatnonzero(lobe & (g_sum > 0))
         if k.size:
             uu = np.stack([c[k] / g_sum[k], u[k, 1]], axis=1)
-            wi[k], wg = bsdf.sample_glossy(mat_y[k], ny[k], wo_y[k], uu, {key: v[k] for key, v in p.items()})
+            wi[k], wg, pdf = bsdf.sample_glossy(mat_y[k], ny[k], wo_y[k], uu, {key: v[k] for key, v in p.items()})
             weight[k] = wg * s_all[k] / g_sum[k]
+        straight = ~lobe & ~refl
+        p_rays = np.where(straight, p_rays, 0.0)
+        travelled = np.where(straight, travelled, 0.0)
+        if k.size:
+            p_rays[k] = pdf * g_sum[k] / s_all[k]
         q = np.minimum(weight, 1.0)
         go = u[:, 3] < q
         w = np.where(go, w * weight / np.maximum(q, 1e-300), 0.0)
@@ -1274,7 +1349,7 @@ def _material_chunk(est, cache, c, d, seed, glossy_rays):
             rep = np.repeat(gl, G * R)
             grp = np.tile(np.repeat(np.arange(G), R), gl.size)
             sub = {key: v[rep] for key, v in parts.items()}
-            val = _glossy_paths(est, cache, seed, x[rep], n[rep], wo[rep], mat[rep], sub, grp, blocks[rep], level)
+            val = _glossy_paths(est, cache, seed, x[rep], n[rep], wo[rep], mat[rep], sub, grp, blocks[rep], level, R)
             val = val.reshape(gl.size, G, R).mean(axis=2)
             rep = np.repeat(gl, G)
             grp = np.tile(np.arange(G), gl.size)
@@ -1282,6 +1357,8 @@ def _material_chunk(est, cache, c, d, seed, glossy_rays):
                                     _TAG_POINT + 1).reshape(gl.size, G)
             val += est.distant_glossy(x[rep], n[rep], wo[rep], mat[rep], grp, blocks[rep], level,
                                       _TAG_POINT + 3).reshape(gl.size, G)
+            val += est.emitter_glossy(x[rep], n[rep], wo[rep], mat[rep], grp, blocks[rep], level, _TAG_POINT + 7,
+                                      np.full(rep.size, R), np.ones(rep.size)).reshape(gl.size, G)
             np.add.at(out, pix[gl], weight[gl, None] * val)
         # continue through the delta parts
         r, t = parts["R"], parts["T"]
