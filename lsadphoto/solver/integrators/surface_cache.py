@@ -118,10 +118,10 @@ POINT_BLOCK = 256
 #: next-event draws of each use take _TAG_POINT + k, k = 0 … 7.
 _TAG_RAYS, _TAG_GLOSSY, _TAG_DELTA, _TAG_POINT = 1 << 20, (1 << 20) + 1, (1 << 20) + 2, (1 << 20) + 3
 #: Glossy-lobe rays per eye vertex and group of :func:`render_cached` in a material scene (as
-#: many per pixel as the material local estimate's default): the glossy reflection of an area
-#: luminaire is found by these rays only, and with 4 the glossy floor's pixels in a lobe's tail
-#: came out ~5 % low with too small an error (most groups miss the luminaire; 24², 16²-point
-#: cache: 86.9 % within 3σ of rtrace, 32 rays: 93.8 %).
+#: many per pixel as the material local estimate's default). Before the emitters' next-event
+#: estimate the glossy reflection of an area luminaire was these rays' alone: with 4 the
+#: glossy floor's pixels in a lobe's tail came out ~5 % low with too small an error (most
+#: groups missed the luminaire).
 GLOSSY_RAYS = 16
 #: Point-luminaire emission points drawn per vertex for the glossy part's next-event estimate.
 POINT_DRAWS = 4
@@ -1207,7 +1207,8 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, 
     ``wo``: a ray from the glossy lobes (:meth:`~lsadphoto.solver.materials.MaterialTable.sample_glossy`,
     weight f_g|μ|/p_g), whose hit y adds its emission, its diffuse part from the cache —
     kd/π·(E_dir + E_ind) + td/π·(E_dir + E_ind)(back), E_ind interpolated in the row's
-    group — and the glossy light of point luminaires (next-event), and goes on by y's glossy
+    group — and the glossy light of point and area luminaires (next-event; the rays' emission
+    hits weighted by the balance heuristic's complement), and goes on by y's glossy
     and delta parts (chosen in proportion to rs + ts, R, T; Russian roulette min(1, weight)):
     a path tracer whose diffuse parts are the cache's."""
     scene, engine, bsdf = est.scene, est.engine, est.scene.bsdf
