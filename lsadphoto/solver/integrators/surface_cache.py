@@ -1313,7 +1313,8 @@ def _material_chunk(est, cache, c, d, seed, glossy_rays):
     chosen in proportion to R and T); at each vertex x, kd/π·(E_dir + E_ind)(x) + td/π·(E_dir
     + E_ind)(back of x), E_dir per pixel with its shadow transmittance and E_ind interpolated
     per group, plus the glossy part by ``glossy_rays`` rays per group
-    (:func:`_glossy_paths`) and the glossy light of point luminaires (next-event)."""
+    (:func:`_glossy_paths`) and the glossy light of point and area luminaires and of the sun and sky
+    (next-event)."""
     from .local_estimate import DELTA_SPLITS, MAX_DELTA_BOUNCES
 
     scene, engine, bsdf = est.scene, est.engine, est.scene.bsdf
