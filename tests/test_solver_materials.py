@@ -254,7 +254,8 @@ _REFERENCES = {}
 #: over √runs its standard error, with runs − 1 degrees of freedom: with 2 runs, pixels where
 #: the reference's noise dominates (the mirror-lit ones) have z distributed as Student's t
 #: with 1 degree of freedom, whose median |z| is 1.0 — the test's bound, so it failed by
-#: chance (rtrace's sampling differs between invocations); with 4 runs, t₃: median |z| 0.765.
+#: chance (rtrace's sampling changes with the temporary folder the octree is made in: the same
+#: rays gave other values there); with 4 runs, t₃: median |z| 0.765.
 REFERENCE_RUNS = 4
 
 
