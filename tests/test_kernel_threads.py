@@ -1,10 +1,12 @@
 """Kernels shared out among threads (lsadphoto._compiled.run_blocks) give what one thread gives.
 
 The ahead-of-time kernels release the GIL, so a caller can run blocks of rows (the fisheye
-geometry, the field luminance) or independent calls (Q's two derivative filters) on
-threads at once. Every value is a function of its own pixel's inputs (the geometry kernel's
-docstring; the field luminance is per pixel; each filter is one call), so the maps and the
-score must be equal bit for bit whatever the number of threads. The reference is one
+geometry, the field luminance, Q's field pass, its derivatives and screen, its contrast
+map, the RGBE scanlines), blocks of fixed chunks (the field sums, the evaluated field) or
+independent calls (Q's two derivative filters, the statistics' stripes) on threads at once.
+Every value is a function of its own pixel's inputs or a sum over a fixed chunk or stripe
+(the kernels' docstrings), so the maps and the score must be equal bit for bit whatever the
+number of threads. The reference is one
 thread (``LSADPHOTO_THREADS=1``), which runs the same kernels as before this was added.
 """
 
@@ -106,7 +108,7 @@ def test_a_score_on_threads_equals_one_thread(monkeypatch):
     monkeypatch.setattr(field_module, "DIRECTION_MAP_MAX_PIXELS", 0)
     monkeypatch.setattr(field_module, "_KERNEL_BLOCK_PIXELS", 7 * 300)
     records = []
-    for threads in (1, 2):
+    for threads in (1, 2, 3):
         monkeypatch.setenv("LSADPHOTO_THREADS", str(threads))
         clear_geometry_cache()
         record = score_map(lmap).to_dict()
@@ -114,4 +116,4 @@ def test_a_score_on_threads_equals_one_thread(monkeypatch):
         records.append(record)
     clear_geometry_cache()
     assert records[0]["n_sources"] >= 1 and records[0]["q"] is not None
-    assert records[0] == records[1]
+    assert records[0] == records[1] == records[2]

@@ -843,7 +843,11 @@ def q_Budak2021(luminance, directions, solid_angle, position_index, *, n_thresho
         return QualityResult(math.nan, analysis.mean_luminance, analysis.threshold_difference, float(cut),
                              analysis.k_th, contrast, math.nan, settings, analysis.reason)
     contrast = np.empty(analysis.shape, np.float32)
-    _contrast_background(analysis.evaluated, analysis.box[0].start, analysis.box[1].start, contrast)
+    r0, c0 = analysis.box[0].start, analysis.box[1].start
+    # Blocks of rows on threads (each block's rows from the box's corner relative to its own).
+    workers = _contrast_background.threads_for(analysis.evaluated, r0, c0, contrast)
+    run_blocks(lambda a, b: _contrast_background(analysis.evaluated, r0 - a, c0, contrast[a:b]),
+               row_blocks(contrast.shape[0], workers), workers)
     kept = analysis.key >= cut
     contrast.ravel()[analysis.index[kept]] = analysis.contrast[kept]
     kept_fraction = float(np.sum(analysis.omega[kept])) / analysis.field_solid_angle
