@@ -65,6 +65,25 @@ def test_run_blocks_keeps_the_order_and_raises_a_task_error(monkeypatch):
     assert _compiled.run_blocks(lambda a, b: a, blocks) == list(range(20))
 
 
+@pytest.mark.parametrize("threads", ["1", "2"])
+def test_background_gives_the_value_or_raises_the_error(monkeypatch, threads):
+    # With 2 threads the task runs at once on its own thread (the ahead-of-time kernels
+    # loaded), with 1 in result(): the same value, the same exception, raised by result().
+    import threading
+
+    monkeypatch.setenv("LSADPHOTO_THREADS", threads)
+    seen = []
+    pending = _compiled.background(lambda: seen.append(threading.current_thread()) or 42)
+    assert pending.result() == 42 and pending.result() == 42 and len(seen) == 1
+
+    def fails():
+        raise ValueError("in the task")
+
+    pending = _compiled.background(fails)
+    with pytest.raises(ValueError, match="in the task"):
+        pending.result()
+
+
 @pytest.fixture(autouse=True)
 def _ahead_of_time():
     # Only the ahead-of-time code is shared out among threads (Kernel.threads_for); without
