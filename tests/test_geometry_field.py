@@ -322,3 +322,31 @@ def test_branch_free_tan_against_libm():
     assert np.all(np.abs(out - exact) <= 2 * np.spacing(np.abs(exact)))
     many(np.array([np.nan]), out[:1])
     assert np.isnan(out[0])
+
+
+@pytest.mark.parametrize("one_pass", [False, True])
+@pytest.mark.parametrize("method", ["evalglare", "Guth", "Kim2011"])
+def test_mirrored_rows_equal_their_direct_computation(monkeypatch, one_pass, method):
+    """A centred fisheye seen along its axis: each row's visual field is computed for its
+    first half and copied to the mirrored pixels (_kernels._mirrored). The copied half must
+    equal the same kernel run on the right part of the picture alone (spans that are not
+    mirror images, so computed pixel by pixel), bit for bit."""
+    from lsadphoto.geometry import _kernels
+
+    cam = IdealFisheyeProjection("equidistant", 100.0, 72.5, 72.0, 185.0, 201, 146)
+    if one_pass:  # the geometry pass computes the field from its own centre directions
+        monkeypatch.setattr(field_module, "DIRECTION_MAP_MAX_PIXELS", 0)
+    frame = ObserverFrame()
+    field = visual_field(cam, frame, position_index_method=method)
+    directions = pixel_geometry(cam).directions
+    valid = pixel_geometry(cam).valid
+    assert np.array_equal(field.cos_sigma, field.cos_sigma[:, ::-1])
+    c = 93  # right part: columns 93…200 (the centre column 100 inside, spans not mirrored)
+    part = [np.ascontiguousarray(a[:, c:]) for a in (directions, valid)]
+    maps = [np.empty(part[1].shape) for _ in range(4)]
+    _kernels.visual_field_maps(part[0], part[1], -1, np.empty(0), np.empty(0),
+                               *field_module._field_constants(frame.axes(), method), True, True,
+                               *maps)
+    for got, expected in zip((field.sigma, field.tau, field.position_index, field.cos_sigma), maps,
+                             strict=True):
+        assert np.array_equal(got[:, c:].view(np.uint64), expected.view(np.uint64))
