@@ -220,11 +220,11 @@ def test_branch_free_atan2_against_libm():
     # ratios from 1e-12 to 1e12 in all four quadrant reflections: within 2 ulp of the result
     # (Moshier's peak error 2.2e-16 relative, plus the reflection's rounding). Far below the
     # 1e-14 rad to which σ and τ are tested.
-    from numba import njit
-
+    # the kernels' own decorator: it loads numba and hands their intrinsics to the kernels
+    from lsadphoto._compiled import njit
     from lsadphoto.geometry._kernels import atan2_nonnegative
 
-    @njit
+    @njit()
     def many(y, x, out):
         for i in range(y.size):
             out[i] = atan2_nonnegative(y[i], x[i])
@@ -280,11 +280,11 @@ def test_branch_free_exp_against_libm():
     # 2 ulp (measured 2) on Guth's inner argument −2τ/9 (τ ≤ 180°), on the outer exponents of
     # the position index (|x| < 25) and over the whole clamped range; NaN stays NaN, beyond
     # the range the value at the bound (position indices above the cap stay above it).
-    from numba import njit
-
+    # the kernels' own decorator: it loads numba and hands their intrinsics to the kernels
+    from lsadphoto._compiled import njit
     from lsadphoto.geometry._kernels import exp_bounded
 
-    @njit
+    @njit()
     def many(x, out):
         for i in range(x.size):
             out[i] = exp_bounded(x[i])
@@ -305,11 +305,11 @@ def test_branch_free_tan_against_libm():
     # The OpenCV-fisheye kernel's tan (Cephes, for 0 ≤ x ≤ π/2, where it takes tan(θ/2))
     # against math.tan: within 2 ulp (measured 2), i.e. directions within ~1e-16 of the
     # libm path; the maps are tested against the model to 1e-11.
-    from numba import njit
-
+    # the kernels' own decorator: it loads numba and hands their intrinsics to the kernels
+    from lsadphoto._compiled import njit
     from lsadphoto.geometry._kernels import tan_half_range
 
-    @njit
+    @njit()
     def many(x, out):
         for i in range(x.size):
             out[i] = tan_half_range(x[i])
