@@ -65,7 +65,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Kernel", "intrinsic", "njit", "prange", "row_blocks", "run_blocks", "threads"]
+__all__ = ["Kernel", "background", "intrinsic", "njit", "prange", "row_blocks", "run_blocks",
+           "threads"]
 
 #: Modules whose kernels go into the ahead-of-time extension (their sources key the cache).
 MODULES = (
@@ -297,6 +298,45 @@ def run_blocks(task, blocks, workers=None):
     if errors:
         raise errors[0]
     return results
+
+
+class _Deferred:
+    """A task's result, computed on a thread of its own from the start or in ``result``."""
+
+    def __init__(self, task, concurrent):
+        self._task, self._thread, self._outcome = task, None, None
+        if concurrent:
+            import threading
+
+            self._thread = threading.Thread(target=self._run, daemon=True)
+            self._thread.start()
+
+    def _run(self):
+        try:
+            self._outcome = (True, self._task())
+        except BaseException as error:  # noqa: BLE001 (re-raised in ``result``)
+            self._outcome = (False, error)
+
+    def result(self):
+        """The task's return value (its exception raised here)."""
+        if self._thread is None and self._outcome is None:
+            self._run()
+        elif self._thread is not None:
+            self._thread.join()
+        done, value = self._outcome
+        if not done:
+            raise value
+        return value
+
+
+def background(task):
+    """``task()`` started on a thread of its own where that can overlap the caller's work —
+    more than one thread (:func:`threads`) and the ahead-of-time kernels loaded, which run
+    each call on its caller's thread (numba's just-in-time parallel code refuses calls from
+    several Python threads at once, ``LSADPHOTO_KERNELS=jit``) — else run by ``result()``
+    of the returned object, where the caller would have run it; ``result()`` gives its
+    value or raises its exception."""
+    return _Deferred(task, threads() > 1 and _STATE["mode"] != "jit" and bool(_library()))
 
 
 def njit(*, aot=(), **options):

@@ -220,11 +220,11 @@ def test_branch_free_atan2_against_libm():
     # ratios from 1e-12 to 1e12 in all four quadrant reflections: within 2 ulp of the result
     # (Moshier's peak error 2.2e-16 relative, plus the reflection's rounding). Far below the
     # 1e-14 rad to which σ and τ are tested.
-    from numba import njit
-
+    # the kernels' own decorator: it loads numba and hands their intrinsics to the kernels
+    from lsadphoto._compiled import njit
     from lsadphoto.geometry._kernels import atan2_nonnegative
 
-    @njit
+    @njit()
     def many(y, x, out):
         for i in range(y.size):
             out[i] = atan2_nonnegative(y[i], x[i])
@@ -280,11 +280,11 @@ def test_branch_free_exp_against_libm():
     # 2 ulp (measured 2) on Guth's inner argument −2τ/9 (τ ≤ 180°), on the outer exponents of
     # the position index (|x| < 25) and over the whole clamped range; NaN stays NaN, beyond
     # the range the value at the bound (position indices above the cap stay above it).
-    from numba import njit
-
+    # the kernels' own decorator: it loads numba and hands their intrinsics to the kernels
+    from lsadphoto._compiled import njit
     from lsadphoto.geometry._kernels import exp_bounded
 
-    @njit
+    @njit()
     def many(x, out):
         for i in range(x.size):
             out[i] = exp_bounded(x[i])
@@ -305,11 +305,11 @@ def test_branch_free_tan_against_libm():
     # The OpenCV-fisheye kernel's tan (Cephes, for 0 ≤ x ≤ π/2, where it takes tan(θ/2))
     # against math.tan: within 2 ulp (measured 2), i.e. directions within ~1e-16 of the
     # libm path; the maps are tested against the model to 1e-11.
-    from numba import njit
-
+    # the kernels' own decorator: it loads numba and hands their intrinsics to the kernels
+    from lsadphoto._compiled import njit
     from lsadphoto.geometry._kernels import tan_half_range
 
-    @njit
+    @njit()
     def many(x, out):
         for i in range(x.size):
             out[i] = tan_half_range(x[i])
@@ -322,3 +322,31 @@ def test_branch_free_tan_against_libm():
     assert np.all(np.abs(out - exact) <= 2 * np.spacing(np.abs(exact)))
     many(np.array([np.nan]), out[:1])
     assert np.isnan(out[0])
+
+
+@pytest.mark.parametrize("one_pass", [False, True])
+@pytest.mark.parametrize("method", ["evalglare", "Guth", "Kim2011"])
+def test_mirrored_rows_equal_their_direct_computation(monkeypatch, one_pass, method):
+    """A centred fisheye seen along its axis: each row's visual field is computed for its
+    first half and copied to the mirrored pixels (_kernels._mirrored). The copied half must
+    equal the same kernel run on the right part of the picture alone (spans that are not
+    mirror images, so computed pixel by pixel), bit for bit."""
+    from lsadphoto.geometry import _kernels
+
+    cam = IdealFisheyeProjection("equidistant", 100.0, 72.5, 72.0, 185.0, 201, 146)
+    if one_pass:  # the geometry pass computes the field from its own centre directions
+        monkeypatch.setattr(field_module, "DIRECTION_MAP_MAX_PIXELS", 0)
+    frame = ObserverFrame()
+    field = visual_field(cam, frame, position_index_method=method)
+    directions = pixel_geometry(cam).directions
+    valid = pixel_geometry(cam).valid
+    assert np.array_equal(field.cos_sigma, field.cos_sigma[:, ::-1])
+    c = 93  # right part: columns 93…200 (the centre column 100 inside, spans not mirrored)
+    part = [np.ascontiguousarray(a[:, c:]) for a in (directions, valid)]
+    maps = [np.empty(part[1].shape) for _ in range(4)]
+    _kernels.visual_field_maps(part[0], part[1], -1, np.empty(0), np.empty(0),
+                               *field_module._field_constants(frame.axes(), method), True, True,
+                               *maps)
+    for got, expected in zip((field.sigma, field.tau, field.position_index, field.cos_sigma), maps,
+                             strict=True):
+        assert np.array_equal(got[:, c:].view(np.uint64), expected.view(np.uint64))

@@ -90,3 +90,67 @@ def test_corrupt_scanlines_raise_one_line(tmp_path, pixels, message):
     with pytest.raises(UnsupportedFileError, match=message) as info:
         read_hdr(path)
     assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("exposure, colorcorr", [(1.0, (1.0, 1.0, 1.0)), (0.37, (0.9, 1.1, 1.3)),
+                                                 (2.5e-3, (1.0, 1.0, 1.0)), (7.3e4, (1.7, 1.0, 0.6))])
+def test_mantissa_tables_give_the_formula_bit_for_bit(exposure, colorcorr):
+    """Every mantissa byte of every channel at every exponent byte (0…255), decoded with the
+    tables and with the per-pixel formula (three divisions per channel, as Radiance's
+    colr_color and read_hdr_rgb): the same float32 bits (the tables move only powers of two,
+    which round exactly; see ``mantissa_tables``)."""
+    from lsadphoto.constants import RADIANCE_RGB_LUMINANCE_WEIGHTS, RADIANCE_WHITE_EFFICACY
+    from lsadphoto.io._rgbe import decode_luminance, mantissa_tables
+
+    rng = np.random.default_rng(11)
+    cols = 256
+    rgbe = np.empty((256, cols, 4), np.uint8)
+    rgbe[:, :, :3] = rng.integers(0, 256, (256, cols, 3))
+    rgbe[:, :, 0] = np.arange(256)[None, :]  # each mantissa byte once per exponent
+    rgbe[:, :, 3] = np.arange(256)[:, None]
+    # Flat scanlines (the random bytes hold no 1, 1, 1 that would be an old-style run).
+    data = np.ascontiguousarray(rgbe.reshape(-1))
+    args = (float(exposure), np.asarray(colorcorr, np.float64),
+            np.asarray(RADIANCE_RGB_LUMINANCE_WEIGHTS, np.float64), float(RADIANCE_WHITE_EFFICACY))
+    tables = mantissa_tables(*args)
+    assert tables is not None
+    with_tables = np.empty((256, cols), np.float32)
+    formula = np.empty((256, cols), np.float32)
+    assert decode_luminance(data, 0, False, *args, tables, True, with_tables)[1] == 0
+    assert decode_luminance(data, 0, False, *args, tables, False, formula)[1] == 0
+    assert np.array_equal(with_tables.view(np.uint32), formula.view(np.uint32))
+    assert np.all(with_tables[0] == 0) and np.all(with_tables[1:] > 0)
+
+
+def test_mantissa_tables_refuse_what_would_leave_the_normal_range():
+    """An EXPOSURE so small that a pixel's value would overflow, or a negative weight (sums
+    that could cancel): no tables, the formula decodes."""
+    from lsadphoto.io._rgbe import mantissa_tables
+
+    weights = np.array([0.265, 0.670, 0.065])
+    assert mantissa_tables(1e-290, np.ones(3), weights, 179.0) is None
+    assert mantissa_tables(1e290, np.ones(3), weights, 179.0) is None
+    assert mantissa_tables(1.0, np.ones(3), np.array([0.5, -0.1, 0.6]), 179.0) is None
+    assert mantissa_tables(1.0, np.ones(3), weights, 179.0) is not None
+
+
+@pytest.mark.parametrize("threads", ["1", "2", "3"])
+def test_scanline_blocks_on_threads_decode_the_same(tmp_path, monkeypatch, threads):
+    """Blocks of scanlines decoded at the same time (their positions found first) give the
+    one-thread values bit for bit, for new-style and old-style scanlines; an error in a later
+    block names the scanline the sequential decoder names."""
+    rng = np.random.default_rng(5)
+    rows = 9
+    for kind, cols, make in (("rle", 300, _rle_bytes), ("old-style", 700, _old_style_bytes)):
+        path = tmp_path / f"{kind}.hdr"
+        path.write_bytes(_picture(rows, cols, make(rng, rows, cols)))
+        monkeypatch.setenv("LSADPHOTO_THREADS", "1")
+        one = read_hdr(path).luminance
+        monkeypatch.setenv("LSADPHOTO_THREADS", threads)
+        assert np.array_equal(read_hdr(path).luminance.view(np.uint32), one.view(np.uint32))
+    good = _rle_bytes(rng, rows - 1, 300)
+    bad = bytes([2, 2, 1, 44]) + bytes([0]) + bytes(60)  # a zero count in scanline 8
+    path = tmp_path / "bad.hdr"
+    path.write_bytes(_picture(rows, 300, good + bad))
+    with pytest.raises(UnsupportedFileError, match=r"corrupt run length \(scanline 8\)"):
+        read_hdr(path)

@@ -1,10 +1,12 @@
 """Kernels shared out among threads (lsadphoto._compiled.run_blocks) give what one thread gives.
 
 The ahead-of-time kernels release the GIL, so a caller can run blocks of rows (the fisheye
-geometry, the field luminance) or independent calls (Q's two derivative filters) on
-threads at once. Every value is a function of its own pixel's inputs (the geometry kernel's
-docstring; the field luminance is per pixel; each filter is one call), so the maps and the
-score must be equal bit for bit whatever the number of threads. The reference is one
+geometry, the field luminance, Q's field pass, its derivatives and screen, its contrast
+map, the RGBE scanlines), blocks of fixed chunks (the field sums, the evaluated field) or
+independent calls (Q's two derivative filters, the statistics' stripes) on threads at once.
+Every value is a function of its own pixel's inputs or a sum over a fixed chunk or stripe
+(the kernels' docstrings), so the maps and the score must be equal bit for bit whatever the
+number of threads. The reference is one
 thread (``LSADPHOTO_THREADS=1``), which runs the same kernels as before this was added.
 """
 
@@ -63,6 +65,25 @@ def test_run_blocks_keeps_the_order_and_raises_a_task_error(monkeypatch):
     assert _compiled.run_blocks(lambda a, b: a, blocks) == list(range(20))
 
 
+@pytest.mark.parametrize("threads", ["1", "2"])
+def test_background_gives_the_value_or_raises_the_error(monkeypatch, threads):
+    # With 2 threads the task runs at once on its own thread (the ahead-of-time kernels
+    # loaded), with 1 in result(): the same value, the same exception, raised by result().
+    import threading
+
+    monkeypatch.setenv("LSADPHOTO_THREADS", threads)
+    seen = []
+    pending = _compiled.background(lambda: seen.append(threading.current_thread()) or 42)
+    assert pending.result() == 42 and pending.result() == 42 and len(seen) == 1
+
+    def fails():
+        raise ValueError("in the task")
+
+    pending = _compiled.background(fails)
+    with pytest.raises(ValueError, match="in the task"):
+        pending.result()
+
+
 @pytest.fixture(autouse=True)
 def _ahead_of_time():
     # Only the ahead-of-time code is shared out among threads (Kernel.threads_for); without
@@ -106,7 +127,7 @@ def test_a_score_on_threads_equals_one_thread(monkeypatch):
     monkeypatch.setattr(field_module, "DIRECTION_MAP_MAX_PIXELS", 0)
     monkeypatch.setattr(field_module, "_KERNEL_BLOCK_PIXELS", 7 * 300)
     records = []
-    for threads in (1, 2):
+    for threads in (1, 2, 3):
         monkeypatch.setenv("LSADPHOTO_THREADS", str(threads))
         clear_geometry_cache()
         record = score_map(lmap).to_dict()
@@ -114,4 +135,4 @@ def test_a_score_on_threads_equals_one_thread(monkeypatch):
         records.append(record)
     clear_geometry_cache()
     assert records[0]["n_sources"] >= 1 and records[0]["q"] is not None
-    assert records[0] == records[1]
+    assert records[0] == records[1] == records[2]

@@ -440,12 +440,41 @@ def fisheye_directions(model, p, table, valid, seg_row, seg_col, seg_length, seg
 
 
 @njit(inline="always", **_OPTIONS)
+def _mirrored(d, ok, n, v, u, h):
+    """Whether the span's pixel ``n − 1 − j`` has, for every j, the same ``ok`` and the same
+    bits of d̂·v̂ (forward), d̂·û (up) and |d̂·ĥ| (side) as pixel j: then its σ, τ, cos σ and
+    position index are the same bits too (they are functions of these alone, see
+    :func:`_field_row`). True for the rows of a centred fisheye seen along its axis (its
+    directions mirror exactly: x → −x; the frame's v̂ and û without a component along x,
+    ĥ along x)."""
+    v0, v1, v2, u0, u1, u2, h0, h1, h2 = v[0], v[1], v[2], u[0], u[1], u[2], h[0], h[1], h[2]
+    same = True
+    for j in range(n // 2):  # branch-free (SIMD lanes): every pair is compared
+        k = n - 1 - j
+        a0, a1, a2, b0, b1, b2 = d[3 * j], d[3 * j + 1], d[3 * j + 2], d[3 * k], d[3 * k + 1], \
+            d[3 * k + 2]
+        same &= ((ok[j] == ok[k])
+                 & (_float64_bits(a0 * v0 + a1 * v1 + a2 * v2)
+                    == _float64_bits(b0 * v0 + b1 * v1 + b2 * v2))
+                 & (_float64_bits(a0 * u0 + a1 * u1 + a2 * u2)
+                    == _float64_bits(b0 * u0 + b1 * u1 + b2 * u2))
+                 & (_float64_bits(abs(a0 * h0 + a1 * h1 + a2 * h2))
+                    == _float64_bits(abs(b0 * h0 + b1 * h1 + b2 * h2))))
+    return same
+
+
+@njit(inline="always", **_OPTIONS)
 def _field_row(d, ok, n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row):
     """σ, τ, cos σ (0 where not ``ok``) and, where ``field``, the position index of the ``n``
-    interleaved directions ``d`` of one row's span (see :func:`visual_field_maps`)."""
+    interleaved directions ``d`` of one row's span (see :func:`visual_field_maps`). Where the
+    span is its own mirror image (:func:`_mirrored`), the first half is computed and copied
+    to the second: the same values, half the arc tangents and exponentials."""
     half_pi = 0.5 * math.pi
     v0, v1, v2, u0, u1, u2, h0, h1, h2 = v[0], v[1], v[2], u[0], u[1], u[2], h[0], h[1], h[2]
     iwata = method == 0
+    total = n
+    if _mirrored(d, ok, n, v, u, h):
+        n = (n + 1) // 2
     for j in range(n):
         dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
         forward = dx * v0 + dy * v1 + dz * v2
@@ -460,23 +489,27 @@ def _field_row(d, ok, n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row
         c_row[j] = forward if ok[j] else 0.0
         if iwata:
             p_row[j] = atan2_nonnegative(math.sqrt(side * side + 1.3225 * (up * up)), forward)
-    if not field:
-        return
-    if method == 2:  # Kim2011
-        for j in range(n):
-            s = s_row[j] * _DEGREES
-            t = t_row[j] * _DEGREES
-            centre = -9e-6 * t ** 3 + 0.0014 * t ** 2 + 0.0866 * t + 21.633
-            width = -9e-6 * t ** 3 + 0.0013 * t ** 2 + 0.0853 * t + 8.772
-            p_row[j] = exp_bounded((s - centre) / width)
-        return
-    for j in range(n):
-        exponent = _guth_exponent(s_row[j] * _DEGREES, t_row[j] * _DEGREES)
-        if iwata:  # evalglare: Iwata below the line of sight
-            b = p_row[j] * _DEGREES
-            exponent = 6.49e-3 * b + 21e-5 * b * b if t_row[j] > half_pi else exponent
-        value = exp_bounded(exponent)
-        p_row[j] = cap if value > cap else value  # noqa: FURB136 (NaN stays NaN, as np.minimum)
+    if field:
+        if method == 2:  # Kim2011
+            for j in range(n):
+                s = s_row[j] * _DEGREES
+                t = t_row[j] * _DEGREES
+                centre = -9e-6 * t ** 3 + 0.0014 * t ** 2 + 0.0866 * t + 21.633
+                width = -9e-6 * t ** 3 + 0.0013 * t ** 2 + 0.0853 * t + 8.772
+                p_row[j] = exp_bounded((s - centre) / width)
+        else:
+            for j in range(n):
+                exponent = _guth_exponent(s_row[j] * _DEGREES, t_row[j] * _DEGREES)
+                if iwata:  # evalglare: Iwata below the line of sight
+                    b = p_row[j] * _DEGREES
+                    exponent = 6.49e-3 * b + 21e-5 * b * b if t_row[j] > half_pi else exponent
+                value = exp_bounded(exponent)
+                p_row[j] = cap if value > cap else value  # noqa: FURB136 (NaN stays NaN, as np.minimum)
+    for j in range(n, total):  # the mirrored half, where there is one
+        k = total - 1 - j
+        s_row[j], t_row[j], c_row[j] = s_row[k], t_row[k], c_row[k]
+        if field or iwata:
+            p_row[j] = p_row[k]
 
 
 @njit(inline="always", **_OPTIONS)

@@ -245,13 +245,38 @@ def _decode(path, decoder, out, args):
         target = out(rows, cols)
         array = np.frombuffer(data, np.uint8)
         try:
-            _, error, row = decoder(array, pos, _MIN_RLE <= cols <= _MAX_RLE,
-                                    *args(header), target)
+            error, row = _decode_blocks(decoder, array, pos, _MIN_RLE <= cols <= _MAX_RLE,
+                                        args(header), target)
         finally:
             del array  # the map closes only without views of it
     if error:
         raise UnsupportedFileError(f"{path}: {SCANLINE_ERRORS[error]} (scanline {row})")
     return target, header
+
+
+def _decode_blocks(decoder, data, pos, rle, args, target):
+    """``decoder`` over every scanline into ``target``; (error code, scanline) as the
+    decoders return them. Where the compiled code runs on several threads, the scanlines'
+    positions are found first (:func:`._rgbe.scanline_offsets`: the same walk, which meets
+    any error the decoder would meet, at the same scanline) and blocks of scanlines are
+    decoded at the same time: the same values."""
+    from .._compiled import row_blocks, run_blocks
+    from ._rgbe import scanline_offsets
+
+    rows, cols = target.shape[:2]
+    workers = decoder.threads_for(data, pos, rle, *args, target)
+    if workers <= 1 or rows < 2:
+        _, error, row = decoder(data, pos, rle, *args, target)
+        return error, row
+    offsets = np.empty(rows, dtype=np.int64)
+    _, error, row = scanline_offsets(data, pos, rle, cols, offsets)
+    if error:
+        return error, row
+    blocks = row_blocks(rows, workers)
+    done = run_blocks(lambda a, b: decoder(data, int(offsets[a]), rle, *args, target[a:b]),
+                      blocks, workers)
+    return next(((error, a + row) for (a, _), (_, error, row) in zip(blocks, done, strict=True)
+                 if error), (0, rows))
 
 
 def _read_rgbe(path):
@@ -280,13 +305,17 @@ def read_hdr(path):
     provenance (``radiance_view``) without a projection, so that their luminance can still
     be read.
     """
-    from ._rgbe import decode_luminance
+    from ._rgbe import decode_luminance, mantissa_tables
+
+    def arguments(header):
+        values = (float(header["exposure"]), np.asarray(header["colorcorr"], np.float64),
+                  np.asarray(RADIANCE_RGB_LUMINANCE_WEIGHTS, np.float64),
+                  float(RADIANCE_WHITE_EFFICACY))
+        tables = mantissa_tables(*values)
+        return (*values, np.zeros((3, 256)) if tables is None else tables, tables is not None)
 
     luminance, header = _decode(
-        path, decode_luminance, lambda rows, cols: np.empty((rows, cols), np.float32),
-        lambda header: (float(header["exposure"]), np.asarray(header["colorcorr"], np.float64),
-                        np.asarray(RADIANCE_RGB_LUMINANCE_WEIGHTS, np.float64),
-                        float(RADIANCE_WHITE_EFFICACY)))
+        path, decode_luminance, lambda rows, cols: np.empty((rows, cols), np.float32), arguments)
     rows, cols = luminance.shape
     if header["lsadphoto"] is not None:
         fields = metadata_fields(header["lsadphoto"], path)

@@ -5,7 +5,11 @@ Q (:mod:`~lsadphoto.metrics.quality`) needs the pixel derivatives of its blurred
 stencil lies in the field (a binary erosion). OpenCV's ``sepFilter2D`` and ``erode`` did
 this; importing OpenCV costs a score process 0.03–0.07 s, as much as the filters themselves
 at 786² (docs/performance.md), so the two operations are the project's own kernels here
-(:mod:`lsadphoto._compiled`, compiled ahead of time with the other kernels).
+(:mod:`lsadphoto._compiled`, compiled ahead of time with the other kernels). Q itself takes
+its two derivatives with the row and column sums of this module (``_taps``, ``_column_taps``)
+inside its own pass over the evaluated pixels (``quality._candidates_kernel``: no maps of
+the derivatives, the same values); :func:`correlate_separable_each` serves its luminance
+cut-off and the design module's gradient components.
 
 * :func:`correlate_separable`: ``out[i, j] = Σ_a Σ_b ky[a]·kx[b]·x[i + a − ry, j + b − rx]``
   (correlation, each kernel centred on its middle tap: OpenCV's convention with the default

@@ -17,7 +17,7 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from .._compiled import njit, prange
+from .._compiled import njit, prange, row_blocks, run_blocks
 
 from .._validation import check_choice
 
@@ -56,7 +56,11 @@ def evaluated_field(luminance, solid_angle, cos_sigma):
     if arrays[0].ndim == 0 or any(a.shape != arrays[0].shape or a.dtype.kind != "f" for a in arrays):
         return np.isfinite(arrays[0]) & (arrays[1] > 0) & (arrays[2] >= 0)
     out = np.empty(arrays[0].shape, dtype=bool)
-    _evaluated_field_kernel(*(np.ascontiguousarray(a).reshape(-1) for a in arrays), out.reshape(-1))
+    flat = [np.ascontiguousarray(a).reshape(-1) for a in (*arrays, out)]
+    # Blocks of whole chunks on threads (each value a function of its own pixel).
+    workers = _evaluated_field_kernel.threads_for(*flat)
+    run_blocks(lambda a, b: _evaluated_field_kernel(*(x[a:b] for x in flat)),
+               row_blocks(out.size, workers, 1 << 16), workers)
     return out
 
 
@@ -276,7 +280,14 @@ def field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask):
     arrays = [np.ascontiguousarray(a).ravel() for a in (luminance, solid_angle, cos_sigma,
                                                         position_index)]
     mask = np.ascontiguousarray(source_mask, dtype=bool).ravel()
-    sums, counts = _field_sums(*arrays, mask, _CHUNK)
+    # Blocks of whole chunks on threads: the same chunk sums, added in the same order.
+    flat = (*arrays, mask)
+    workers = _field_sums.threads_for(*flat, _CHUNK)
+    n_chunks = -(-mask.size // _CHUNK)
+    parts = run_blocks(lambda a, b: _field_sums(*(x[a * _CHUNK:b * _CHUNK] for x in flat), _CHUNK),
+                       row_blocks(n_chunks, workers) or [(0, 0)], workers)
+    sums = np.concatenate([part[0] for part in parts])
+    counts = np.concatenate([part[1] for part in parts])
     total = sums.sum(axis=0)
     n_field, n_source = (int(v) for v in counts.sum(axis=0))
     return FieldSums(n_field, n_source, *(float(v) for v in total[[0, 1, 2, 3, 4, 5, 6, 7]]))

@@ -81,12 +81,13 @@ from dataclasses import dataclass
 from dataclasses import field as dataclass_field
 
 import numpy as np
-from .._compiled import njit, prange
+from .._compiled import njit, prange, row_blocks, run_blocks
 
 from .._validation import check_choice, check_positive
 from ..errors import BadInputError
 from ..geometry.field import PixelGeometry
-from ._filters import correlate_separable, correlate_separable_each, erode_square
+from ._filters import (_column_taps, _parity, _taps, correlate_separable, correlate_separable_each,
+                       erode_square)
 from .adrian import threshold_luminance_difference
 
 __all__ = [
@@ -260,21 +261,19 @@ def _weight(P, m):
 @njit(parallel=True, **_KERNEL_OPTIONS,
       aot=("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], boolean[:, ::1], "
            "float64[:, :, ::1], boolean, float64, boolean, boolean, boolean, boolean[:, ::1], "
-           "float32[:, ::1], int64[::1], float64[:, ::1], int64[:, ::1], boolean[:, ::1])"))
-def _field_kernel(L, omega, P, valid, d, check_d, m, use_p, use_valid, weighted, field, filled,
+           "int64[::1], float64[:, ::1], int64[:, ::1], boolean[:, ::1])"))
+def _field_kernel(L, omega, P, valid, d, check_d, m, use_p, use_valid, weighted, field,
                   counts, sums, extent, flags):
-    """The field, the filled map and the field sums, row by row, in float32 as the numpy
-    version had them (L, ω and P converted to float32; products L·ω and ω·w in float32,
-    summed in float64).
+    """The field and the field sums, row by row, in float32 as the numpy version had them
+    (L, ω and P converted to float32; products L·ω and ω·w in float32, summed in float64).
 
     field: finite L, ω > 0, P not NaN (``use_p``), ``valid`` (``use_valid``), finite direction
     (``check_d``; else ``d`` is not read: a pixel geometry's validity stands for it).
-    filled: L on the field, 0 elsewhere (float32). Per row: ``counts`` field pixels, ``sums``
-    (Σω, ΣL·ω, Σω·w), ``extent`` first and last field column, ``flags`` infinite L, bad ω,
-    P ≤ 0.
+    Per row: ``counts`` field pixels, ``sums`` (Σω, ΣL·ω, Σω·w), ``extent`` first and last
+    field column, ``flags`` infinite L, bad ω, P ≤ 0. Every output is per row, so callers
+    share the rows out among threads in blocks (:func:`lsadphoto._compiled.run_blocks`).
     """
     rows, cols = field.shape
-    zero = np.float32(0.0)
     for i in prange(rows):
         n = 0
         s_w, s_lw, s_ww = 0.0, 0.0, 0.0
@@ -297,7 +296,6 @@ def _field_kernel(L, omega, P, valid, d, check_d, m, use_p, use_valid, weighted,
                 ok &= np.isfinite(d[i, j, 0]) & np.isfinite(d[i, j, 1]) & np.isfinite(d[i, j, 2])
             field[i, j] = ok
             if ok:
-                filled[i, j] = lum
                 n += 1
                 s_w += np.float64(w)
                 s_lw += np.float64(lum * w)
@@ -305,8 +303,6 @@ def _field_kernel(L, omega, P, valid, d, check_d, m, use_p, use_valid, weighted,
                     s_ww += np.float64(w * _weight(p, m))
                 first = min(first, j)
                 last = j
-            else:
-                filled[i, j] = zero
         counts[i] = n
         sums[i, 0] = s_w
         sums[i, 1] = s_lw
@@ -318,44 +314,107 @@ def _field_kernel(L, omega, P, valid, d, check_d, m, use_p, use_valid, weighted,
         flags[i, 2] = bad_p
 
 
-@njit(parallel=True, **_KERNEL_OPTIONS,
-      aot=("void(float32[:, ::1], float32[:, ::1], boolean[:, ::1], float64[:, ::1], int64, "
-           "int64, float64, boolean[:, ::1], int64[::1], float64[::1])"))
-def _candidate_counts(lu, lv, evaluated, omega, r0, c0, limit, candidate, counts, omega_sums):
-    """Per row of the box: the evaluated pixels whose screen bound |(L_u, L_v)| reaches
-    ``limit`` (marked in ``candidate``, counted in ``counts``), and Σω (float32 ω, float64
-    sum) over the evaluated pixels."""
-    rows, cols = evaluated.shape
-    for i in prange(rows):
-        n = 0
+@njit(inline="always", **_KERNEL_OPTIONS)
+def _filled_row(L, field, row, c0, lo, hi, out):
+    """``out[j]`` = the filled map at columns ``lo + j`` of image row ``row`` (``c0 + lo`` …
+    ``c0 + hi − 1``): L as float32 on the field, 0 elsewhere."""
+    zero = np.float32(0.0)
+    for j in range(hi - lo):
+        out[j] = np.float32(L[row, c0 + lo + j]) if field[row, c0 + lo + j] else zero
+
+
+@njit(**_KERNEL_OPTIONS,
+      aot=("int64(float64[:, ::1], boolean[:, ::1], int64, int64, boolean[:, ::1], "
+           "float64[:, ::1], float64[::1], float64[::1], int64, int64, float64, int64, int64, "
+           "int64[::1], float64[::1], int64[::1], int64[::1], float32[::1], float32[::1])"))
+def _candidates_kernel(L, field, r0, c0, evaluated, omega, derivative, smooth, parity_d,
+                       parity_s, limit, e0, e1, counts, omega_sums, local, index, lu, lv):
+    """The pixel derivatives of the filled map at the evaluated pixels of box rows ``e0`` …
+    ``e1 − 1`` (the box of ``evaluated`` at (``r0``, ``c0``) of the image), the screen and
+    Σω, in one pass and without a map of the derivatives.
+
+    L_u (row pass ``derivative``, column pass ``smooth``) and L_v (``smooth``, then
+    ``derivative``) are :func:`~lsadphoto.metrics._filters.correlate_separable`'s values
+    bit for bit — the same row and column sums (``_taps``, ``_column_taps``) of the same
+    filled values (float32 L on the field, 0 elsewhere; never stored) — computed only over
+    each row's span of evaluated pixels (each input row over the union of the spans of the
+    output rows its taps reach). Per output row ``i``: ``counts[i − e0]`` the evaluated pixels
+    whose bound |(L_u, L_v)| reaches ``limit`` (candidates) and ``omega_sums[i − e0]`` Σω
+    over the evaluated pixels (float32 ω, float64 sum, in column order). The candidates go,
+    in row-major order, to ``local`` (flat box index), ``index`` (flat image index, ``L``'s
+    width) and ``lu``, ``lv`` (float32), whose size is at least the evaluated pixels of the
+    rows; returns their number. A block's values do not depend on the other blocks, so
+    callers share the rows out among threads (:func:`lsadphoto._compiled.run_blocks`)."""
+    box_rows, box_cols = evaluated.shape
+    image_cols = L.shape[1]
+    rd, rs = derivative.size // 2, smooth.size // 2
+    reach = max(rd, rs)
+    n_rows = e1 - e0
+    first = np.empty(n_rows, dtype=np.int64)
+    last = np.empty(n_rows, dtype=np.int64)  # one past the last evaluated column
+    i_first, i_last = e1, e0 - 1
+    for i in range(e0, e1):
+        counts[i - e0] = 0
+        omega_sums[i - e0] = 0.0
+        ok = evaluated[i]
+        j0, j1 = 0, box_cols
+        while j0 < j1 and not ok[j0]:
+            j0 += 1
+        while j1 > j0 and not ok[j1 - 1]:
+            j1 -= 1
+        first[i - e0], last[i - e0] = j0, j1
+        if j0 < j1:
+            i_first = min(i_first, i)
+            i_last = i
+    if i_first > i_last:
+        return 0
+    # Input row m is kept in slot m % size of its ring for the column pass of the other kernel.
+    ring_d = np.empty((reach + rs + 1, box_cols))  # rows after the derivative's row pass
+    ring_s = np.empty((reach + rd + 1, box_cols))  # rows after the smoothing row pass
+    filled = np.empty(box_cols + 2 * reach, dtype=np.float32)
+    acc_u = np.empty(box_cols)
+    acc_v = np.empty(box_cols)
+    k = 0
+    for src in range(i_first - reach, i_last + reach + 1):
+        # The columns the output rows within reach of this input row need.
+        lo, hi = box_cols, 0
+        for i in range(max(src - reach, i_first), min(src + reach, i_last) + 1):
+            if first[i - e0] < last[i - e0]:
+                lo = min(lo, first[i - e0])
+                hi = max(hi, last[i - e0])
+        if lo < hi:
+            x = filled[:hi - lo + 2 * reach]
+            _filled_row(L, field, r0 + src, c0, lo - reach, hi + reach, x)
+            n = hi - lo
+            _taps(ring_d[src % ring_d.shape[0], lo:hi], x[reach - rd:], derivative, rd, parity_d, n)
+            _taps(ring_s[src % ring_s.shape[0], lo:hi], x[reach - rs:], smooth, rs, parity_s, n)
+        i = src - reach  # the output row whose taps this input row completes
+        if i < i_first or first[i - e0] >= last[i - e0]:
+            continue
+        lo, hi = first[i - e0], last[i - e0]
+        n = hi - lo
+        _column_taps(acc_u[:n], ring_d[:, lo:hi], i, smooth, rs, parity_s, n)
+        _column_taps(acc_v[:n], ring_s[:, lo:hi], i, derivative, rd, parity_d, n)
+        ok = evaluated[i, lo:hi]
+        w_row = omega[r0 + i, c0 + lo:c0 + hi]
+        count = 0
         s = 0.0
-        for j in range(cols):
-            keep = False
-            if evaluated[i, j]:
-                s += np.float64(np.float32(omega[r0 + i, c0 + j]))
-                a = np.float64(lu[i, j])
-                b = np.float64(lv[i, j])
-                keep = math.sqrt(a * a + b * b) >= limit
-                n += keep
-            candidate[i, j] = keep
-        counts[i] = n
-        omega_sums[i] = s
-
-
-@njit(parallel=True, **_KERNEL_OPTIONS,
-      aot="void(boolean[:, ::1], int64[::1], int64, int64, int64, int64[::1], int64[::1])")
-def _candidate_fill(candidate, offsets, r0, c0, image_cols, local, index):
-    """Flat box indices (``local``) and flat image indices (``index``; the box's corner at
-    (``r0``, ``c0``) of an image ``image_cols`` wide) of the ``candidate`` pixels, in order
-    (row ``i`` from ``offsets[i]``)."""
-    rows, cols = candidate.shape
-    for i in prange(rows):
-        k = offsets[i]
-        for j in range(cols):
-            if candidate[i, j]:
-                local[k] = i * cols + j
-                index[k] = (i + r0) * image_cols + j + c0
-                k += 1
+        for j in range(n):
+            if ok[j]:
+                s += np.float64(np.float32(w_row[j]))
+                a = np.float32(acc_u[j])
+                b = np.float32(acc_v[j])
+                fa, fb = np.float64(a), np.float64(b)
+                if math.sqrt(fa * fa + fb * fb) >= limit:
+                    local[k] = i * box_cols + lo + j
+                    index[k] = (i + r0) * image_cols + c0 + lo + j
+                    lu[k] = a
+                    lv[k] = b
+                    k += 1
+                    count += 1
+        counts[i - e0] = count
+        omega_sums[i - e0] = s
+    return k
 
 
 @njit(parallel=True, **_KERNEL_OPTIONS,
@@ -521,22 +580,29 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
                 "cutoff": cutoff, "blur": blur, "k_th": k_th, **threshold_options}
     out = _Analysis(shape=shape, settings=settings)
 
-    # The field: finite L and direction, ω > 0, P not NaN, and ``valid``; its filled map and
-    # sums, in one pass.
+    # The field: finite L and direction, ω > 0, P not NaN, and ``valid``, and its sums, in one
+    # pass (rows shared out among threads).
     settings.update(n_field=0, field_solid_angle_sr=0.0, n_evaluated=0, evaluated_solid_angle_sr=0.0,
                     weighted_solid_angle_sr=math.nan)
     weighted = P is not None and weight_exponent != 0
     rows = shape[0]
     field = np.empty(shape, dtype=bool)
-    filled_image = np.empty(shape, dtype=np.float32)
     counts = np.empty(rows, dtype=np.int64)
     sums = np.empty((rows, 3))
     extent = np.empty((rows, 2), dtype=np.int64)
     flags = np.empty((rows, 3), dtype=bool)
     from_map = not isinstance(d, PixelGeometry)
-    _field_kernel(L, omega, L if P is None else P, field if valid is None else valid,
-                  d if from_map else np.empty((1, 1, 3)), from_map, float(weight_exponent), P is not None, valid is not None, weighted, field,
-                  filled_image, counts, sums, extent, flags)
+    inputs = (L, omega, L if P is None else P, field if valid is None else valid,
+              d if from_map else np.empty((1, 1, 3)))
+    options = (from_map, float(weight_exponent), P is not None, valid is not None, weighted)
+    outputs = (field, counts, sums, extent, flags)
+
+    def field_rows(a, b):
+        _field_kernel(*(x[a:b] for x in inputs[:4]), inputs[4][a:b] if from_map else inputs[4],
+                      *options, *(x[a:b] for x in outputs))
+
+    workers = _field_kernel.threads_for(*inputs, *options, *outputs)
+    run_blocks(field_rows, row_blocks(rows, workers), workers)
     _raise_for_values(flags)
     rows_used = np.flatnonzero(counts)
     if rows_used.size == 0:
@@ -550,7 +616,6 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
     n_field = int(counts.sum())
     total_omega = float(np.sum(sums[:, 0]))
     settings.update(n_field=n_field, field_solid_angle_sr=total_omega)
-    filled = filled_image[box]
     mean = float(np.sum(sums[:, 1])) / total_omega
     out.mean_luminance = mean
     out.field_solid_angle = total_omega
@@ -587,10 +652,6 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
     if settings["n_evaluated"] == 0:
         out.reason = f"no pixel has a complete {size}×{size} stencil inside the field"
         return out
-    # Pixel derivatives of the smoothed map (correlation; kx runs along each row). The border
-    # the filters leave undefined never reaches an evaluated pixel.
-    lu, lv = correlate_separable_each(filled, [(derivative, smooth), (smooth, derivative)])
-
     # Candidates: evaluated pixels that may pass the smallest cut-off n_min·ΔL_thr. Indices
     # into the box (``local``) and into the whole image (``index``).
     min_cut = n_min * np.float64(delta)
@@ -608,30 +669,30 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
             # g ≤ |(L_u, L_v)|/p_min: pixels whose bound stays below the cut are cut (float32
             # rounding of L_u, L_v is covered by the 1e-5 margin).
             limit = float(min_cut / alpha * bound * (1.0 - 1e-5))
-    row_counts = np.empty(box_rows, dtype=np.int64)
-    omega_sums = np.empty(box_rows)
-    candidate = np.empty(evaluated.shape, dtype=bool)
-    _candidate_counts(lu, lv, evaluated, omega, r0, c0, limit, candidate, row_counts, omega_sums)
+    # The pixel derivatives (correlation; kx runs along each row) at the evaluated pixels that
+    # pass the screen, and Σω of the evaluated pixels, in one pass: no map of the derivatives
+    # or of the filled field (rows shared out among threads).
+    local, index, lu, lv, omega_sums = _candidates(L, field, r0, c0, evaluated, omega,
+                                                   derivative, smooth, limit)
     out.evaluated_solid_angle = float(np.sum(omega_sums))
     settings["evaluated_solid_angle_sr"] = out.evaluated_solid_angle
 
     if cutoff == "luminance":
+        # The smoothed luminance needs the filled map: float32 L on the field, 0 elsewhere.
+        filled = np.where(field[box], L[box], 0).astype(np.float32)
         smoothed = correlate_separable(filled, smooth, smooth)
         level = mean + min_cut
         candidates = evaluated & (smoothed >= np.float32(level - 1e-5 * abs(level)))  # float32 margin
-        local = np.flatnonzero(candidates)
-        key = smoothed.ravel()[local].astype(np.float64) - mean
+        at = np.flatnonzero(candidates)
+        key = smoothed.ravel()[at].astype(np.float64) - mean
         keep = key >= min_cut
-        local, key = local[keep], key[keep]
-        index = to_image(local)
-        grad = _angular_gradient(index, local, d, lu.ravel(), lv.ravel(), cols)
+        at, key = at[keep], key[keep]
+        # Every evaluated pixel is a candidate of the pass above (no screen): their positions.
+        position = np.searchsorted(local, at)
+        index = to_image(at)
+        grad = _angular_gradient(index, position, d, lu, lv, cols)
     else:
-        offsets = np.zeros(box_rows, dtype=np.int64)
-        np.cumsum(row_counts[:-1], out=offsets[1:])
-        local = np.empty(int(row_counts.sum()), dtype=np.int64)
-        index = np.empty_like(local)
-        _candidate_fill(candidate, offsets, r0, c0, cols, local, index)
-        grad = _angular_gradient(index, local, d, lu.ravel(), lv.ravel(), cols)
+        grad = _angular_gradient(index, np.arange(local.size), d, lu, lv, cols)
         key = grad * alpha
     out.index = index
     out.key = key
@@ -660,6 +721,35 @@ def _candidate_values(index, grad, P, omega, m, weighted, mean, contrast, omega_
         contrast[k] = c
         omega_out[k] = o
         weighted_contrast[k] = c * o
+
+
+def _candidates(L, field, r0, c0, evaluated, omega, derivative, smooth, limit):
+    """(flat box indices, flat image indices, L_u, L_v) of the evaluated pixels whose bound
+    |(L_u, L_v)| reaches ``limit``, in row-major order, and Σω of the evaluated pixels per
+    box row (:func:`_candidates_kernel`, blocks of rows on threads; each block's outputs are
+    sized to its evaluated pixels, of which only the candidates' pages are touched)."""
+    box_rows = evaluated.shape[0]
+    kd = np.asarray(derivative, dtype=np.float32).reshape(-1).astype(np.float64)
+    ks = np.asarray(smooth, dtype=np.float32).reshape(-1).astype(np.float64)
+    counts = np.empty(box_rows, dtype=np.int64)
+    omega_sums = np.empty(box_rows)
+    fixed = (L, field, int(r0), int(c0), evaluated, omega, kd, ks, _parity(kd), _parity(ks),
+             float(limit))
+
+    def buffers(n):
+        return (np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64),
+                np.empty(n, dtype=np.float32), np.empty(n, dtype=np.float32))
+
+    def block(e0, e1):
+        out = buffers(int(np.count_nonzero(evaluated[e0:e1])))
+        n = _candidates_kernel(*fixed, e0, e1, counts[e0:e1], omega_sums[e0:e1], *out)
+        return [x[:n] for x in out]
+
+    workers = _candidates_kernel.threads_for(*fixed, 0, box_rows, counts, omega_sums,
+                                             *buffers(0))
+    parts = run_blocks(block, row_blocks(box_rows, workers), workers)
+    local, index, lu, lv = (np.concatenate([part[k] for part in parts]) for k in range(4))
+    return local, index, lu, lv, omega_sums
 
 
 def _q_value(kept_sum, analysis):
@@ -753,7 +843,11 @@ def q_Budak2021(luminance, directions, solid_angle, position_index, *, n_thresho
         return QualityResult(math.nan, analysis.mean_luminance, analysis.threshold_difference, float(cut),
                              analysis.k_th, contrast, math.nan, settings, analysis.reason)
     contrast = np.empty(analysis.shape, np.float32)
-    _contrast_background(analysis.evaluated, analysis.box[0].start, analysis.box[1].start, contrast)
+    r0, c0 = analysis.box[0].start, analysis.box[1].start
+    # Blocks of rows on threads (each block's rows from the box's corner relative to its own).
+    workers = _contrast_background.threads_for(analysis.evaluated, r0, c0, contrast)
+    run_blocks(lambda a, b: _contrast_background(analysis.evaluated, r0 - a, c0, contrast[a:b]),
+               row_blocks(contrast.shape[0], workers), workers)
     kept = analysis.key >= cut
     contrast.ravel()[analysis.index[kept]] = analysis.contrast[kept]
     kept_fraction = float(np.sum(analysis.omega[kept])) / analysis.field_solid_angle

@@ -37,7 +37,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from .._compiled import njit, prange, row_blocks, run_blocks
+from .._compiled import background, njit, prange, row_blocks, run_blocks
 
 from .._provenance import build_provenance
 from .._validation import check_choice, check_positive, check_positive_int
@@ -542,6 +542,14 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
                                     row_max=illuminance_fill[1], row_min=illuminance_fill[2])
     valid, luminance, omega = _field_inputs(image, geometry, evaluated, vf.cos_sigma)
     pindex = vf.position_index
+    # Q and the statistics need neither the sources nor the field sums: each on a thread of
+    # its own (where the kernels run ahead of time) while they are computed — the same calls
+    # on the same arrays.
+    q_options = dict(size_arcmin=size_arcmin, weight_exponent=q_weight_exponent,
+                     threshold=q_threshold, cutoff=q_cutoff, valid=valid)
+    pending_quality = background(lambda: q_Budak2021(luminance, geometry, omega, pindex,
+                                                     n_thresholds=n_thresholds, **q_options))
+    pending_statistics = background(lambda: luminance_statistics(luminance, omega, vf.cos_sigma))
     notes = []
     settings = {
         "line_of_sight": list(frame.axes()[0]), "up": list(frame.axes()[1]),
@@ -623,15 +631,10 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     values.update(extra)
     settings.update(band_deg=band_deg, mask=region_mask is not None, age=age, smooth=bool(smooth),
                     patch_deg=patch_deg)
-    quality = q_Budak2021(luminance, geometry, omega, pindex,
-                          n_thresholds=n_thresholds, size_arcmin=size_arcmin,
-                          weight_exponent=q_weight_exponent, threshold=q_threshold,
-                          cutoff=q_cutoff, valid=valid)
+    quality = pending_quality.result()
     values["q"] = quality.q
     values["n_sources"] = len(sources)
     values["source_solid_angle"] = float(s_w.sum()) if len(sources) else 0.0
-    q_options = dict(size_arcmin=size_arcmin, weight_exponent=q_weight_exponent,
-                     threshold=q_threshold, cutoff=q_cutoff, valid=valid)
     # Calibration: a common scale k = 1 ± u of every luminance (same sources and groups).
     u = float(lmap.calibration_uncertainty)
     calibration = {}
@@ -702,7 +705,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     provenance.update({"map": lmap.provenance, "calibration_factor": lmap.calibration_factor,
                        "calibration_uncertainty": lmap.calibration_uncertainty,
                        "calibrated": lmap.calibrated, "projection": lmap.projection.to_dict()})
-    statistics = luminance_statistics(luminance, omega, vf.cos_sigma)
+    statistics = pending_statistics.result()
     # evalglare's Max_Lum: the largest luminance of the evaluated field [cd·m⁻²].
     values["max_luminance"] = statistics["field"]["max"] if statistics["field"]["max"] \
         is not None else math.nan

@@ -16,7 +16,7 @@ Hyndman, R. J., Fan, Y. (1996), Sample quantiles in statistical packages, Am. St
 import math
 
 import numpy as np
-from .._compiled import njit, prange
+from .._compiled import njit, prange, run_blocks
 
 __all__ = ["DEFAULT_RING_EDGES_DEG", "DEFAULT_PERCENTILES", "QUANTILE_BINS_PER_DECADE",
            "luminance_statistics"]
@@ -173,7 +173,19 @@ def luminance_statistics(luminance, solid_angle, cos_sigma, *,
     cos_edges = np.cos(np.radians(edges))
     n_groups = len(edges)
     stripes = max(1, min(_STRIPES, L.size))
-    positive = _positive_range(L, w, c, stripes)
+    # Each stripe a call of its own on its pixels (the same stripes as one call over all),
+    # the calls shared out among threads.
+    step = -(-L.size // stripes)
+    bounds = [(k * step, min(L.size, (k + 1) * step)) for k in range(stripes)]
+    workers = _positive_range.threads_for(L, w, c, stripes)
+
+    def per_stripe(kernel, arguments, outputs=()):
+        def stripe(k, _):
+            a, b = bounds[k]
+            return kernel(L[a:b], w[a:b], c[a:b], *arguments, *(x[k:k + 1] for x in outputs))
+        return run_blocks(stripe, [(k, None) for k in range(stripes)], workers)
+
+    positive = np.concatenate(per_stripe(_positive_range, (1,)))
     smallest, largest = positive[:, 0].min(), positive[:, 1].max()
     if smallest <= largest:  # some positive luminance: bins of log10 L from its decade
         origin = math.floor(math.log10(smallest))
@@ -185,8 +197,8 @@ def luminance_statistics(luminance, solid_angle, cos_sigma, *,
     low = np.empty((stripes, n_groups))
     high = np.empty((stripes, n_groups))
     hist = np.zeros((stripes, n_groups, n_bins))
-    _accumulate(L, w, c, cos_edges, stripes, float(origin), n_bins,
-                float(QUANTILE_BINS_PER_DECADE), count, sums, low, high, hist)
+    per_stripe(_accumulate, (cos_edges, 1, float(origin), n_bins, float(QUANTILE_BINS_PER_DECADE)),
+               (count, sums, low, high, hist))
     # Stripes added in order: the result does not depend on the number of threads.
     count = count.sum(axis=0)
     omega, lw, zero = sums.sum(axis=0)
