@@ -12,21 +12,27 @@ view, pixels and options), so a rerun of the solver side does not repeat them.
 
 For each estimator (``local``: the double local estimate with materials,
 :func:`~lsadphoto.solver.integrators.local_estimate.render_local_estimate_materials`, which
-:func:`lsadphoto.solver.render` runs for such scenes; ``path``: :func:`lsadphoto.solver.render_path_traced`) the
-table gives: the field-mean ratio over the subset with its standard error, the mean
-absolute relative per-pixel error (MARE) raw and with the reference's own noise removed in
-quadrature, the median self-reported relative error, the median |z| (z = (ours − ref) /
-√(σ_ours² + σ_ref²); 0.674 for a standard normal) and the share of |z| ≤ 3.
+:func:`lsadphoto.solver.render` runs for such scenes; ``cache``: the surface cache,
+:func:`~lsadphoto.solver.integrators.surface_cache.build_surface_cache` +
+:func:`~lsadphoto.solver.integrators.surface_cache.render_cached`, from a simulation of the
+same chains; ``path``: :func:`lsadphoto.solver.render_path_traced`) the
+table gives: the CPU time (simulation, cache and render together), the field-mean ratio
+over the subset with its standard error, the mean absolute relative per-pixel error (MARE)
+raw and with the reference's own noise removed in quadrature, the highlight ratio (ours /
+reference at the subset's brightest reference pixel), the median self-reported relative
+error, the median |z| (z = (ours − ref) / √(σ_ours² + σ_ref²); 0.674 for a standard normal)
+and the share of |z| ≤ 3.
 
 Run (2-core machine)::
 
-    python benchmarks/accuracy_materials.py --variant "glossy floor" --estimators local
+    python benchmarks/accuracy_materials.py --variant "glossy floor" --estimators local,cache
 
 Writes a Markdown fragment with the command to ``--output``.
 """
 
 import argparse
 import hashlib
+import itertools
 import math
 import os
 import platform
@@ -46,6 +52,7 @@ from lsadphoto.solver.examples import MATERIAL_ROOMS, material_room_rad
 from lsadphoto.solver.formats.radiance import RTRACE_UNBIASED
 from lsadphoto.solver.integrators.eye import primary_rays
 from lsadphoto.solver.integrators.local_estimate import render_local_estimate_materials
+from lsadphoto.solver.integrators.surface_cache import build_surface_cache, render_cached
 from lsadphoto.solver.scene import camera_to_world
 
 #: Radiance's options: pure Monte Carlo (RTRACE_UNBIASED: -aa 0 -as 0 -lw 1e-9), deep (-ab 12), fine source
@@ -123,6 +130,7 @@ def summary(ours, sigma, ref, ref_se):
     return {"field": field, "field_se": field_se, "mare": raw,
             "mare_corrected": math.sqrt(max(raw * raw - ref_mae * ref_mae, 0.0)),
             "self": float(np.median(sigma / ours)), "median_z": float(np.median(np.abs(z))),
+            "highlight": float(ours[np.argmax(ref)] / ref.max()),
             "z3": float(np.mean(np.abs(z) <= 3)), "ref_rel": float(np.mean(ref_se / ref))}
 
 
@@ -133,11 +141,15 @@ def main(argv=None):
     parser.add_argument("--pixels", type=int, default=160, help="reference pixels (random subset)")
     parser.add_argument("--rtrace", default=RTRACE)
     parser.add_argument("--repeats", type=int, default=8, help="traces of each reference ray per run")
-    parser.add_argument("--estimators", default="local", help="comma-separated: local, path")
+    parser.add_argument("--estimators", default="local", help="comma-separated: local, cache, path")
     parser.add_argument("--chains", type=int, default=262144, help="light chains of the local estimate")
     parser.add_argument("--nodes-per-pixel", type=int, default=128)
     parser.add_argument("--rays-per-vertex", type=int, default=16)
     parser.add_argument("--paths", type=int, default=4096, help="paths per pixel of the path tracer")
+    parser.add_argument("--cache-spacing", type=float, default=1 / 24, help="cache spacing / scene diagonal")
+    parser.add_argument("--cache-nodes", type=int, default=8192, help="node draws per cache point")
+    parser.add_argument("--glossy-rays", type=int, default=16, help="glossy rays per eye vertex and group (cache)")
+    parser.add_argument("--direct-samples", type=int, default=4, help="shadow rays per luminaire and pixel (cache)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--reference-only", action="store_true")
     parser.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "lsadphoto_material_refs"))
@@ -149,8 +161,9 @@ def main(argv=None):
              f"Radiance binaries of pyradiance {version}; reference `rtrace {args.rtrace}`, {args.pixels} random "
              f"pixels of a {args.size}² view, two runs of {args.repeats} traces per ray.", "",
              "| scene | estimator | setting | CPU (wall) [s] | field-mean ratio | MARE | MARE, reference noise removed "
-             "| reference's own error (mean) | self-reported error (median) | median \\|z\\| | \\|z\\| ≤ 3 |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| highlight ratio | reference's own error (mean) | self-reported error (median) | median \\|z\\| "
+             "| \\|z\\| ≤ 3 |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     comparisons = []
     for variant in args.variant or MATERIAL_ROOMS:
         pick, ref, ref_se, cpu = reference(variant, args.size, args.pixels, args.rtrace, args.cache, args.repeats)
@@ -164,10 +177,25 @@ def main(argv=None):
                 if name == "local":
                     setting = (f"{args.chains} chains, {args.nodes_per_pixel} nodes/px, "
                                f"{args.rays_per_vertex} rays/vertex")
-                    lmap = render_local_estimate_materials(
-                        simulate(scene, samples=args.chains, seed=1), proj, position=pos, rotation=rot,
-                        nodes_per_pixel=args.nodes_per_pixel, rays_per_vertex=args.rays_per_vertex, seed=1,
-                        workers=args.workers)
+                    store = simulate(scene, samples=args.chains, seed=1)
+                    with Clock() as view:
+                        lmap = render_local_estimate_materials(
+                            store, proj, position=pos, rotation=rot, nodes_per_pixel=args.nodes_per_pixel,
+                            rays_per_vertex=args.rays_per_vertex, seed=1, workers=args.workers)
+                    setting += f" (CPU: view {view.cpu:.0f} s)"
+                elif name == "cache":
+                    setting = (f"{args.chains} chains, spacing {args.cache_spacing:.3g} × diagonal, "
+                               f"{args.cache_nodes} nodes/point, {args.glossy_rays} glossy rays/vertex/group, "
+                               f"{args.direct_samples} shadow rays/luminaire/px")
+                    store = simulate(scene, samples=args.chains, seed=1)
+                    with Clock() as build:
+                        cache = build_surface_cache(store, spacing=args.cache_spacing * scene.size,
+                                                    nodes=args.cache_nodes, seed=1, workers=args.workers)
+                    with Clock() as view:
+                        lmap = render_cached(store, proj, position=pos, rotation=rot, cache=cache, seed=1,
+                                             glossy_rays=args.glossy_rays, direct_samples=args.direct_samples,
+                                             workers=args.workers)
+                    setting += (f" ({cache.size} points; CPU: cache {build.cpu:.0f} s, view {view.cpu:.1f} s)")
                 else:
                     setting = f"{args.paths} paths/px"
                     lmap = render_path_traced(scene, proj, position=pos, rotation=rot, samples=args.paths,
@@ -176,16 +204,16 @@ def main(argv=None):
             ours, sigma = maps[name][0][pick], maps[name][1][pick]
             s = summary(ours, sigma, ref, ref_se)
             lines.append(f"| {variant} | {name} | {setting} | {clock.cpu:.0f} ({clock.wall:.0f}) | {s['field']:.4f} ± "
-                         f"{s['field_se']:.4f} | {100 * s['mare']:.2f} % | {100 * s['mare_corrected']:.2f} % | "
+                         f"{s['field_se']:.4f} | {100 * s['mare']:.2f} % | {100 * s['mare_corrected']:.2f} % | {s['highlight']:.3f} | "
                          f"{100 * s['ref_rel']:.2f} % | {100 * s['self']:.2f} % | {s['median_z']:.2f} | "
                          f"{100 * s['z3']:.0f} % |")
             print(lines[-1], flush=True)
-        if len(maps) == 2:
-            # the two estimators against each other over the whole view (independent runs)
-            (a, sa), (b, sb) = maps.values()
+        for first, second in itertools.combinations(maps, 2):
+            # two estimators against each other over the whole view (independent runs)
+            (a, sa), (b, sb) = maps[first], maps[second]
             ok = np.isfinite(a) & np.isfinite(b) & (sa + sb > 0)
             z = (a[ok] - b[ok]) / np.sqrt(sa[ok] ** 2 + sb[ok] ** 2)
-            comparisons.append(f"{variant}: {' / '.join(maps)} field mean {a[ok].mean() / b[ok].mean():.4f} ± "
+            comparisons.append(f"{variant}: {first} / {second} field mean {a[ok].mean() / b[ok].mean():.4f} ± "
                                f"{math.sqrt((sa[ok] ** 2).sum() + (sb[ok] ** 2).sum()) / b[ok].sum():.4f}, "
                                f"mean z² {np.mean(z * z):.2f}, median |z| {np.median(np.abs(z)):.2f} over "
                                f"{int(ok.sum())} pixels.")

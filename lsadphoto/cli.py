@@ -721,7 +721,9 @@ def cmd_simulate(args):
         args.samples = 65536
     scene = _load_any_scene(args.scene)
     if args.surface_cache:
-        scene.require_lambertian("--surface-cache", "simulate without it and render --estimator local")
+        from .solver.integrators.surface_cache import check_cache_materials
+
+        check_cache_materials(scene, "--surface-cache")
     callback, close = progress_callback("simulating", enabled=False if args.quiet else None)
     try:
         store = simulate(scene, samples=args.samples, target_error=args.target_error, seed=args.seed,

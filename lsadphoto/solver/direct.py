@@ -60,6 +60,7 @@ from numba import njit
 
 from .._validation import check_positive_int
 from ._sampling import stream
+from .materials import shadow_transmittance
 from .photometry import pack_photometries, packed_intensity
 from .sky import distant_illuminance, distant_uniforms
 
@@ -244,10 +245,12 @@ class _LuminaireSampler:
         return targets, g
 
 
-def _area_estimate(sampler, x, n, origins, u, engine, unoccluded=None):
+def _area_estimate(scene, sampler, x, n, origins, u, engine, unoccluded=None):
     """Ratio estimate of one area luminaire's direct illuminance [lx] at points x (normals
     n, ray origins ``origins``) from uniforms u (P, s, 3), and its delta-method variance;
-    ``unoccluded`` = L·Π at x where already known."""
+    ``unoccluded`` = L·Π at x where already known. V_j is the shadow transmittance (1 or 0;
+    through glass and smooth ``trans`` their straight-through T:
+    :func:`~lsadphoto.solver.materials.shadow_transmittance`, as Radiance's shadow rays)."""
     P, s, _ = u.shape
     E = np.zeros(P)
     var = np.zeros(P)
@@ -264,8 +267,7 @@ def _area_estimate(sampler, x, n, origins, u, engine, unoccluded=None):
     cand = np.flatnonzero(g.ravel() > 0)
     if cand.size:
         p_of = lit[cand // s]
-        vis = engine.visible(origins[p_of], targets.reshape(-1, 3)[cand])
-        seen.ravel()[cand] = np.where(vis, g.ravel()[cand], 0.0)
+        seen.ravel()[cand] = g.ravel()[cand] * shadow_transmittance(scene, engine, origins[p_of], targets.reshape(-1, 3)[cand])
     total = g.sum(axis=1)
     sampled = total > 0  # else no sample fell where g > 0: taken as visible
     ratio = np.ones(lit.size)
@@ -411,7 +413,7 @@ def _point_terms(x, n, offset, point, lum, guide, count, u, u_start, points, val
     return m, ns
 
 
-def _point_estimates(lights, x, n, point, lum, guide, u, u_start, count, engine):
+def _point_estimates(scene, lights, x, n, point, lum, guide, u, u_start, count, engine):
     """Direct illuminance [lx] of point luminaires ``lum`` (index among the point luminaires)
     at points ``x[point]``, and the sample variance of each mean: the mean over ``count[e]``
     emission points of a luminous rectangle (placed by the uniforms ``u[u_start[e]:][:count[e],
@@ -426,7 +428,10 @@ def _point_estimates(lights, x, n, point, lum, guide, u, u_start, count, engine)
     ray = np.empty(E * s, dtype=np.int64)
     m, ns = _point_terms(x, n, engine.epsilon, point, lum, guide, count, u, u_start, lights.points,
                          values, o32, d32, t32, ray)
-    if m:
+    if m and _transmits(scene):
+        o = o32[:m].astype(float)
+        values.ravel()[ray[:m]] *= shadow_transmittance(scene, engine, o, o + d32[:m] * t32[:m, None])
+    elif m:
         values.ravel()[ray[:m][engine.occluded(o32[:m], d32[:m], t32[:m])]] = 0.0
     mean = values.sum(axis=1) / ns
     var = np.zeros(E)
@@ -434,6 +439,11 @@ def _point_estimates(lights, x, n, point, lum, guide, u, u_start, count, engine)
         sel = ns == k
         var[sel] = values[sel, :k].var(axis=1, ddof=1) / k
     return mean, var
+
+
+def _transmits(scene):
+    """Whether shadow rays of ``scene`` may pass surfaces (glass, smooth ``trans``)."""
+    return getattr(scene, "bsdf", None) is not None and bool(scene.bsdf.straight.any())
 
 
 def unoccluded_illuminance(scene, points, normals):
@@ -681,14 +691,14 @@ def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count
     is_point = lum >= lights.n_area
     if is_point.any():
         sel = np.flatnonzero(is_point)
-        e[sel], v[sel] = _point_estimates(lights, x, n, point[sel], lum[sel] - lights.n_area,
+        e[sel], v[sel] = _point_estimates(scene, lights, x, n, point[sel], lum[sel] - lights.n_area,
                                           guide[sel], u, u_start[sel], count[sel], engine)
     samplers = _samplers(scene)
     for li in np.unique(lum[~is_point]):
         sel = np.flatnonzero(lum == li)
         p = point[sel]
         u3 = u[u_start[sel, None] + np.arange(int(count[sel[0]]))]
-        e[sel], v[sel] = _area_estimate(samplers[li], x[p], n[p], origins[p], u3, engine,
+        e[sel], v[sel] = _area_estimate(scene, samplers[li], x[p], n[p], origins[p], u3, engine,
                                         unoccluded=guide[sel])
     return e, v
 
@@ -943,7 +953,7 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
         guide = np.empty(of_point.size)
         _unoccluded_pairs(x, n, of_point, pick[of_point], lights.points, lights.areas,
                           lights.n_area, guide)
-        E[of_point] = _point_estimates(lights, x, n, of_point, pick[of_point] - lights.n_area, guide,
+        E[of_point] = _point_estimates(scene, lights, x, n, of_point, pick[of_point] - lights.n_area, guide,
                                        np.ascontiguousarray(u[of_point, 1:]), np.arange(of_point.size),
                                        np.ones(of_point.size, dtype=np.int64), engine)[0]
     origins = x + engine.epsilon * n
@@ -954,6 +964,5 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
         targets, g = s.sample(x[m], n[m], u[m, None, 1:], engine.epsilon)
         lit = np.flatnonzero(g[:, 0] > 0)
         if lit.size:
-            vis = engine.visible(origins[m[lit]], targets[lit, 0])
-            E[m[lit]] = np.where(vis, s.luminance * s.area * g[lit, 0], 0.0)
+            E[m[lit]] = s.luminance * s.area * g[lit, 0] * shadow_transmittance(scene, engine, origins[m[lit]], targets[lit, 0])
     return E / prob + sky

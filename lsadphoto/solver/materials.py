@@ -427,6 +427,42 @@ class MaterialTable:
         weight[is_delta & (total > 0)] = total[is_delta & (total > 0)]
         return wi, weight, is_delta, total
 
+    def sample_glossy(self, m, n, wo, u, parts):
+        """Sample ω_i from the glossy lobes only (the reflection lobe rs and the transmission
+        lobe ts, one chosen in proportion to its coefficient); ``u`` uniforms (k, 2) (the
+        first reused inside the lobe), ``parts``: :meth:`parts` at these points. Returns
+        ``(wi, weight, pdf)``, weight = f_g·|μ_i|/p_g with f_g the glossy part of
+        :meth:`evaluate` and p_g = (rs·p_rs + ts·p_ts)/(rs + ts) [sr⁻¹] (one-sample balance
+        heuristic over the two lobes); 0 where there is no glossy part or the direction falls
+        on the wrong side."""
+        m = np.asarray(m)
+        rs, ts = parts["rs"], parts["ts"]
+        total = rs + ts
+        safe = np.where(total > 0, total, 1.0)
+        lobe_t = u[:, 0] * safe >= rs
+        u0 = np.where(lobe_t, (u[:, 0] * safe - rs) / np.maximum(ts, 1e-300), u[:, 0] * safe / np.maximum(rs, 1e-300))
+        uu = np.stack([np.clip(u0, 0.0, 1.0 - 1e-12), u[:, 1]], axis=1)
+        wi = np.empty((m.size, 3))
+        r = np.flatnonzero(~lobe_t)
+        if r.size:
+            wi[r] = self._sample_halfvector(m[r], n[r], wo[r], uu[r])
+        t = np.flatnonzero(lobe_t)
+        if t.size:
+            wi[t] = self._sample_about(-wo[t], np.maximum(self.alpha2[m[t]], _FTINY), uu[t])
+        dens = self._pdfs(m, n, wo, wi, parts)
+        pdf = (rs * dens[:, 2] + ts * dens[:, 3]) / safe
+        _, f_g = self.evaluate(m, n, wo, wi, parts=parts, split=True)
+        mu_i = np.abs(_dot(n, wi))
+        weight = np.where((total > 0) & (pdf > 0), f_g * mu_i / np.maximum(pdf, 1e-300), 0.0)
+        return wi, weight, pdf
+
+    def pdf_glossy(self, m, n, wo, wi, parts):
+        """Density p_g [sr⁻¹] with which :meth:`sample_glossy` picks ``wi``."""
+        rs, ts = parts["rs"], parts["ts"]
+        total = rs + ts
+        dens = self._pdfs(np.asarray(m), n, wo, wi, parts)
+        return np.where(total > 0, (rs * dens[:, 2] + ts * dens[:, 3]) / np.where(total > 0, total, 1.0), 0.0)
+
     def pdf(self, m, n, wo, wi, front=None, parts=None):
         """Density [sr⁻¹] with which :meth:`sample` picks the non-delta direction ``wi``
         (the mixture Σ_c P_c p_c over the non-delta components); ``parts``: :meth:`parts`

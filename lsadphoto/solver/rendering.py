@@ -23,7 +23,7 @@ from .direct import DIRECT_SAMPLES
 from .integrators.local_estimate import (AUTO_NODES_PER_PIXEL, RAYS_PER_VERTEX, render_local_estimate,
                                          render_local_estimate_materials)
 from .integrators.path_tracer import render_path_traced
-from .integrators.surface_cache import CACHE_NODES, build_surface_cache, render_cached
+from .integrators.surface_cache import CACHE_NODES, build_surface_cache, check_cache_materials, render_cached
 from .scene import Scene
 from .simulation import DEFAULT_BATCHES, DEFAULT_CHAINS, ChainRun, check_simulation_options, simulate
 from .store import LsadStore
@@ -63,7 +63,8 @@ def choose_estimator(store_or_scene, *, samples=None, target_error=None):
     A store renders from its surface cache if it holds one, else by the double local estimate
     (building a cache is a choice for ``simulate --surface-cache``). A store or scene with
     glossy, specular or transmitting materials renders by the double local estimate with
-    materials (the cache is Lambertian; a target is reached by its rounds). A Lambertian
+    materials, the unbiased reference (a target is reached by its rounds; the surface cache
+    is a choice, ``estimator="cache"``). A Lambertian
     scene with a fixed number
     of chains and no target renders by the double local estimate, the unbiased reference; a
     scene with a per-pixel target (or neither) by the surface cache, which reaches a per-pixel
@@ -74,11 +75,10 @@ def choose_estimator(store_or_scene, *, samples=None, target_error=None):
     if isinstance(store_or_scene, LsadStore):
         if store_or_scene.surface_cache is not None:
             return "cache", "the store holds a surface cache"
-        if store_or_scene.materials:
-            return "local", "non-Lambertian materials: the surface cache models Lambertian surfaces only"
         return "local", "the store holds no surface cache (simulate --surface-cache builds one)"
     if not store_or_scene.lambertian:
-        return "local", ("non-Lambertian materials: the surface cache models Lambertian surfaces only"
+        return "local", ("non-Lambertian materials: the double local estimate with materials, the unbiased "
+                         "reference (estimator 'cache' is a choice)"
                          + ("" if target_error is None else "; the per-pixel target by rounds of chains"))
     if samples is not None and target_error is None:
         return "local", "a fixed number of chains: the unbiased double local estimate"
@@ -320,8 +320,7 @@ def _render_from_cache(store_or_scene, projection, *, position, rotation, sample
     def cache_of(store, node_draws):
         return build_surface_cache(store, spacing=spacing, nodes=node_draws, seed=seed, workers=workers)
 
-    (store_or_scene.scene if isinstance(store_or_scene, LsadStore) else store_or_scene).require_lambertian(
-        "the surface cache", "--estimator local (the double local estimate with materials)")
+    check_cache_materials(store_or_scene.scene if isinstance(store_or_scene, LsadStore) else store_or_scene)
     if isinstance(store_or_scene, LsadStore):
         store = store_or_scene
         _refuse_chains_for_store(store, samples, target_error)

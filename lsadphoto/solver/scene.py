@@ -393,14 +393,6 @@ class Scene:
         """Whether every surface is Lambertian (no glossy, specular or transmitting material)."""
         return self.bsdf is None
 
-    def require_lambertian(self, estimator, instead="render_path_traced"):
-        """Raise :class:`BadInputError` (one line) when the scene is not Lambertian and
-        ``estimator`` models Lambertian surfaces only, naming the estimator to use."""
-        if self.bsdf is not None:
-            kinds = sorted({m.kind for m in self.surface_materials if not m.is_lambertian})
-            raise BadInputError(f"{self.name}: {estimator} models Lambertian surfaces only and this "
-                                f"scene has {', '.join(kinds)} materials; use {instead}")
-
     def _winding_number(self, point):
         """Generalised winding number of the scene's triangles at ``point`` [m]: 1 inside a
         closed surface whose fronts face inwards (a room), 0 outside (Jacobson, Kavan &

@@ -358,7 +358,8 @@ def distant_illuminance(scene, engine, points, normals, u):
 
     ``u`` ``(P, sources, s, 2)`` uniforms (:func:`distant_uniforms`): s shadow rays per
     source and point, directions drawn by :meth:`DistantSource.sample`;
-    E = Σ_sources K·mean(w·max(0, n·ω)·V), unbiased. The variance is the spread of the
+    E = Σ_sources K·mean(w·max(0, n·ω)·V), unbiased; V passes glass and smooth ``trans`` with
+    their straight-through transmittance. The variance is the spread of the
     independent stratified groups' means (from 16 samples on); below, the samples' spread as
     if they were independent, an upper bound for stratified samples (for s = 1 the square of
     the estimate, also an upper bound).
@@ -379,7 +380,11 @@ def distant_illuminance(scene, engine, points, normals, u):
         g = w * np.einsum("ij,ij->i", d, normals_s)
         lit = np.flatnonzero(g > 0)
         value = np.zeros(P * s)
-        if lit.size:
+        if lit.size and scene.bsdf is not None and scene.bsdf.straight.any():
+            # through glass and smooth trans with their transmittance (Radiance's shadow rays)
+            o = origins[lit].astype(float)
+            value[lit] = src.integral * g[lit] * shadow_transmittance(scene, engine, o, o + float(reach) * d[lit])
+        elif lit.size:
             blocked = engine.occluded(origins[lit], d[lit].astype(np.float32), np.full(lit.size, reach))
             value[lit] = np.where(blocked, 0.0, src.integral * g[lit])
         value = value.reshape(P, s)

@@ -120,12 +120,6 @@ class LsadStore:
         """Whether the scene has non-Lambertian materials (nodes of BSDF-sampled chains)."""
         return self.incoming is not None
 
-    def require_lambertian(self, estimator):
-        """Raise :class:`BadInputError` (one line) when the store's scene has non-Lambertian
-        materials and ``estimator`` models Lambertian surfaces only."""
-        self.scene.require_lambertian(estimator, "render (estimator 'local': the double local estimate "
-                                                 "with materials)")
-
     @property
     def chains_per_batch(self):
         """Light chains in each batch."""
