@@ -661,11 +661,20 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     E += np.bincount(point, weight * e, P)
     var += np.bincount(point[~drawn], v[~drawn], P)
     if draws > 1 and drawn.any():
-        # the draws' spread: the sample variance of Ê/p over a point's draws, / draws
+        # the draws' spread by collapsed strata: draw j (stratum j, the last draws slots of
+        # its point) in group ⌊j/2⌋, the last three together for an odd count;
+        # Var ≈ Σ_groups g/(g − 1)·Σ_{j∈group} (y_j − ȳ_group)² / draws², y = Ê/p
+        p_drawn = point[drawn]
         ratio = e[drawn] / ev_prob[point, slot][drawn]
-        mean_v = np.bincount(point[drawn], ratio, P) / draws
-        sum_v2 = np.bincount(point[drawn], ratio ** 2, P)
-        var += np.maximum(sum_v2 - draws * mean_v ** 2, 0.0) / (draws * (draws - 1))
+        j = slot[drawn] - (ev_n[p_drawn] - draws)
+        groups = draws // 2
+        key = p_drawn * groups + np.minimum(j // 2, groups - 1)
+        g = np.full(groups, 2.0)
+        g[-1] = draws - 2 * (groups - 1)
+        total = np.bincount(key, ratio, P * groups).reshape(P, groups)
+        square = np.bincount(key, ratio ** 2, P * groups).reshape(P, groups)
+        spread = np.maximum(square - total ** 2 / g, 0.0) * (g / (g - 1))
+        var += spread.sum(axis=1) / draws ** 2
     return E, var
 
 

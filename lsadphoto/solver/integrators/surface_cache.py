@@ -666,8 +666,8 @@ def _leaf_lists(start, index, leaf):
 
 
 def render_cached(store, projection, *, position, rotation, cache=None,
-                  direct_samples=DIRECT_SAMPLES, seed=0, chunk_pixels=8192, workers=1,
-                  progress=None):
+                  direct_samples=DIRECT_SAMPLES, luminaire_draws=None, seed=0, chunk_pixels=8192,
+                  workers=1, progress=None):
     """Luminance map of a view from a surface cache: direct light per pixel, indirect
     interpolated [cd·m⁻²].
 
@@ -681,6 +681,10 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     cache : SurfaceCache, optional
     direct_samples : int
         Shadow-ray samples per luminaire and pixel (:func:`direct_illuminance`).
+    luminaire_draws : int, optional
+        Luminaire draws per pixel where the direct light samples its luminaires
+        (:func:`direct_illuminance`'s ``luminaires=K``; every luminaire when K is at least
+        their number); default ``"auto"`` there.
     seed : int
         Seed of the direct-light samples.
     chunk_pixels, workers, progress
@@ -704,6 +708,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
         cache = store.surface_cache or build_surface_cache(store, workers=workers)
     position, rotation = check_pose(position, rotation)
     check_positive_int(workers, "workers")
+    luminaires = "auto" if luminaire_draws is None else check_positive_int(luminaire_draws, "luminaire draws")
     engine = engine_for(scene)
     t0 = time.perf_counter()
     valid, prim, dist, d = primary_rays(scene, engine, projection, position, rotation)
@@ -722,7 +727,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
             x = c.point[refl]
             e_dir, var = direct_illuminance(scene, engine, x, c.normal[refl],
                                             samples=direct_samples, seed=seed,
-                                            block_ids=c.block[refl],
+                                            block_ids=c.block[refl], luminaires=luminaires,
                                             distant_samples=DISTANT_RAYS_PER_DIRECT_SAMPLE * direct_samples)
             side = np.where(c.front[refl], 0, 1)
             e_ind = cache.interpolate(scene, c.triangle[refl], x, side)
@@ -744,7 +749,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
         estimator="surface cache (direct per pixel, indirect interpolated)",
         openings=openings, shared_variance=direct_var, bias=bias, bias_variance=bias_var,
         extra={"chains": int(store.chains), "nodes": int(store.nodes),
-               "direct_samples": int(direct_samples), "seed": int(seed),
+               "direct_samples": int(direct_samples), "luminaire_draws": luminaires, "seed": int(seed),
                "simulation_seed": int(store.seed),
                "cache_spacing_m": float(cache.spacing),
                "cache_points": int(cache.size),
