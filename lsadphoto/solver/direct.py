@@ -42,6 +42,10 @@ rectangle per draw). Every luminaire keeps p > 0 wherever it may give light, so 
 unbiased (for area luminaires: as unbiased as their ratio estimate above); it is exact —
 zero variance — where nothing is in the way and every luminaire is a candidate with an
 exact value. Shadow rays of all the point luminaires' samples go to Embree in one call.
+The draws' variance is estimated by collapsing adjacent strata in pairs (one draw per
+stratum has no variance estimate of its own; Cochran 1977, ch. 5A): conservative only by the
+spread of neighbouring strata means, where the plain sample variance over the K draws would
+add back the whole spread that the stratification removed.
 
 References
 ----------
@@ -583,8 +587,9 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         Exact where luminaires are fully visible or hidden and none is drawn, never
         negative; in a partial shadow of an area luminaire a ratio estimate (bias of order
         1/s, module docstring). With sampled luminaires the variance is that of the whole
-        ones plus the draws' spread (the sample variance of Ê/p over the K draws, / K;
-        conservative: the draws are stratified).
+        ones plus the draws' (collapsed strata: Σ over pairs of adjacent strata of
+        (Ê_a/p_a − Ê_b/p_b)², / K²; conservative by the spread of neighbouring strata
+        means only — docs/user-guide-solver.md §3a).
 
     References
     ----------
