@@ -704,11 +704,11 @@ def render_cached(store, projection, *, position, rotation, cache=None,
         raise BadInputError("render_cached needs an LsadStore (simulate the scene first)")
     store.require_lambertian("the surface cache")
     scene = store.scene
+    luminaires = "auto" if luminaire_draws is None else check_positive_int(luminaire_draws, "luminaire draws")
     if cache is None:
         cache = store.surface_cache or build_surface_cache(store, workers=workers)
     position, rotation = check_pose(position, rotation)
     check_positive_int(workers, "workers")
-    luminaires = "auto" if luminaire_draws is None else check_positive_int(luminaire_draws, "luminaire draws")
     engine = engine_for(scene)
     t0 = time.perf_counter()
     valid, prim, dist, d = primary_rays(scene, engine, projection, position, rotation)
