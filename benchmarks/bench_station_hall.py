@@ -5,10 +5,14 @@ The hall of :func:`lsadphoto.datasets.hall.make_station_hall` (60 × 20 m, barre
 simulated and one fisheye view rendered by fresh ``lsadphoto`` processes; the cache's
 points, each step's wall time, CPU time and peak memory (``resource.getrusage`` of the child) and the rendered map's
 per-pixel relative errors (median, 95th percentile) are printed as a table row. Variants:
-``--detail 2`` (4× triangles), ``--luminaires 480`` (4× luminaires).
+``--detail 2`` (4× triangles), ``--luminaires 480`` (4× luminaires). With ``--target-error E``
+the scene is rendered directly, as ``lsadphoto render hall.toml --estimator cache
+--target-error E`` (rounds of simulate + render from ``--samples`` chains until the median
+per-pixel error is E; one process, shown in the render column, with the rounds' chains).
 
     PYTHONPATH=. .venv/bin/python benchmarks/bench_station_hall.py [--detail 1] [--luminaires 120]
         [--size 1024] [--samples 262144] [--estimator cache|local] [--nodes-per-pixel auto]
+        [--target-error 0.02]
 """
 
 import argparse
@@ -46,11 +50,14 @@ def main():
     ap.add_argument("--samples", type=int, default=262144)
     ap.add_argument("--estimator", default="cache", choices=("cache", "local"))
     ap.add_argument("--nodes-per-pixel", default="auto")
+    ap.add_argument("--target-error", type=float, default=None)
     a = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         scene = make_station_hall(Path(tmp) / "hall", luminaires=a.luminaires, detail=a.detail,
                                   view_size=a.size)
         triangles = len(load_scene(scene).triangles)
+        if a.target_error is not None:
+            return _to_target(a, scene, triangles, Path(tmp) / "view.exr")
         store = Path(tmp) / "hall.npz"
         sim = ["simulate", scene, "-o", store, "--samples", a.samples, "--quiet", "--json"]
         if a.estimator == "cache":
@@ -69,6 +76,23 @@ def main():
     print("|---|---|---|---|---|---|---|---|---|---|")
     print(f"| {triangles} | {a.luminaires} | {a.samples} | {a.size}² | {a.estimator} | {points} | "
           f"{s_wall:.0f} / {s_cpu:.0f} | {r_wall:.0f} / {r_cpu:.0f} | {max(s_mem, r_mem):.1f} | "
+          f"{100 * p['pixel_relative_error_median']:.2g} % / {100 * p['pixel_relative_error_p95']:.2g} % |")
+
+
+def _to_target(a, scene, triangles, out):
+    """The scene rendered to ``--target-error`` in one process; prints its table row."""
+    wall, cpu, mem, text = run(["render", scene, "--view-name", "along", "--estimator", a.estimator,
+                                "--target-error", a.target_error, "--samples", a.samples,
+                                "--nodes-per-pixel", a.nodes_per_pixel, "--quiet", "--json", "-o", out])
+    p = json.loads(text)["provenance"]
+    rounds = " → ".join(str(r["chains"]) for r in p["rounds"])
+    last = p["rounds"][-1]
+    knobs = ", ".join(f"{k} {last[k]}" for k in ("cache_nodes", "direct_samples", "luminaire_draws") if k in last)
+    print("| triangles | luminaires | chains per round | view | estimator | target | last round | "
+          "render (simulate included): wall / CPU [s] | peak memory [GB] | per-pixel error median / p95 |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    print(f"| {triangles} | {a.luminaires} | {rounds} | {a.size}² | {a.estimator} | {100 * a.target_error:g} % "
+          f"{'reached' if p['target_reached'] else 'NOT reached'} | {knobs} | {wall:.0f} / {cpu:.0f} | {mem:.1f} | "
           f"{100 * p['pixel_relative_error_median']:.2g} % / {100 * p['pixel_relative_error_p95']:.2g} % |")
 
 

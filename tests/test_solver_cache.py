@@ -367,6 +367,9 @@ def test_bad_input():
         render_cached(room, room.views[0].projection, position=[1, 2, 1], rotation=np.eye(3))
     with pytest.raises(BadInputError):
         direct_illuminance(room, engine_for(room), [[1, 1, 0]], [[0, 0, 1]], samples=0)
+    with pytest.raises(BadInputError, match="luminaire draws must be a positive integer, got 0"):
+        render_cached(store, room.views[0].projection, position=[1, 2, 1], rotation=np.eye(3),
+                      luminaire_draws=0)
 
 
 def test_cli_simulate_with_cache_and_render_from_it(tmp_path, capsys):

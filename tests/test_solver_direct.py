@@ -91,7 +91,8 @@ def test_many_luminaires_unoccluded_are_unbiased_with_a_small_spread():
     assert np.all(runs.std(axis=0) < 0.1 * expected)
 
 
-def test_sampled_luminaires_are_unbiased_in_shadows_and_their_variance_honest():
+@pytest.mark.parametrize("draws", [4, 5, 32])
+def test_sampled_luminaires_are_unbiased_in_shadows_and_their_variance_honest(draws):
     scene = hall(columns=True)
     engine = engine_for(scene)
     pts, nrm = floor_points(60, seed=1)
@@ -101,16 +102,22 @@ def test_sampled_luminaires_are_unbiased_in_shadows_and_their_variance_honest():
     est = np.empty((runs, len(pts)))
     rep = np.empty((runs, len(pts)))
     for k in range(runs):
-        est[k], rep[k] = direct_illuminance(scene, engine, pts, nrm, luminaires=4, seed=k)
+        est[k], rep[k] = direct_illuminance(scene, engine, pts, nrm, luminaires=draws, seed=k)
     shadowed = est.std(axis=0) > 0
     assert shadowed.sum() >= 10  # the columns make the sampling matter at many points
     z = (est.mean(axis=0) - exact) / (est.std(axis=0, ddof=1) / math.sqrt(runs) + 1e-300)
     # unbiased: |z| < 4.5 for each of ≤ 60 points (a false alarm at 4.5σ has p ≈ 4e-4 over all)
     assert np.all(np.abs(z[shadowed]) < 4.5), z[shadowed]
     assert np.allclose(est[:, ~shadowed], exact[~shadowed], rtol=1e-9)
-    # the reported variance is of the right size on average (stratified draws: conservative)
+    # The reported variance of the stratified draws (collapsed strata: pairs of adjacent
+    # strata, the last three together for an odd count) is conservative, by the spread of the
+    # strata means within a pair: its mean over the runs against the observed variance has
+    # a median over the points of 1.15 (4 draws), 1.27 (5), 1.63 (32) here. Bounds: ≥ 0.9
+    # (each point's ratio has a relative noise ≈ √(2/299) ≈ 8 %, its median over ≥ 10 points
+    # far less) and ≤ 2 — the plain sample variance of the draws, which ignores the
+    # stratification, gave 2.9 at 32 draws.
     ratio = rep[:, shadowed].mean(axis=0) / est[:, shadowed].var(axis=0, ddof=1)
-    assert 0.7 < np.median(ratio) < 3.0, np.median(ratio)
+    assert 0.9 < np.median(ratio) < 2.0, np.median(ratio)
 
 
 def test_area_luminaires_sampled_are_exact_unoccluded():

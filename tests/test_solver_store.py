@@ -14,8 +14,9 @@ from lsadphoto.solver import (
     simulate,
 )
 from lsadphoto.solver.chains import trace_chains
-from lsadphoto.solver.examples import canonical_room
+from lsadphoto.solver.direct import LUMINAIRE_DRAWS
 from lsadphoto.solver.engine import engine_for
+from lsadphoto.solver.examples import canonical_room
 
 NODE_FIELDS = ("position", "normal", "coefficient", "kind", "luminaire", "batch", "depth", "triangle")
 
@@ -155,7 +156,8 @@ def test_render_to_a_per_pixel_target_error(room):
 
 @pytest.mark.slow
 def test_surface_cache_render_to_a_per_pixel_target(room):
-    # The cache's rounds grow chains, node draws and shadow rays by one factor, so the reported
+    # The cache's rounds grow chains, node draws, shadow rays and luminaire draws by one factor
+    # (the room's 4 luminaires: every one whole, "auto", then any K ≥ 4), so the reported
     # per-pixel error (the map's own: the honesty of these errors is tested above and in
     # test_solver_cache.py) falls round by round until it reaches the target.
     proj, pose = view_args(room)
@@ -165,11 +167,12 @@ def test_surface_cache_render_to_a_per_pixel_target(room):
     assert p["target_reached"] is True and p["pixel_relative_error_median"] <= 0.004
     rounds = p["rounds"]
     assert len(rounds) >= 2 and rounds[0] == {**rounds[0], "chains": 1024, "cache_nodes": 256,
-                                              "direct_samples": 1}
+                                              "direct_samples": 1, "luminaire_draws": "auto"}
     for a, b in zip(rounds, rounds[1:]):
         growth = b["chains"] / a["chains"]
         assert 2 <= growth <= 16
         assert b["cache_nodes"] == pytest.approx(a["cache_nodes"] * growth, rel=0.01)
+        assert b["luminaire_draws"] == pytest.approx(LUMINAIRE_DRAWS * b["chains"] / rounds[0]["chains"], abs=1)
         assert b["pixel_relative_error_median"] < a["pixel_relative_error_median"]
     with pytest.raises(BadInputError, match="apply to the double local estimate"):
         render(room, proj, **pose, estimator="cache", nodes_per_pixel=4)

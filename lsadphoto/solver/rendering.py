@@ -19,7 +19,7 @@ import warnings
 
 from .._validation import check_choice
 from ..errors import BadInputError, SolverWarning
-from .direct import DIRECT_SAMPLES
+from .direct import DIRECT_SAMPLES, LUMINAIRE_DRAWS
 from .integrators.local_estimate import (AUTO_NODES_PER_PIXEL, RAYS_PER_VERTEX, render_local_estimate,
                                          render_local_estimate_materials)
 from .integrators.path_tracer import render_path_traced
@@ -46,10 +46,13 @@ MIN_PIXEL_TARGET_ERROR = 1e-3
 ESTIMATORS = ("local", "cache", "auto")
 #: Per-pixel target of the command line's ``render`` of a scene when no ``--samples`` are given.
 DEFAULT_TARGET_ERROR = 0.02
-#: Caps of a surface-cache ``target_error`` render's rounds: node draws per cache point and
-#: shadow-ray samples per luminaire and pixel.
+#: Caps of a surface-cache ``target_error`` render's rounds: node draws per cache point,
+#: shadow-ray samples per luminaire and pixel, and luminaire draws per pixel (first
+#: :data:`~lsadphoto.solver.direct.LUMINAIRE_DRAWS`, where the direct light samples its
+#: luminaires).
 MAX_CACHE_NODES = 1 << 17
 MAX_DIRECT_SAMPLES = 256
+MAX_LUMINAIRE_DRAWS = 1024
 #: Caps of a ``target_error`` render of a scene with non-Lambertian materials: nodes per pixel
 #: and batch, and BSDF-sampled rays per eye vertex (their first round's are the defaults,
 #: :data:`~.local_estimate.AUTO_NODES_PER_PIXEL` and :data:`~.local_estimate.RAYS_PER_VERTEX`).
@@ -118,8 +121,8 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
         With a scene: the per-pixel relative standard error to reach — the median over the
         pixels with light (``provenance["pixel_relative_error_median"]``). The scene is
         simulated in rounds, each with the chains that 1/√chains predicts from the last
-        (2–16 times as many; with ``"cache"`` the cache's node draws and the direct light's
-        samples grow by the same factor; with non-Lambertian materials the nodes per pixel
+        (2–16 times as many; with ``"cache"`` the cache's node draws, the direct light's
+        samples and its luminaire draws grow by the same factor; with non-Lambertian materials the nodes per pixel
         and the BSDF-sampled rays per eye vertex, up to :data:`MAX_MATERIAL_NODES` and
         :data:`MAX_RAYS_PER_VERTEX`), up to ``max_samples``; a
         :class:`~lsadphoto.errors.SolverWarning` says when the target is not reached, or
@@ -336,22 +339,27 @@ def _render_from_cache(store_or_scene, projection, *, position, rotation, sample
                              direct_samples=first_samples, **view)
 
     def render_round(store, growth):
-        # every noise of the map (chains, node draws, shadow rays) grows by the chains' factor
+        # every noise of the map (chains, node draws, shadow rays, luminaire draws) grows by
+        # the chains' factor; the first round's luminaire draws are direct_illuminance's "auto"
         node_draws = min(MAX_CACHE_NODES, max(first_nodes, round(first_nodes * growth)))
         shadow_rays = min(MAX_DIRECT_SAMPLES, max(first_samples, math.ceil(first_samples * growth)))
+        draws = min(MAX_LUMINAIRE_DRAWS, max(LUMINAIRE_DRAWS, math.ceil(LUMINAIRE_DRAWS * growth)))
         lmap = render_cached(store, projection, cache=cache_of(store, node_draws),
-                             direct_samples=shadow_rays, **view)
-        capped = node_draws == MAX_CACHE_NODES or shadow_rays == MAX_DIRECT_SAMPLES
+                             direct_samples=shadow_rays,
+                             luminaire_draws=None if draws == LUMINAIRE_DRAWS else draws, **view)
+        capped = (node_draws == MAX_CACHE_NODES or shadow_rays == MAX_DIRECT_SAMPLES
+                  or draws == MAX_LUMINAIRE_DRAWS)
         p = lmap.provenance
         advice = (f"the surface cache reached its caps ({MAX_CACHE_NODES} node draws per point, "
-                  f"{MAX_DIRECT_SAMPLES} shadow rays per luminaire and pixel); render with the "
-                  "double local estimate or give more chains") if capped else None
+                  f"{MAX_DIRECT_SAMPLES} shadow rays per luminaire and {MAX_LUMINAIRE_DRAWS} luminaire "
+                  "draws per pixel); render with the double local estimate or give more chains") if capped else None
         if p["pixel_relative_bias_median"] > p["pixel_relative_noise_median"]:
             # more samples do not reduce the interpolation bias; a finer cache does
             advice = (f"the cache's estimated interpolation bias (median "
                       f"{p['pixel_relative_bias_median']:.2g}) exceeds its noise and does not fall "
                       "with more chains; give a finer cache_spacing")
-        return lmap, {"cache_nodes": node_draws, "direct_samples": shadow_rays}, advice
+        return lmap, {"cache_nodes": node_draws, "direct_samples": shadow_rays,
+                      "luminaire_draws": p["luminaire_draws"]}, advice
 
     return _render_to_target(store_or_scene, samples=samples, target_error=target_error,
                              max_samples=max_samples, seed=seed, near_field="unbiased",

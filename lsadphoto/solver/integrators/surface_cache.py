@@ -717,8 +717,8 @@ def _leaf_lists(start, index, leaf):
 
 
 def render_cached(store, projection, *, position, rotation, cache=None,
-                  direct_samples=DIRECT_SAMPLES, glossy_rays=GLOSSY_RAYS, seed=0, chunk_pixels=8192,
-                  workers=1, progress=None):
+                  direct_samples=DIRECT_SAMPLES, luminaire_draws=None, glossy_rays=GLOSSY_RAYS, seed=0,
+                  chunk_pixels=8192, workers=1, progress=None):
     """Luminance map of a view from a surface cache: direct light per pixel, indirect
     interpolated [cd·m⁻²].
 
@@ -732,6 +732,10 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     cache : SurfaceCache, optional
     direct_samples : int
         Shadow-ray samples per luminaire and pixel (:func:`direct_illuminance`).
+    luminaire_draws : int, optional
+        Luminaire draws per pixel where the direct light samples its luminaires
+        (:func:`direct_illuminance`'s ``luminaires=K``; every luminaire when K is at least
+        their number); default ``"auto"`` there.
     glossy_rays : int
         Scenes with non-Lambertian materials: rays from the glossy lobes per eye vertex and
         group (:func:`_material_chunk`; the diffuse parts at their hits come from the cache).
@@ -755,6 +759,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     scene = store.scene
     check_cache_materials(scene)
     check_positive_int(glossy_rays, "glossy_rays")
+    luminaires = "auto" if luminaire_draws is None else check_positive_int(luminaire_draws, "luminaire draws")
     if cache is None:
         cache = store.surface_cache or build_surface_cache(store, workers=workers)
     position, rotation = check_pose(position, rotation)
@@ -771,7 +776,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     est = None if scene.lambertian else _MaterialIndirectEstimator(
         store, engine, nodes=cache.provenance.get("nodes_per_point", CACHE_NODES),
         near_distance=cache.provenance.get("near_distance_m", RELATIVE_CACHE_NEAR_DISTANCE * scene.size),
-        direct_samples=direct_samples, seed=seed, key=1, connections=False)
+        direct_samples=direct_samples, luminaires=luminaires, seed=seed, key=1, connections=False)
 
     def work(start):
         c = chunk_hits(scene, position, hit, prim, dist, d, start, chunk)
@@ -786,7 +791,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
             x = c.point[refl]
             e_dir, var = direct_illuminance(scene, engine, x, c.normal[refl],
                                             samples=direct_samples, seed=seed,
-                                            block_ids=c.block[refl],
+                                            block_ids=c.block[refl], luminaires=luminaires,
                                             distant_samples=DISTANT_RAYS_PER_DIRECT_SAMPLE * direct_samples)
             side = np.where(c.front[refl], 0, 1)
             e_ind, b = cache.interpolate_with_bias(scene, c.triangle[refl], x, side)
@@ -809,7 +814,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                                                                               "; glossy by sampled rays)"),
         openings=openings, shared_variance=direct_var, bias=bias, bias_variance=bias_var,
         extra={"chains": int(store.chains), "nodes": int(store.nodes),
-               "direct_samples": int(direct_samples), "seed": int(seed),
+               "direct_samples": int(direct_samples), "luminaire_draws": luminaires, "seed": int(seed),
                "simulation_seed": int(store.seed),
                "cache_spacing_m": float(cache.spacing),
                "cache_points": int(cache.size),
@@ -879,15 +884,17 @@ class _MaterialIndirectEstimator(_NodeHull):
     """
 
     def __init__(self, store, engine, *, nodes, near_distance, direct_samples, seed, key,
-                 near_rays=MATERIAL_NEAR_RAYS, connections=True):
+                 near_rays=MATERIAL_NEAR_RAYS, connections=True, luminaires="auto"):
         """``connections=False``: without the node pools of the far part (rendering from a
-        cache needs only the next-event estimates and the direct part)."""
+        cache needs only the next-event estimates and the direct part); ``luminaires``: the
+        direct light's luminaire draws (:func:`direct_illuminance`)."""
         from ..chains import EmissionSampler
 
         scene = store.scene
         self.store, self.scene, self.engine = store, scene, engine
         self.near_distance, self.eps2 = near_distance, near_distance ** 2
         self.direct_samples, self.seed, self.key = direct_samples, seed, key
+        self.luminaires = luminaires
         self.groups = G = min(GROUPS, store.batches)
         self.chains_per_group = store.chains / G
         self.draws = max(1, int(nodes) // G)
@@ -1082,7 +1089,8 @@ class _MaterialIndirectEstimator(_NodeHull):
             sub = {k: (v[m] if isinstance(v, np.ndarray) else v) for k, v in keys.items()}
             if self.luminaire_table is None:
                 e, v = direct_illuminance(self.scene, self.engine, y[m], sign * ny[m],
-                                          samples=self.direct_samples, distant_samples=distant_samples, **sub)
+                                          samples=self.direct_samples, distant_samples=distant_samples,
+                                          luminaires=self.luminaires, **sub)
             else:
                 e, v = sampled_direct_illuminance(self.scene, self.engine, y[m], sign * ny[m],
                                                   table=self.luminaire_table, **sub), 0.0
