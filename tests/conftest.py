@@ -53,6 +53,14 @@ def radiance_tool(name):
     return path
 
 
+def radiance_bin(program="rtrace"):
+    """Folder of the Radiance programs that pyradiance ships (the test skips without
+    ``program``)."""
+    import os
+
+    return os.path.dirname(radiance_tool(program))
+
+
 #: Folder name, anywhere under a sample folder, of real RAW-named files that must be refused
 #: (metadata-only copies, codings LibRaw cannot unpack); :func:`raw_samples` leaves them out.
 REFUSED_FOLDER = "refused"

@@ -32,20 +32,14 @@ from lsadphoto.solver.integrators.local_estimate import render_local_estimate_ma
 from lsadphoto.solver.integrators.surface_cache import build_surface_cache, render_cached
 from lsadphoto.solver.scene import camera_to_world, scene_from_dict
 
+from .conftest import radiance_bin
+
 
 def _pinhole(size, half_angle_deg=35):
     from lsadphoto.geometry.pinhole import PinholeProjection
 
     focal = size / (2 * math.tan(math.radians(half_angle_deg)))
     return PinholeProjection(fx=focal, fy=focal, cx=(size - 1) / 2, cy=(size - 1) / 2, width=size, height=size)
-
-
-def _radiance_bin():
-    pyradiance = pytest.importorskip("pyradiance")
-    path = os.path.join(os.path.dirname(pyradiance.__file__), "bin")
-    if not os.path.exists(os.path.join(path, "rtrace")):
-        pytest.skip("pyradiance ships no rtrace binary on this platform")
-    return path
 
 
 def _agree(ours, ref, *, median_z=1.0, field_sigmas=3.0):
@@ -69,7 +63,7 @@ def test_direct_light_through_glass_matches_rtrace(tmp_path):
     # A 0.2 m light 2 m above a floor, a glass pane (transmissivity 0.96, 0.9, 0.85) between
     # them at z = 1, tilted so that the rays cross it at 20–45°; Radiance's shadow rays pass
     # glass with its transmittance at their angle (rtrace -I -ab 0: irradiance, direct only).
-    binpath = _radiance_bin()
+    binpath = radiance_bin()
     rad = ("void light lamp 0 0 3 100 100 100\n"
            "lamp polygon src 0 0 12  -0.1 -0.1 2  -0.1 0.1 2  0.1 0.1 2  0.1 -0.1 2\n"
            "void glass gl 0 0 3 0.96 0.9 0.85\n"

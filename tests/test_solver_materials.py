@@ -39,6 +39,8 @@ from lsadphoto.solver.materials import (Material, MaterialTable, glass_transmiss
                                         luminance_of)
 from lsadphoto.solver.scene import camera_to_world, scene_from_dict
 
+from .conftest import radiance_bin
+
 MATERIALS = [
     Material.checked("plastic", (0.5, 0.4, 0.3), specularity=0.05, roughness=0.1),
     Material.checked("plastic", (0.3, 0.3, 0.3), specularity=0.06, roughness=0.0),
@@ -161,14 +163,6 @@ def test_cli_renders_a_glossy_radiance_scene_by_both_estimators(tmp_path):
 
 # --- against Radiance ---------------------------------------------------------------------------
 
-def _radiance_bin():
-    pyradiance = pytest.importorskip("pyradiance")
-    path = os.path.join(os.path.dirname(pyradiance.__file__), "bin")
-    if not os.path.exists(os.path.join(path, "rtrace")):
-        pytest.skip("pyradiance ships no rtrace binary on this platform")
-    return path
-
-
 def _rtrace(binpath, tmp_path, rad, rays, options):
     """Luminance-reduced rtrace values (Radiance units) of rays (origin, direction)."""
     env = dict(os.environ, RAYPATH=os.path.join(binpath, "..", "lib"))
@@ -211,7 +205,7 @@ def _ours_single_surface(scene, eye, half=0.025, k=40):
 
 @pytest.mark.parametrize("kind", list(SURFACES))
 def test_single_surface_under_one_light_matches_rtrace(tmp_path, kind):
-    binpath = _radiance_bin()
+    binpath = radiance_bin()
     rad = LAMP + SURFACES[kind] + FLOOR
     scene = read_radiance_scene(rad)
     eyes = EYES if kind == "trans" else EYES[:4]
@@ -224,7 +218,7 @@ def test_single_surface_under_one_light_matches_rtrace(tmp_path, kind):
 
 
 def test_mirror_and_glass_deltas_match_rtrace(tmp_path):
-    binpath = _radiance_bin()
+    binpath = radiance_bin()
     # a large light at z = 2 facing down, a mirror (front up) and a glass pane below it
     rad = ("void light lamp 0 0 3 10 10 10\n"
            "lamp polygon src 0 0 12  -9 -9 2  -9 9 2  9 9 2  9 -9 2\n"
@@ -268,7 +262,7 @@ def _room_reference(variant, folder):
     from lsadphoto.solver.integrators.eye import primary_rays
 
     if variant not in _REFERENCES:
-        binpath = _radiance_bin()
+        binpath = radiance_bin()
         rad, eye, sight = material_room_rad(variant)
         scene = read_radiance_scene(rad)
         size = 16

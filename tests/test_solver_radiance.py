@@ -10,6 +10,8 @@ from lsadphoto.solver import render, simulate
 from lsadphoto.solver.examples import canonical_room, canonical_room_rad
 from lsadphoto.solver.formats import read_radiance_scene
 
+from .conftest import radiance_bin
+
 #: The canonical room as a Radiance scene (the same file goes to our reader and to oconv).
 ROOM_RAD = canonical_room_rad()
 
@@ -24,12 +26,6 @@ def test_reader_gives_the_canonical_room():
     assert np.allclose(scene.normals[emit], [0, 0, -1])
 
 
-def _radiance_bin():
-    pyradiance = pytest.importorskip("pyradiance")
-    path = os.path.join(os.path.dirname(pyradiance.__file__), "bin")
-    if not os.path.exists(os.path.join(path, "rpict")):
-        pytest.skip("pyradiance ships no rpict binary on this platform")
-    return path
 
 
 @pytest.mark.slow
@@ -42,7 +38,7 @@ def test_double_local_estimate_agrees_with_rpict(tmp_path):
     # (-ad 1024 -as 256 -ar 256): median +0.4 %, interquartile range −2.3 … +3.0 %.
     from lsadphoto.io.hdr import read_hdr
 
-    binpath = _radiance_bin()
+    binpath = radiance_bin("rpict")
     rad = tmp_path / "room.rad"
     rad.write_text(ROOM_RAD)
     env = dict(os.environ, RAYPATH=os.path.join(binpath, "..", "lib"))

@@ -36,6 +36,8 @@ from lsadphoto.metrics.score import score_map
 from lsadphoto.solver import read_radiance_scene, render, simulate
 from lsadphoto.solver.examples import canonical_room_rad
 
+from .conftest import radiance_bin
+
 SIZE = 64
 
 #: The canonical room as a Radiance scene (the same file goes to our reader and to oconv).
@@ -53,17 +55,11 @@ Q_TOL = 0.02
 RGBE_SIGMA = 0.0025
 
 
-def _radiance_bin():
-    pyradiance = pytest.importorskip("pyradiance")
-    path = os.path.join(os.path.dirname(pyradiance.__file__), "bin")
-    if not os.path.exists(os.path.join(path, "rpict")):
-        pytest.skip("pyradiance ships no rpict binary on this platform")
-    return path
 
 
 @pytest.fixture(scope="module")
 def pictures(tmp_path_factory):
-    binpath = _radiance_bin()
+    binpath = radiance_bin("rpict")
     tmp = tmp_path_factory.mktemp("rpict")
     rad = tmp / "room.rad"
     rad.write_text(ROOM_RAD)

@@ -985,6 +985,19 @@ class _MaterialIndirectEstimator(_NodeHull):
             val[ok] *= shadow_transmittance(self.scene, self.engine, origin, target)
         return val
 
+    def _draw_from_pools(self, pools, draws, count, group, blocks, level, tag):
+        """``draws`` nodes per point drawn uniformly from the pool (one per group) of each of
+        ``count`` points' ``group``: the points' rows (``owner``, points whose pool is empty
+        left out), the nodes' indices in the store (``pick``) and each point's pool size."""
+        u = _uniforms_by(self.seed, group, blocks, draws, tag, self.key, level)
+        size = np.array([len(p) for p in pools])[group]
+        owner = np.repeat(np.arange(count), draws)
+        live = size[owner] > 0
+        owner = owner[live]
+        local = np.minimum((u.ravel()[live] * size[owner]).astype(np.int64), size[owner] - 1)
+        offsets = np.cumsum([0] + [len(p) for p in pools])
+        return owner, np.concatenate(pools)[offsets[group[owner]] + local], size
+
     def point_glossy(self, x, n, wo, mat, group, blocks, level, tag):
         """Glossy part [cd·m⁻²] of the light of point luminaires (intensity distributions,
         luminous rectangles) that points reflect or transmit towards ``wo``, per row of
@@ -995,14 +1008,8 @@ class _MaterialIndirectEstimator(_NodeHull):
         if not self.scene.point_luminaires or not len(x):
             return out
         st = self.store
-        u = _uniforms_by(self.seed, group, blocks, POINT_DRAWS, tag, self.key, level)
-        size = np.array([len(p) for p in self.point_pools])[group]
-        owner = np.repeat(np.arange(len(x)), POINT_DRAWS)
-        live = size[owner] > 0
-        owner = owner[live]
-        local = np.minimum((u.ravel()[live] * size[owner]).astype(np.int64), size[owner] - 1)
-        offsets = np.cumsum([0] + [len(p) for p in self.point_pools])
-        pick = np.concatenate(self.point_pools)[offsets[group[owner]] + local]
+        owner, pick, size = self._draw_from_pools(self.point_pools, POINT_DRAWS, len(x), group, blocks,
+                                                  level, tag)
         v = st.position[pick] - x[owner]
         r2 = np.einsum("ij,ij->i", v, v)
         w = v / np.sqrt(np.maximum(r2, 1e-300))[:, None]
@@ -1036,14 +1043,8 @@ class _MaterialIndirectEstimator(_NodeHull):
         if not self.area_density.size or not len(x):
             return out
         st, bsdf = self.store, self.scene.bsdf
-        u = _uniforms_by(self.seed, group, blocks, EMITTER_DRAWS, tag, self.key, level)
-        size = np.array([len(p) for p in self.emit_pools])[group]
-        owner = np.repeat(np.arange(len(x)), EMITTER_DRAWS)
-        live = size[owner] > 0
-        owner = owner[live]
-        local = np.minimum((u.ravel()[live] * size[owner]).astype(np.int64), size[owner] - 1)
-        offsets = np.cumsum([0] + [len(p) for p in self.emit_pools])
-        pick = np.concatenate(self.emit_pools)[offsets[group[owner]] + local]
+        owner, pick, size = self._draw_from_pools(self.emit_pools, EMITTER_DRAWS, len(x), group, blocks,
+                                                  level, tag)
         y, ny = st.position[pick], st.normal[pick]
         v = y - x[owner]
         r2 = np.einsum("ij,ij->i", v, v)
