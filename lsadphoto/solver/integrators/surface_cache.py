@@ -281,10 +281,7 @@ class _IndirectEstimator(_NodeHull):
         if P == 0 or table is None:
             return np.zeros(P)
         k = self.draws if draws is None else draws
-        u = np.empty((P, k))
-        for j in np.unique(blocks):
-            m = blocks == j
-            u[m] = stream(self.seed, "cache", self.key, group, level, j).random((int(m.sum()), k))
+        u = _uniforms_by(self.seed, np.full(P, group), blocks, k, self.key, level)
         vals = np.empty((P, k))
         pair = np.empty(P * k, dtype=np.int64)
         o32 = np.empty((P * k, 3), dtype=np.float32)
@@ -944,10 +941,7 @@ class _MaterialIndirectEstimator(_NodeHull):
         if P == 0 or cdf is None:
             return np.zeros(P)
         k = self.draws if draws is None else draws
-        u = np.empty((P, k))
-        for j in np.unique(blocks):
-            m = blocks == j
-            u[m] = stream(self.seed, "cache", self.key, group, level, j).random((int(m.sum()), k))
+        u = _uniforms_by(self.seed, np.full(P, group), blocks, k, self.key, level)
         v = (np.arange(k)[None, :] + u) / k
         pick = self.pools[group][np.minimum(np.searchsorted(cdf, v.ravel()), cdf.size - 1)]
         owner = np.repeat(np.arange(P), k)
