@@ -100,12 +100,16 @@ panel polygon p4 0 0 12 4.2 2.7 2.99  4.2 3.3 2.99  4.8 3.3 2.99  4.8 2.7 2.99
 
 
 #: Variants of :func:`material_room_rad`.
-MATERIAL_ROOMS = ("glossy floor", "metal panel", "mirror", "glass partition")
+MATERIAL_ROOMS = ("glossy floor", "metal panel", "mirror", "glass partition", "curved shapes")
 
 _METAL = ("void metal alu 0 0 5 0.8 0.8 0.8 0.9 0.1\n"
           "alu polygon m1 0 0 12 3 0.01 0.3  3 0.01 2.5  1 0.01 2.5  1 0.01 0.3\n")
 _MIRROR = ("void mirror mir 0 0 3 0.9 0.9 0.9\n"
            "mir polygon m2 0 0 12 3.2 0.01 0.3  3.2 0.01 2.5  5 0.01 2.5  5 0.01 0.3\n")
+_SHAPES = ("void plastic glossy_ball 0 0 5 0.6 0.6 0.6 0.04 0.08\n"
+           "glossy_ball sphere ball 0 0 4 2 1.5 0.5 0.5\n"
+           "void metal steel 0 0 5 0.7 0.7 0.7 0.8 0.15\n"
+           "steel cylinder post 0 0 7 4 2.5 0  4 2.5 2.99  0.15\n")
 
 
 def material_room_rad(variant):
@@ -122,7 +126,10 @@ def material_room_rad(variant):
       the room lit by a luminous ceiling of ``glow`` (1 W·sr⁻¹·m⁻², radius 0) instead of the
       panels: Radiance's ambient rays ignore light sources and glass relays none (only
       mirrors have virtual sources), so the panels' reflections in the pane would be missing
-      from a Radiance reference, while a glow ceiling is seen by its rays like any surface.
+      from a Radiance reference, while a glow ceiling is seen by its rays like any surface;
+    * ``curved shapes``: a ``sphere`` of glossy ``plastic`` (grey 0.6, specularity 0.04,
+      roughness 0.08, radius 0.5 m) on the floor and a ``cylinder`` of ``metal`` (grey 0.7,
+      specularity 0.8, roughness 0.15, radius 0.15 m) from floor to ceiling.
 
     Examples
     --------
@@ -143,4 +150,6 @@ def material_room_rad(variant):
         return (room + "\nvoid glow lum 0 0 4 1 1 1 0\nlum polygon c 0 0 12 0 0 3  0 4 3  6 4 3  6 0 3\n"
                 "void glass gl 0 0 3 0.96 0.96 0.96\n"
                 "gl polygon g1 0 0 12 3 0 0  3 4 0  3 4 3  3 0 3\n"), (1.0, 2.0, 1.5), (1.0, 0.3, -0.3)
+    if variant == "curved shapes":
+        return room + _SHAPES, (0.5, 3.2, 1.6), (1.0, -0.4, -0.3)
     raise ValueError(f"unknown material room {variant!r}; valid: {', '.join(MATERIAL_ROOMS)}")
