@@ -64,7 +64,7 @@ from numba import njit
 
 from .._validation import check_positive_int
 from ._sampling import stream
-from .materials import shadow_transmittance
+from .materials import shadow_transmittance, shadows_transmit
 from .photometry import pack_photometries, packed_intensity
 from .sky import distant_illuminance, distant_uniforms
 
@@ -435,7 +435,7 @@ def _point_estimates(scene, lights, x, n, point, lum, guide, u, u_start, count, 
     ray = np.empty(E * s, dtype=np.int64)
     m, ns = _point_terms(x, n, engine.epsilon, point, lum, guide, count, u, u_start, lights.points,
                          values, o32, d32, t32, ray)
-    if m and _transmits(scene):
+    if m and shadows_transmit(scene):
         o = o32[:m].astype(float)
         values.ravel()[ray[:m]] *= shadow_transmittance(scene, engine, o, o + d32[:m] * t32[:m, None])
     elif m:
@@ -446,11 +446,6 @@ def _point_estimates(scene, lights, x, n, point, lum, guide, u, u_start, count, 
         sel = ns == k
         var[sel] = values[sel, :k].var(axis=1, ddof=1) / k
     return mean, var
-
-
-def _transmits(scene):
-    """Whether shadow rays of ``scene`` may pass surfaces (glass, smooth ``trans``)."""
-    return getattr(scene, "bsdf", None) is not None and bool(scene.bsdf.straight.any())
 
 
 def unoccluded_illuminance(scene, points, normals):

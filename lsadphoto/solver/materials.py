@@ -495,6 +495,12 @@ class MaterialTable:
         return weight
 
 
+def shadows_transmit(scene):
+    """Whether shadow rays of ``scene`` may pass surfaces (glass, smooth ``trans``)."""
+    table = getattr(scene, "bsdf", None)
+    return table is not None and bool(table.straight.any())
+
+
 def shadow_transmittance(scene, engine, origins, targets, *, max_crossings=16):
     """Fraction of light passing from each origin to its target [–]: 0 where an opaque
     surface lies between, otherwise the product of the straight-through transmittances
@@ -502,9 +508,9 @@ def shadow_transmittance(scene, engine, origins, targets, *, max_crossings=16):
 
     Scenes without such surfaces use the plain visibility test (1 or 0).
     """
-    table = getattr(scene, "bsdf", None)
-    if table is None or not table.straight.any():
+    if not shadows_transmit(scene):
         return engine.visible(origins, targets).astype(float)
+    table = scene.bsdf
     o = np.asarray(origins, float).copy()
     tgt = np.asarray(targets, float)
     out = np.ones(len(o))

@@ -48,7 +48,7 @@ import numpy as np
 
 from ..errors import BadInputError
 from ._sampling import orthonormal_basis, stream
-from .materials import shadow_transmittance
+from .materials import shadow_transmittance, shadows_transmit
 
 __all__ = ["DISTANT_RAYS_PER_DIRECT_SAMPLE", "DistantSource", "GATHER_DISTANT_SAMPLES", "SKY_FUNCTIONS",
            "TOML_SKY_MODELS", "background_luminance", "distant_illuminance", "distant_reflection",
@@ -380,7 +380,7 @@ def distant_illuminance(scene, engine, points, normals, u):
         g = w * np.einsum("ij,ij->i", d, normals_s)
         lit = np.flatnonzero(g > 0)
         value = np.zeros(P * s)
-        if lit.size and scene.bsdf is not None and scene.bsdf.straight.any():
+        if lit.size and shadows_transmit(scene):
             # through glass and smooth trans with their transmittance (Radiance's shadow rays)
             o = origins[lit].astype(float)
             value[lit] = src.integral * g[lit] * shadow_transmittance(scene, engine, o, o + float(reach) * d[lit])
