@@ -200,8 +200,9 @@ def _far_terms(points, normals, offset, cdf, guide, nodes, u, eps2, tiny, out, p
 
 
 class _NodeHull:
-    """What both indirect estimators share: the test for points facing no node, and the
-    stream keys of their direct samples (attributes ``store``, ``engine``, ``key``)."""
+    """What both indirect estimators share: the test for points facing no node, the
+    many-luminaire table and the stream keys of their direct samples (attributes ``store``,
+    ``scene``, ``engine``, ``key``)."""
 
     hull = None
 
@@ -221,6 +222,13 @@ class _NodeHull:
             return np.zeros(len(x), dtype=bool)
         support = (n @ self.hull.T).max(axis=1)
         return support > np.einsum("ij,ij->i", n, x) + self.engine.epsilon
+
+    def _luminaire_table(self, near_distance):
+        """With many luminaires, the per-region table from which a near hit or a path vertex
+        draws one of them (:class:`~lsadphoto.solver.direct.LuminaireTable`); else None."""
+        scene = self.scene
+        many = len(scene.area_luminaires) + len(scene.point_luminaires) > ALL_LUMINAIRES_UP_TO
+        return LuminaireTable(scene, near_distance) if many else None
 
     def _direct_key(self, level):
         """Stream key of the direct samples at near hits and path vertices (≥ 1; 0 is the
@@ -269,9 +277,7 @@ class _IndirectEstimator(_NodeHull):
         self.chains_per_group = store.chains / self.groups
         self.near_rays = int(near_rays)
         self.near_draws = max(1, self.draws // 8)
-        # Many luminaires: a near hit draws one of them from a per-region table.
-        many = len(self.scene.area_luminaires) + len(self.scene.point_luminaires) > ALL_LUMINAIRES_UP_TO
-        self.luminaire_table = LuminaireTable(self.scene, near_distance) if many else None
+        self.luminaire_table = self._luminaire_table(near_distance)
 
     def far(self, x, n, group, blocks, level, draws=None):
         """Far-node part of E_ind [lx] at points ``x`` for one group: Σc/k · Σ_draws cos θ_n
@@ -824,7 +830,6 @@ def render_cached(store, projection, *, position, rotation, cache=None,
 # --- scenes with glossy, specular and transmitting materials ---------------------------------
 
 
-
 def check_cache_materials(scene, what="the surface cache"):
     """Raise :class:`BadInputError` (one line, exit 2 on the command line) for the scenes with
     non-Lambertian materials the surface cache does not model: smooth plastic, metal or
@@ -833,8 +838,8 @@ def check_cache_materials(scene, what="the surface cache"):
     if scene.lambertian:
         return
     bsdf = scene.bsdf
-    parts = bsdf.parts(np.arange(len(bsdf.materials)), np.ones(len(bsdf.materials)))
-    bad = np.flatnonzero(bsdf.fresnel & (parts["kd"] + parts["td"] > 0))
+    kd, td = _diffuse_coefficients(scene)
+    bad = np.flatnonzero(bsdf.fresnel & (kd + td > 0))
     if bad.size:
         names = [scene.material_names[i] for i in bad] if len(scene.material_names) == len(bsdf.materials) \
             else [str(i) for i in bad]
@@ -926,8 +931,7 @@ class _MaterialIndirectEstimator(_NodeHull):
         self.sampler = EmissionSampler(scene) if point.size or emit.size else None
         self.area_density = np.array([lum.flux / (scene.total_flux * scene.areas[lum.triangles].sum())
                                       for lum in scene.area_luminaires])
-        many = len(scene.area_luminaires) + len(scene.point_luminaires) > ALL_LUMINAIRES_UP_TO
-        self.luminaire_table = LuminaireTable(scene, near_distance) if many else None
+        self.luminaire_table = self._luminaire_table(near_distance)
 
     # -- connections -----------------------------------------------------------------------
 
@@ -1255,7 +1259,8 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, 
         if diff.size:
             keys = {"seed": seed, "block_ids": blocks[diff] * G + group[diff], "purpose_key": 30000 + 64 * level + depth}
             value[diff] += est.direct_diffuse(y[diff], ny[diff], mat_y[diff], keys)[0]
-            value[diff] += _cached_diffuse(est, cache, prim[diff], y[diff], front[diff], mat_y[diff], group[diff])
+            cached, _ = _cached_diffuse(est, cache, prim[diff], y[diff], front[diff], mat_y[diff])
+            value[diff] += cached[np.arange(diff.size), group[diff]]
         gl = np.flatnonzero(p["rs"] + p["ts"] > 0)
         if gl.size:
             value[gl] += est.point_glossy(y[gl], ny[gl], wo_y[gl], mat_y[gl], group[gl], blocks[gl],
@@ -1295,16 +1300,24 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, 
     return total
 
 
-def _cached_diffuse(est, cache, prim, y, front, mat, group):
-    """kd/π·E_ind(front) + td/π·E_ind(back) [cd·m⁻²] from the cache, each row in its group."""
+def _cached_diffuse(est, cache, prim, y, front, mat, *, with_bias=False):
+    """kd/π·E_ind(front) + td/π·E_ind(back) [cd·m⁻²] from the cache per group, shape (n, G),
+    and with ``with_bias`` its estimated interpolation bias (else None)."""
     side = np.where(front, 0, 1)
-    rows = np.arange(len(y))
-    out = np.zeros(len(y))
+    G = cache.values.shape[1]
+    out = np.zeros((len(y), G))
+    bias = np.zeros((len(y), G)) if with_bias else None
     for coef, s in ((est.kd[mat], side), (est.td[mat], 1 - side)):
         m = np.flatnonzero(coef > 0)
         if m.size:
-            out[m] += coef[m] / math.pi * cache.interpolate(est.scene, prim[m], y[m], s[m])[rows[:m.size], group[m]]
-    return out
+            k = (coef[m] / math.pi)[:, None]
+            if with_bias:
+                e_ind, e_bias = cache.interpolate_with_bias(est.scene, prim[m], y[m], s[m])
+                bias[m] += k * e_bias
+            else:
+                e_ind = cache.interpolate(est.scene, prim[m], y[m], s[m])
+            out[m] += k * e_ind
+    return out, bias
 
 
 def _material_chunk(est, cache, c, d, seed, glossy_rays):
@@ -1336,15 +1349,7 @@ def _material_chunk(est, cache, c, d, seed, glossy_rays):
             keys = {"seed": seed, "block_ids": blocks[diff], "purpose_key": 0 if level == 0 else 20000 + level}
             value, var = est.direct_diffuse(x[diff], n[diff], mat[diff], keys,
                                             DISTANT_RAYS_PER_DIRECT_SAMPLE * est.direct_samples)
-            side = np.where(front[diff], 0, 1)
-            ind, b = np.zeros((diff.size, G)), np.zeros((diff.size, G))
-            for coef, s in ((est.kd[mat[diff]], side), (est.td[mat[diff]], 1 - side)):
-                m = np.flatnonzero(coef > 0)
-                if m.size:
-                    k = (coef[m] / math.pi)[:, None]
-                    e_ind, e_bias = cache.interpolate_with_bias(scene, tri[diff[m]], x[diff[m]], s[m])
-                    ind[m] += k * e_ind
-                    b[m] += k * e_bias
+            ind, b = _cached_diffuse(est, cache, tri[diff], x[diff], front[diff], mat[diff], with_bias=True)
             np.add.at(out, pix[diff], weight[diff, None] * (value[:, None] + ind))
             np.add.at(direct_var, pix[diff], weight[diff] ** 2 * var)
             np.add.at(bias, pix[diff], weight[diff, None] * b)
