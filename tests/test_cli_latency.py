@@ -33,12 +33,20 @@ UNUSED = ["cv2", "concurrent.futures", "numpy.polynomial", "numba", "llvmlite", 
           "lsadphoto.calibrate", "lsadphoto.report", "lsadphoto.solver", "lsadphoto.study",
           "lsadphoto.survey", "lsadphoto.luminance", "lsadphoto.datasets", "lsadphoto.io.exr"]
 
+#: The thread count at the end of a score process. The kernels' threads (``run_blocks``,
+#: ``background``) are joined before ``score`` returns, but a joined thread may still be
+#: leaving the kernel's task list for a moment, so the count is read once it has settled
+#: (within 2 s); a thread pool (OpenBLAS's) stays and is still counted.
 SCRIPT = """
-import json, os, sys
+import json, os, sys, time
 from lsadphoto.cli import main
 code = main()
-threads = len(os.listdir("/proc/self/task")) if os.path.isdir("/proc/self/task") else None
-print(json.dumps([sorted(sys.modules), threads]), file=sys.stderr)
+def count():
+    return len(os.listdir("/proc/self/task")) if os.path.isdir("/proc/self/task") else None
+deadline = time.monotonic() + 2.0
+while (count() or 1) > 1 and time.monotonic() < deadline:
+    time.sleep(0.01)
+print(json.dumps([sorted(sys.modules), count()]), file=sys.stderr)
 sys.exit(code)
 """
 #: Variables that choose OpenBLAS's number of threads (a score process sets one where none is).
