@@ -81,7 +81,7 @@ from dataclasses import dataclass
 from dataclasses import field as dataclass_field
 
 import numpy as np
-from .._compiled import njit, prange, row_blocks, run_blocks
+from .._compiled import njit, populate, prange, row_blocks, run_blocks
 
 from .._validation import check_choice, check_positive
 from ..errors import BadInputError
@@ -846,8 +846,12 @@ def q_Budak2021(luminance, directions, solid_angle, position_index, *, n_thresho
     r0, c0 = analysis.box[0].start, analysis.box[1].start
     # Blocks of rows on threads (each block's rows from the box's corner relative to its own).
     workers = _contrast_background.threads_for(analysis.evaluated, r0, c0, contrast)
-    run_blocks(lambda a, b: _contrast_background(analysis.evaluated, r0 - a, c0, contrast[a:b]),
-               row_blocks(contrast.shape[0], workers), workers)
+
+    def block(a, b):
+        populate(contrast[a:b])
+        _contrast_background(analysis.evaluated, r0 - a, c0, contrast[a:b])
+
+    run_blocks(block, row_blocks(contrast.shape[0], workers), workers)
     kept = analysis.key >= cut
     contrast.ravel()[analysis.index[kept]] = analysis.contrast[kept]
     kept_fraction = float(np.sum(analysis.omega[kept])) / analysis.field_solid_angle

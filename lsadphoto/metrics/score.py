@@ -37,7 +37,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from .._compiled import background, njit, prange, row_blocks, run_blocks
+from .._compiled import background, njit, populate, prange, row_blocks, run_blocks
 
 from .._provenance import build_provenance
 from .._validation import check_choice, check_positive, check_positive_int
@@ -119,8 +119,12 @@ def _field_inputs(image, geometry, evaluated, cos_sigma):
             np.ascontiguousarray(cos_sigma).reshape(-1), luminance.reshape(-1))
     # Blocks of whole chunks, one per thread where the ahead-of-time code runs them.
     workers = _field_luminance_kernel.threads_for(*flat)
-    dropped = sum(run_blocks(lambda a, b: _field_luminance_kernel(*(x[a:b] for x in flat)),
-                             row_blocks(luminance.size, workers, _CHUNK), workers))
+
+    def block(a, b):
+        populate(flat[3][a:b])
+        return _field_luminance_kernel(*(x[a:b] for x in flat))
+
+    dropped = sum(run_blocks(block, row_blocks(luminance.size, workers, _CHUNK), workers))
     if dropped == 0 and evaluated is geometry.valid:
         return geometry.valid, luminance, geometry.solid_angle
     valid = np.empty(shape, dtype=bool)
