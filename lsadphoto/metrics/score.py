@@ -592,6 +592,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
                                          projection=lmap.projection, search_angle=search_angle,
                                          peak_luminance=peak_luminance, smooth=smooth,
                                          patch_deg=patch_deg)
+    # The pixels that may carry a label: the selected ones (-s and -z label others too).
+    labelled = mask if not smooth and patch_deg is None else None
     sources = unsplit_sources = _scored_sources(
         groups, geometry, frame, position_index_method=position_index_method,
         source_position=source_position, notes=notes)
@@ -626,7 +628,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     analyses, details, regions, extra = evalglare_analyses(
         luminance=luminance, solid_angle=omega, directions=geometry,
         cos_sigma=vf.cos_sigma, valid=valid, projection=lmap.projection,
-        labels=labels, sources=sources, unsplit_sources=unsplit_sources,
+        labels=labels, labelled=labelled, sources=sources, unsplit_sources=unsplit_sources,
         values=dict(values, dgp_raw=dgp_Wienold2006(values["vertical_illuminance"], s_l, s_w,
                                                     s_p, coefficients=coefficients)),
         dgp_coefficients=coefficients, zones=zones, source_zones=source_zones,
