@@ -574,12 +574,12 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if source_method == "task":
         task = frame.axes()[0] if task_direction is None else task_direction
     # Whole-picture arrays: the evaluated field of the selection rules is exactly the valid
-    # pixels (NaN luminance and zero solid angle elsewhere).
+    # pixels (NaN luminance and zero solid angle elsewhere), handed over as it is.
     selection = select_source_pixels(
         luminance, omega, vf.cos_sigma, method=source_method, value=source_threshold,
         directions=geometry.directions if task is not None else None, task_direction=task,
         task_opening=math.radians(check_positive(task_opening_deg, "task opening")),
-        n_thresholds=n_thresholds, size_arcmin=size_arcmin)
+        n_thresholds=n_thresholds, size_arcmin=size_arcmin, field_mask=valid)
     settings["source_selection"] = dict(selection.settings)
     mask = np.asarray(selection.mask, dtype=bool)
     groups, labels = group_sources_evalglare(luminance, geometry, omega, mask,
