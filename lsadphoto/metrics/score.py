@@ -72,22 +72,37 @@ _CHUNK = 1 << 16
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot=("int64(float32[::1], boolean[::1], float64[::1], float64[::1])",
-           "int64(float64[::1], boolean[::1], float64[::1], float64[::1])"))
+      aot=("Tuple((int64, float64, float64))(float32[::1], boolean[::1], float64[::1], "
+           "float64[::1])",
+           "Tuple((int64, float64, float64))(float64[::1], boolean[::1], float64[::1], "
+           "float64[::1])"))
 def _field_luminance_kernel(image, evaluated, cos_sigma, luminance):
-    """The luminance (float64; NaN outside the valid pixels) and the number of evaluated
-    pixels that are not valid (luminance not finite or cos σ < 0)."""
+    """The luminance (float64; NaN outside the valid pixels), the number of evaluated
+    pixels that are not valid (luminance not finite or cos σ < 0) and the smallest and
+    largest positive luminance of the valid pixels (+inf, −inf where there is none)."""
     n = image.size
+    n_chunks = (n + _CHUNK - 1) // _CHUNK
     dropped = 0
-    for k in prange((n + _CHUNK - 1) // _CHUNK):
+    ranges = np.empty((n_chunks, 2))
+    for k in prange(n_chunks):
         count = 0
+        lo, hi = np.inf, -np.inf
         for i in range(k * _CHUNK, min(n, (k + 1) * _CHUNK)):
             L = np.float64(image[i])
             ok = evaluated[i] & (np.abs(L) < np.inf) & (cos_sigma[i] >= 0)
             luminance[i] = L if ok else np.nan
             count += 1 if evaluated[i] and not ok else 0
+            positive = ok & (L > 0)
+            lo = min(lo, L if positive else np.inf)
+            hi = max(hi, L if positive else -np.inf)
         dropped += count
-    return dropped
+        ranges[k, 0] = lo
+        ranges[k, 1] = hi
+    lo, hi = np.inf, -np.inf
+    for k in range(n_chunks):
+        lo = min(lo, ranges[k, 0])
+        hi = max(hi, ranges[k, 1])
+    return dropped, lo, hi
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
@@ -104,7 +119,10 @@ def _field_solid_angle_kernel(luminance, solid_angle, valid, omega):
 
 def _field_inputs(image, geometry, evaluated, cos_sigma):
     """Valid pixels (``evaluated``, finite luminance, cos σ ≥ 0), the luminance [cd·m⁻²]
-    as float64 with NaN elsewhere and the solid angle [sr] with 0 elsewhere.
+    as float64 with NaN elsewhere, the solid angle [sr] with 0 elsewhere, and the smallest
+    and largest positive luminance of the valid pixels (the range of the statistics'
+    histogram, :func:`~lsadphoto.metrics.statistics.luminance_statistics`, found in the
+    same pass).
 
     Where every evaluated pixel is valid and the evaluated pixels are the geometry's valid
     ones (the usual case), the validity and solid angle are the geometry's own read-only
@@ -124,15 +142,18 @@ def _field_inputs(image, geometry, evaluated, cos_sigma):
         populate(flat[3][a:b])
         return _field_luminance_kernel(*(x[a:b] for x in flat))
 
-    dropped = sum(run_blocks(block, row_blocks(luminance.size, workers, _CHUNK), workers))
+    parts = run_blocks(block, row_blocks(luminance.size, workers, _CHUNK), workers)
+    dropped = sum(part[0] for part in parts)
+    positive = (min((part[1] for part in parts), default=math.inf),
+                max((part[2] for part in parts), default=-math.inf))
     if dropped == 0 and evaluated is geometry.valid:
-        return geometry.valid, luminance, geometry.solid_angle
+        return geometry.valid, luminance, geometry.solid_angle, positive
     valid = np.empty(shape, dtype=bool)
     omega = np.empty(shape)
     _field_solid_angle_kernel(luminance.reshape(-1),
                               np.ascontiguousarray(geometry.solid_angle).reshape(-1),
                               valid.reshape(-1), omega.reshape(-1))
-    return valid, luminance, omega
+    return valid, luminance, omega, positive
 
 
 @dataclass
@@ -544,7 +565,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if illuminance_fill is not None:
         image = fill_rows_evalglare(image, geometry.valid & (vf.cos_sigma >= 0),
                                     row_max=illuminance_fill[1], row_min=illuminance_fill[2])
-    valid, luminance, omega = _field_inputs(image, geometry, evaluated, vf.cos_sigma)
+    valid, luminance, omega, positive = _field_inputs(image, geometry, evaluated, vf.cos_sigma)
     pindex = vf.position_index
     # Q and the statistics need neither the sources nor the field sums: each on a thread of
     # its own (where the kernels run ahead of time) while they are computed — the same calls
@@ -553,7 +574,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
                      threshold=q_threshold, cutoff=q_cutoff, valid=valid)
     pending_quality = background(lambda: q_Budak2021(luminance, geometry, omega, pindex,
                                                      n_thresholds=n_thresholds, **q_options))
-    pending_statistics = background(lambda: luminance_statistics(luminance, omega, vf.cos_sigma))
+    pending_statistics = background(lambda: luminance_statistics(luminance, omega, vf.cos_sigma,
+                                                                 positive_range=positive))
     notes = []
     settings = {
         "line_of_sight": list(frame.axes()[0]), "up": list(frame.axes()[1]),
