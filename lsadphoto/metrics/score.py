@@ -166,8 +166,9 @@ class Score:
     each metric under the map's noise (with its Monte Carlo standard error in
     ``noise_bias_standard_error``), ``sources`` the grouped sources,
     ``source_mask`` and ``source_labels`` the per-pixel selection (for the glare-source
-    map), ``contrast`` the Q criterion's per-pixel contrast map, ``notes`` the reasons for
-    undefined values.
+    map), ``quality`` the Q criterion's result and ``contrast`` its per-pixel contrast map
+    (made when first read, :class:`~lsadphoto.metrics.quality.QualityResult`), ``notes``
+    the reasons for undefined values.
     """
 
     values: dict
@@ -175,7 +176,7 @@ class Score:
     sources: list
     source_mask: np.ndarray
     source_labels: np.ndarray
-    contrast: np.ndarray
+    quality: object = field(repr=False)
     statistics: dict
     settings: dict
     provenance: dict
@@ -189,6 +190,10 @@ class Score:
     #: ``-d`` columns, in the order of ``sources`` (:mod:`~lsadphoto.metrics.analyses`).
     analyses: dict = field(default_factory=dict)
     source_details: list = field(default_factory=list)
+
+    @property
+    def contrast(self):
+        return self.quality.contrast
 
     def to_dict(self):
         """JSON-ready record: every metric at the top level (None where undefined)."""
@@ -741,7 +746,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         write_checkfile(checkfile, check_picture(luminance, labels=labels, zones=zones,
                                                  **regions), projection=lmap.projection)
     return Score(values=values, uncertainty=uncertainty, sources=sources, source_mask=mask,
-                 source_labels=labels, contrast=quality.contrast,
+                 source_labels=labels, quality=quality,
                  statistics=statistics,
                  settings=settings, provenance=provenance, notes=notes, q_sweep=sweep_record,
                  uncertainty_calibration=calibration, uncertainty_noise=noise, noise_bias=bias,
