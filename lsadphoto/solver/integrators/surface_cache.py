@@ -1217,10 +1217,13 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, 
     group — and the glossy light of point and area luminaires (next-event; the rays' emission
     hits weighted by the balance heuristic's complement), and goes on by y's glossy
     and delta parts (chosen in proportion to rs + ts, R, T; Russian roulette min(1, weight)):
-    a path tracer whose diffuse parts are the cache's."""
+    a path tracer whose diffuse parts are the cache's. Returns ``(total, bias)``: the
+    estimates and, per row, the path-weighted sum of the estimated interpolation bias of
+    the cached values at its hits (:meth:`~lsadphoto.solver.cache_grid.SurfaceCache.interpolate_with_bias`
+    in the row's group)."""
     scene, engine, bsdf = est.scene, est.engine, est.scene.bsdf
     eps, G = engine.epsilon, cache.values.shape[1]
-    total = np.zeros(len(x))
+    total, bias = np.zeros(len(x)), np.zeros(len(x))
     row = np.arange(len(x))
     u = _uniforms_by(seed, group, blocks, 2, _TAG_GLOSSY, level, 0)
     wi, w, pdf = bsdf.sample_glossy(mat, n, wo, u, parts)
@@ -1259,8 +1262,9 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, 
         if diff.size:
             keys = {"seed": seed, "block_ids": blocks[diff] * G + group[diff], "purpose_key": 30000 + 64 * level + depth}
             value[diff] += est.direct_diffuse(y[diff], ny[diff], mat_y[diff], keys)[0]
-            cached, _ = _cached_diffuse(est, cache, prim[diff], y[diff], front[diff], mat_y[diff])
+            cached, b = _cached_diffuse(est, cache, prim[diff], y[diff], front[diff], mat_y[diff], with_bias=True)
             value[diff] += cached[np.arange(diff.size), group[diff]]
+            bias[row[diff]] += w[diff] * b[np.arange(diff.size), group[diff]]
         gl = np.flatnonzero(p["rs"] + p["ts"] > 0)
         if gl.size:
             value[gl] += est.point_glossy(y[gl], ny[gl], wo_y[gl], mat_y[gl], group[gl], blocks[gl],
@@ -1297,7 +1301,7 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, 
         delta = ~lobe
         side = np.where(np.einsum("ij,ij->i", wi, ny) > 0, 1.0, -1.0)[:, None]
         origin, d = y + eps * side * ny, wi
-    return total
+    return total, bias
 
 
 def _cached_diffuse(est, cache, prim, y, front, mat, *, with_bias=False):
@@ -1359,8 +1363,9 @@ def _material_chunk(est, cache, c, d, seed, glossy_rays):
             rep = np.repeat(gl, G * R)
             grp = np.tile(np.repeat(np.arange(G), R), gl.size)
             sub = {key: v[rep] for key, v in parts.items()}
-            val = _glossy_paths(est, cache, seed, x[rep], n[rep], wo[rep], mat[rep], sub, grp, blocks[rep], level, R)
+            val, vb = _glossy_paths(est, cache, seed, x[rep], n[rep], wo[rep], mat[rep], sub, grp, blocks[rep], level, R)
             val = val.reshape(gl.size, G, R).mean(axis=2)
+            np.add.at(bias, pix[gl], weight[gl, None] * vb.reshape(gl.size, G, R).mean(axis=2))
             rep = np.repeat(gl, G)
             grp = np.tile(np.arange(G), gl.size)
             val += est.point_glossy(x[rep], n[rep], wo[rep], mat[rep], grp, blocks[rep], level,
