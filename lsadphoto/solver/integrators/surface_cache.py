@@ -206,6 +206,13 @@ class _NodeHull:
 
     hull = None
 
+    def _along_curve(self, nodes):
+        """``nodes`` (store indices) in the order of their positions along a Morton curve
+        through the scene's bounding cube (consecutive nodes are close in space)."""
+        corners = self.scene.triangles.reshape(-1, 3)
+        return nodes[_morton_order(self.store.position[nodes], corners.min(axis=0),
+                                   float(np.ptp(corners, axis=0).max()) or 1.0)]
+
     def _facing_nodes(self, x, n):
         """True where some node lies in front of the point's tangent plane (else the far
         part is exactly 0: every pair has cos θ_x ≤ 0), by the support function of the
@@ -260,11 +267,9 @@ class _IndirectEstimator(_NodeHull):
         # the k draws of a point stratified along a Morton curve through the pool (each
         # draw from its own 1/k of the coefficient mass, in space order: a spatially
         # stratified sample; unbiased, each draw being exact for its stratum).
-        lo = store.scene.triangles.reshape(-1, 3).min(axis=0)
-        extent = float(np.ptp(store.scene.triangles.reshape(-1, 3), axis=0).max()) or 1.0
         self.tables, self.totals, self.packed = [], [], []
         for pool in self.pools:
-            pool = pool[_morton_order(store.position[pool], lo, extent)]
+            pool = self._along_curve(pool)
             c = store.coefficient[pool]
             total = float(c.sum())
             self.totals.append(total)
@@ -904,12 +909,10 @@ class _MaterialIndirectEstimator(_NodeHull):
         self.near_rays = int(near_rays)
         self.kd, self.td = _diffuse_coefficients(scene)
         surface = np.flatnonzero(store.depth > 0) if connections else np.zeros(0, np.int64)
-        lo = scene.triangles.reshape(-1, 3).min(axis=0)
-        extent = float(np.ptp(scene.triangles.reshape(-1, 3), axis=0).max()) or 1.0
         self.pools, self.cdfs, self.totals = [], [], []
         for g in range(G):
             pool = surface[store.batch[surface] % G == g]
-            pool = pool[_morton_order(store.position[pool], lo, extent)]
+            pool = self._along_curve(pool)
             w = store.coefficient[pool]
             total = float(w.sum())
             self.pools.append(pool)
@@ -920,14 +923,15 @@ class _MaterialIndirectEstimator(_NodeHull):
         self.node_parts = scene.bsdf.parts(scene.material[store.triangle[surface]], mu)
         self.node_row = np.full(store.nodes, -1, np.int64)
         self.node_row[surface] = np.arange(surface.size)
-        # point-luminaire emission points (source nodes) per group: the glossy part's next-event
-        # estimate (no ray can hit a point)
+        # point-luminaire emission points (source nodes) per group, along a Morton curve (the
+        # draws are stratified over it): the glossy part's next-event estimate (no ray can
+        # hit a point)
         point = np.flatnonzero((store.depth == 0) & (store.kind != KIND_COSINE))
-        self.point_pools = [point[store.batch[point] % G == g] for g in range(G)]
+        self.point_pools = [self._along_curve(point[store.batch[point] % G == g]) for g in range(G)]
         # area-luminaire emission points per group, and each luminaire's emission-point
         # density per unit area (Φ_l/Φ)/A_l (the glossy part's next-event estimate)
         emit = np.flatnonzero((store.depth == 0) & (store.kind == KIND_COSINE) & (store.triangle >= 0))
-        self.emit_pools = [emit[store.batch[emit] % G == g] for g in range(G)]
+        self.emit_pools = [self._along_curve(emit[store.batch[emit] % G == g]) for g in range(G)]
         self.sampler = EmissionSampler(scene) if point.size or emit.size else None
         self.area_density = np.array([lum.flux / (scene.total_flux * scene.areas[lum.triangles].sum())
                                       for lum in scene.area_luminaires])
@@ -984,10 +988,15 @@ class _MaterialIndirectEstimator(_NodeHull):
         return val
 
     def _draw_from_pools(self, pools, draws, count, group, blocks, level, tag):
-        """``draws`` nodes per point drawn uniformly from the pool (one per group) of each of
-        ``count`` points' ``group``: the points' rows (``owner``, points whose pool is empty
-        left out), the nodes' indices in the store (``pick``) and each point's pool size."""
+        """``draws`` nodes per point from the pool (one per group, ordered along a Morton
+        curve) of each of ``count`` points' ``group``, stratified: draw j uniformly from the
+        j-th of ``draws`` equal slices of the pool (every node keeps the probability
+        draws/size of a uniform draw, so (size/draws)·Σ_j is unbiased, while each luminaire —
+        a stretch of the curve — gets its share of the draws instead of a binomial number of
+        them). Returns the points' rows (``owner``, points whose pool is empty left out), the
+        nodes' indices in the store (``pick``) and each point's pool size."""
         u = _uniforms_by(self.seed, group, blocks, draws, tag, self.key, level)
+        u = (np.arange(draws)[None, :] + u) / draws
         size = np.array([len(p) for p in pools])[group]
         owner = np.repeat(np.arange(count), draws)
         live = size[owner] > 0
