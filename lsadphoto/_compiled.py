@@ -58,6 +58,7 @@ import hashlib
 import importlib
 import importlib.machinery
 import importlib.util
+import mmap
 import os
 import platform
 import sys
@@ -65,8 +66,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Kernel", "background", "intrinsic", "njit", "prange", "row_blocks", "run_blocks",
-           "threads"]
+__all__ = ["Kernel", "background", "intrinsic", "njit", "populate", "prange", "row_blocks",
+           "run_blocks", "threads"]
 
 #: Modules whose kernels go into the ahead-of-time extension (their sources key the cache).
 MODULES = (
@@ -251,6 +252,40 @@ def threads():
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not Linux
         return os.cpu_count() or 1
+
+
+#: Linux's ``MADV_POPULATE_WRITE`` (5.14 and later): fault a range in for writing in one call.
+_MADV_POPULATE_WRITE = 23
+#: Smaller arrays are left to the page faults (and ctypes unimported).
+_POPULATE_MIN_BYTES = 4 << 20
+_LIBC = {}
+
+
+def populate(*arrays):
+    """Fault the pages of each contiguous array in for writing, with one
+    ``madvise(MADV_POPULATE_WRITE)`` per array, before a kernel writes it: on this project's
+    virtual machine that takes about a fifth less system time than faulting fresh memory
+    page by page (docs/performance.md, session 10). Called by the thread that then writes
+    the block, so that blocks are faulted in on all threads at once. Does nothing to arrays
+    under 4 MB, to non-contiguous ones, off Linux or where the kernel refuses the advice
+    (before 5.14): their pages fault on first write, as without it. The values are not
+    touched."""
+    if not sys.platform.startswith("linux"):
+        return
+    for array in arrays:
+        if array.nbytes < _POPULATE_MIN_BYTES or not array.flags.c_contiguous:
+            continue
+        if "madvise" not in _LIBC:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.madvise.argtypes = (ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int)
+            _LIBC["madvise"] = libc.madvise
+        page = mmap.PAGESIZE
+        start = -(-array.ctypes.data // page) * page  # whole pages inside the array
+        end = (array.ctypes.data + array.nbytes) // page * page
+        if end > start:
+            _LIBC["madvise"](start, end - start, _MADV_POPULATE_WRITE)
 
 
 def row_blocks(rows, parts, multiple=1):

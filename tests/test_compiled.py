@@ -43,6 +43,34 @@ def _score(path, **env):
     return json.loads(done.stdout), json.loads(done.stderr.strip().splitlines()[-1])
 
 
+def _resident_pages(array):
+    """Pages of ``array``'s whole pages that are in memory (mincore)."""
+    import ctypes
+    import mmap
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    page = mmap.PAGESIZE
+    start = -(-array.ctypes.data // page) * page
+    n = (array.ctypes.data + array.nbytes - start) // page
+    vec = (ctypes.c_ubyte * n)()
+    assert libc.mincore(ctypes.c_void_p(start), ctypes.c_size_t(n * page), vec) == 0
+    return sum(v & 1 for v in vec), n
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux")
+                    or tuple(int(x) for x in os.uname().release.split(".")[:2]) < (5, 14),
+                    reason="MADV_POPULATE_WRITE is Linux 5.14 and later")
+def test_populate_faults_fresh_pages_in_and_keeps_values():
+    fresh = np.empty(16 << 20, np.uint8)  # mapped, not yet written: (almost) nothing resident
+    before, n = _resident_pages(fresh)
+    _compiled.populate(fresh)
+    assert before < n // 2 and _resident_pages(fresh) == (n, n)
+    values = np.random.default_rng(1).random((1024, 1024))  # 8 MB, written
+    kept = values.copy()
+    _compiled.populate(values[256:768], values[:, ::2])  # a block of rows; a strided view (left)
+    assert np.array_equal(values, kept)
+
+
 @pytest.mark.slow  # a fresh machine compiles the score's kernels just in time here (1–2 min)
 def test_ahead_of_time_and_just_in_time_scores_are_identical(tmp_path):
     # A daylit window of about 1 sr with gradients and a mullion (grouping, Q, statistics).

@@ -23,7 +23,7 @@ from lsadphoto.geometry import IdealFisheyeProjection
 from lsadphoto.io import read_hdr, write_hdr
 from lsadphoto.io.hdr import read_hdr_rgb
 from lsadphoto.luminance_map import LuminanceMap
-from lsadphoto.metrics.contributions import source_columns
+from lsadphoto.metrics.contributions import source_columns, source_illuminance
 from lsadphoto.metrics.score import score_map
 
 pyradiance = pytest.importorskip("pyradiance", reason="pyradiance (evalglare) not installed")
@@ -206,6 +206,25 @@ def test_sources_split_at_zone_borders_as_evalglare(scene):
             sum(p["Eglare"] for p in peer["sources"]), rel=REL_STAT)
         assert sum(d["Eglare"] for d in details) == pytest.approx(
             ours.values["direct_illuminance"], rel=1e-9)
+
+
+def test_source_illuminance_reads_the_labels_only_where_given():
+    # Reference: the sum L·cos σ·ω of each label's pixels taken one by one in row-major
+    # order — the order np.bincount adds them in, so equal bit for bit (no tolerance),
+    # whether every pixel or only the ``labelled`` ones (a superset of the labels) are read.
+    rng = np.random.default_rng(3)
+    shape = (37, 53)
+    labels = np.where(rng.random(shape) < 0.3, rng.integers(1, 5, shape), 0)
+    L, c, w = rng.uniform(10, 1e4, shape), rng.uniform(0, 1, shape), rng.uniform(1e-5, 1e-3, shape)
+    reference = np.zeros(4)
+    for (i, j), k in np.ndenumerate(labels):
+        if k:
+            reference[k - 1] += L[i, j] * c[i, j] * w[i, j]
+    labelled = (labels > 0) | (rng.random(shape) < 0.2)
+    for given in (None, labelled):
+        assert np.array_equal(source_illuminance(labels, 4, L, c, w, given), reference)
+    assert np.array_equal(source_illuminance(np.zeros(shape, int), 2, L, c, w, labelled),
+                          np.zeros(2))
 
 
 @pytest.mark.slow

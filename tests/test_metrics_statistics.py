@@ -33,3 +33,31 @@ def test_weighted_percentiles_match_numpy_within_the_bin_resolution():
 def test_empty_region_is_none():
     stats = luminance_statistics(np.array([5.0]), np.array([1.0]), np.array([1.0]))
     assert stats["rings"][2]["mean"] is None and stats["rings"][2]["n_pixels"] == 0
+
+
+def test_histogram_range_from_the_score_pass_gives_the_same_statistics():
+    # score_map finds the smallest and largest positive luminance of the valid pixels in its
+    # field-luminance pass; reference: numpy's min and max over those pixels (exact).
+    from lsadphoto.metrics.score import _field_luminance_kernel
+
+    rng = np.random.default_rng(5)
+    image = (10 ** rng.uniform(-2, 6, 200_003)).astype(np.float32)
+    image[::7] = 0.0
+    image[::11] = -3.0
+    image[::13] = np.nan
+    evaluated = rng.random(image.size) < 0.9
+    cos_sigma = rng.uniform(-0.2, 1.0, image.size)
+    luminance = np.empty(image.size)
+    dropped, lo, hi = _field_luminance_kernel(image, evaluated, cos_sigma, luminance)
+    ok = evaluated & np.isfinite(image) & (cos_sigma >= 0)
+    assert dropped == np.count_nonzero(evaluated & ~ok)
+    assert np.array_equal(luminance, np.where(ok, image.astype(np.float64), np.nan), equal_nan=True)
+    positive = image[ok & (image > 0)].astype(np.float64)
+    assert (lo, hi) == (positive.min(), positive.max())
+    w = rng.uniform(1e-6, 3e-6, image.size)
+    assert luminance_statistics(luminance, w, cos_sigma, positive_range=(lo, hi)) == \
+        luminance_statistics(luminance, w, cos_sigma)
+    # No positive value: the empty range (+inf, -inf) of both.
+    none = np.full(image.size, np.nan)
+    assert _field_luminance_kernel(image, np.zeros(image.size, bool), cos_sigma, none)[1:] == \
+        (np.inf, -np.inf)

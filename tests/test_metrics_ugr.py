@@ -16,6 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from lsadphoto.datasets import disk_sources_scene
+from lsadphoto.errors import BadInputError
 from lsadphoto.geometry import IdealFisheyeProjection, ObserverFrame, position_index
 from lsadphoto.luminance_map import LuminanceMap
 from lsadphoto.metrics.field import background_luminance
@@ -127,6 +128,12 @@ def test_pixel_minus_grouped_ugr_is_8_log_one_plus_cv2(fisheye):
     cos_sigma, _ = _maps(d, w)
     sel = select_source_pixels(L, w, cos_sigma)
     assert np.array_equal(sel.mask, inside)
+    # The evaluated field handed over (as score_map does) selects the same pixels; a field
+    # of another shape is refused.
+    field = np.isfinite(L) & (w > 0) & (cos_sigma >= 0)
+    assert np.array_equal(select_source_pixels(L, w, cos_sigma, field_mask=field).mask, inside)
+    with pytest.raises(BadInputError, match="field_mask"):
+        select_source_pixels(L, w, cos_sigma, field_mask=field[1:])
     groups, _ = group_sources_evalglare(L, d, w, sel.mask)
     assert len(groups) == 1
     l_b = background_luminance(L, w, cos_sigma, sel.mask)

@@ -115,6 +115,10 @@ def make_station_hall(folder, *, length=60.0, width=20.0, luminaires=120, detail
         phot = Path(photometry).name
         shutil.copy(photometry, folder / phot)
     rows = (2.0, width / 3 + 0.8, 2 * width / 3 - 0.8, width - 2.0)
+    # Bench rows between the hall's axis and the column rows (y = width/3, 2·width/3, radius
+    # 0.4): 1.5 m off the axis, as in the 20 m hall, closer in narrower halls so that they
+    # clear the columns down to 8 m width (at 10 m, rows at ±1.5 m ran through the columns).
+    bench_off = min(1.5, width / 12)
     per_row = math.ceil(luminaires / len(rows))
     lights = [{"type": "point", "name": f"l{r}_{i}", "photometry": phot,
                "position": [length * (i + 0.5) / per_row, y, 5.5]}
@@ -141,7 +145,7 @@ def make_station_hall(folder, *, length=60.0, width=20.0, luminaires=120, detail
         ] + [{"type": "box", "material": "bench", "facing": "outward",
               "min": [length * (i + 0.5) / 10 - 1.0, y - 0.25, 0.0],
               "max": [length * (i + 0.5) / 10 + 1.0, y + 0.25, 0.45]}
-             for i in range(10) for y in (width / 2 - 1.5, width / 2 + 1.5)],
+             for i in range(10) for y in (width / 2 - bench_off, width / 2 + bench_off)],
         "luminaires": lights,
         "views": [
             {"name": "along", "position": [3.0, width / 2, 1.6], "line_of_sight": [1.0, 0.0, 0.0],

@@ -49,7 +49,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from .._compiled import row_blocks, run_blocks
+from .._compiled import populate, row_blocks, run_blocks
 from .._validation import check_choice
 from ..errors import BadInputError
 from ._spherical import quad_solid_angle_components
@@ -311,10 +311,11 @@ def _compute_pixel_geometry(projection, field=None):
             return array[r0:r1] if array.shape[0] == rows else array
 
         def task(r0, r1):
-            _kernels.fisheye_geometry(model, p, table, band_rows, r0, store,
-                                      rows_of(directions, r0, r1), solid_angle[r0:r1],
-                                      valid[r0:r1], on, *constants,
-                                      rows_of(position, r0, r1), rows_of(cos_sigma, r0, r1))
+            outputs = (rows_of(directions, r0, r1), solid_angle[r0:r1], valid[r0:r1])
+            field_outputs = (rows_of(position, r0, r1), rows_of(cos_sigma, r0, r1))
+            populate(*outputs, *field_outputs)
+            _kernels.fisheye_geometry(model, p, table, band_rows, r0, store, *outputs, on,
+                                      *constants, *field_outputs)
 
         # Blocks of whole bands, one per thread where the ahead-of-time code runs them.
         workers = _kernels.fisheye_geometry.threads_for(

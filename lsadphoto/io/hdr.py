@@ -260,12 +260,13 @@ def _decode_blocks(decoder, data, pos, rle, args, target):
     positions are found first (:func:`._rgbe.scanline_offsets`: the same walk, which meets
     any error the decoder would meet, at the same scanline) and blocks of scanlines are
     decoded at the same time: the same values."""
-    from .._compiled import row_blocks, run_blocks
+    from .._compiled import populate, row_blocks, run_blocks
     from ._rgbe import scanline_offsets
 
     rows, cols = target.shape[:2]
     workers = decoder.threads_for(data, pos, rle, *args, target)
     if workers <= 1 or rows < 2:
+        populate(target)
         _, error, row = decoder(data, pos, rle, *args, target)
         return error, row
     offsets = np.empty(rows, dtype=np.int64)
@@ -273,8 +274,12 @@ def _decode_blocks(decoder, data, pos, rle, args, target):
     if error:
         return error, row
     blocks = row_blocks(rows, workers)
-    done = run_blocks(lambda a, b: decoder(data, int(offsets[a]), rle, *args, target[a:b]),
-                      blocks, workers)
+
+    def block(a, b):
+        populate(target[a:b])
+        return decoder(data, int(offsets[a]), rle, *args, target[a:b])
+
+    done = run_blocks(block, blocks, workers)
     return next(((error, a + row) for (a, _), (_, error, row) in zip(blocks, done, strict=True)
                  if error), (0, rows))
 

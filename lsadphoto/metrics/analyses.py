@@ -101,7 +101,7 @@ def zone_split(labels, *, directions, valid, projection, zone_centre, zone_openi
 
 def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid,
                        projection, labels, sources, unsplit_sources, values, dgp_coefficients,
-                       zones=None, source_zones=None, band_deg=None, mask=None,
+                       labelled=None, zones=None, source_zones=None, band_deg=None, mask=None,
                        task_direction=None, task_opening_deg=20.0, age=None):
     """Every optional analysis of a scored map (see the module notes).
 
@@ -117,6 +117,9 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid,
     projection : Projection
     labels : ndarray of int
         Source labels after any zone split.
+    labelled : ndarray of bool, optional
+        Pixels that may carry a label (e.g. the glare-source selection), where the labels
+        are read (:func:`~lsadphoto.metrics.contributions.source_illuminance`).
     sources, unsplit_sources : list
         Scored sources (luminance, solid_angle, position_index, sigma_deg) after and before
         the zone split.
@@ -191,7 +194,7 @@ def evalglare_analyses(*, luminance, solid_angle, directions, cos_sigma, valid,
     s_l = np.array([s.luminance for s in sources], dtype=float)
     s_w = np.array([s.solid_angle for s in sources], dtype=float)
     s_p = np.array([s.position_index for s in sources], dtype=float)
-    e_glare = source_illuminance(labels, n, luminance, cos_sigma, solid_angle)
+    e_glare = source_illuminance(labels, n, luminance, cos_sigma, solid_angle, labelled)
     unsplit = glare_term_sum([s.luminance for s in unsplit_sources],
                              [s.solid_angle for s in unsplit_sources],
                              [s.position_index for s in unsplit_sources])

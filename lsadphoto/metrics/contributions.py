@@ -38,7 +38,7 @@ from .veiling import veiling_luminance_CIE146
 __all__ = ["source_illuminance", "glare_term_sum", "source_columns"]
 
 
-def source_illuminance(labels, n_sources, luminance, cos_sigma, solid_angle):
+def source_illuminance(labels, n_sources, luminance, cos_sigma, solid_angle, labelled=None):
     """Σ L·cos σ·ω over each source's pixels [lx] (evalglare ``Eglare``), float64.
 
     Parameters
@@ -48,23 +48,28 @@ def source_illuminance(labels, n_sources, luminance, cos_sigma, solid_angle):
     n_sources : int
     luminance, cos_sigma, solid_angle : ndarray, shape (rows, cols)
         L [cd·m⁻²], cos σ [–], ω [sr].
+    labelled : ndarray of bool, shape (rows, cols), optional
+        Pixels that may carry a label (every pixel with one among them), e.g. the glare-source
+        selection the labels were grouped from: only there are the labels read. A label map
+        is mostly zeros that were never written (numpy's zeros come from the kernel), so
+        reading all of it faults in a page per 512 pixels (24 MP: 45 000 faults, 0.05–0.07 s).
 
     Returns
     -------
     ndarray, shape (n_sources,)
     """
-    labels = np.asarray(labels)
-    rows = np.flatnonzero(labels.any(axis=1))
-    if rows.size == 0 or n_sources == 0:
+    labels = np.asarray(labels).reshape(-1)
+    # The candidate pixels in row-major order: the same pixels and order as every pixel.
+    index = np.flatnonzero(labels if labelled is None else labelled)
+    label = labels[index]
+    inside = label > 0
+    if n_sources == 0 or not inside.any():
         return np.zeros(n_sources)
-    # Only the sources' bounding rows hold source pixels.
-    box = slice(rows[0], rows[-1] + 1)
-    labels = labels[box].ravel()
-    inside = labels > 0
-    e = (np.asarray(luminance, np.float64)[box].ravel()[inside]
-         * np.asarray(cos_sigma, np.float64)[box].ravel()[inside]
-         * np.asarray(solid_angle, np.float64)[box].ravel()[inside])
-    return np.bincount(labels[inside] - 1, weights=e, minlength=n_sources)[:n_sources]
+    index, label = index[inside], label[inside]
+    e = (np.asarray(luminance, np.float64).reshape(-1)[index]
+         * np.asarray(cos_sigma, np.float64).reshape(-1)[index]
+         * np.asarray(solid_angle, np.float64).reshape(-1)[index])
+    return np.bincount(label - 1, weights=e, minlength=n_sources)[:n_sources]
 
 
 def glare_term_sum(luminance, solid_angle, position_index):

@@ -37,7 +37,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from .._compiled import background, njit, prange, row_blocks, run_blocks
+from .._compiled import background, njit, populate, prange, row_blocks, run_blocks
 
 from .._provenance import build_provenance
 from .._validation import check_choice, check_positive, check_positive_int
@@ -72,22 +72,37 @@ _CHUNK = 1 << 16
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot=("int64(float32[::1], boolean[::1], float64[::1], float64[::1])",
-           "int64(float64[::1], boolean[::1], float64[::1], float64[::1])"))
+      aot=("Tuple((int64, float64, float64))(float32[::1], boolean[::1], float64[::1], "
+           "float64[::1])",
+           "Tuple((int64, float64, float64))(float64[::1], boolean[::1], float64[::1], "
+           "float64[::1])"))
 def _field_luminance_kernel(image, evaluated, cos_sigma, luminance):
-    """The luminance (float64; NaN outside the valid pixels) and the number of evaluated
-    pixels that are not valid (luminance not finite or cos σ < 0)."""
+    """The luminance (float64; NaN outside the valid pixels), the number of evaluated
+    pixels that are not valid (luminance not finite or cos σ < 0) and the smallest and
+    largest positive luminance of the valid pixels (+inf, −inf where there is none)."""
     n = image.size
+    n_chunks = (n + _CHUNK - 1) // _CHUNK
     dropped = 0
-    for k in prange((n + _CHUNK - 1) // _CHUNK):
+    ranges = np.empty((n_chunks, 2))
+    for k in prange(n_chunks):
         count = 0
+        lo, hi = np.inf, -np.inf
         for i in range(k * _CHUNK, min(n, (k + 1) * _CHUNK)):
             L = np.float64(image[i])
             ok = evaluated[i] & (np.abs(L) < np.inf) & (cos_sigma[i] >= 0)
             luminance[i] = L if ok else np.nan
             count += 1 if evaluated[i] and not ok else 0
+            positive = ok & (L > 0)
+            lo = min(lo, L if positive else np.inf)
+            hi = max(hi, L if positive else -np.inf)
         dropped += count
-    return dropped
+        ranges[k, 0] = lo
+        ranges[k, 1] = hi
+    lo, hi = np.inf, -np.inf
+    for k in range(n_chunks):
+        lo = min(lo, ranges[k, 0])
+        hi = max(hi, ranges[k, 1])
+    return dropped, lo, hi
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
@@ -104,7 +119,10 @@ def _field_solid_angle_kernel(luminance, solid_angle, valid, omega):
 
 def _field_inputs(image, geometry, evaluated, cos_sigma):
     """Valid pixels (``evaluated``, finite luminance, cos σ ≥ 0), the luminance [cd·m⁻²]
-    as float64 with NaN elsewhere and the solid angle [sr] with 0 elsewhere.
+    as float64 with NaN elsewhere, the solid angle [sr] with 0 elsewhere, and the smallest
+    and largest positive luminance of the valid pixels (the range of the statistics'
+    histogram, :func:`~lsadphoto.metrics.statistics.luminance_statistics`, found in the
+    same pass).
 
     Where every evaluated pixel is valid and the evaluated pixels are the geometry's valid
     ones (the usual case), the validity and solid angle are the geometry's own read-only
@@ -119,16 +137,23 @@ def _field_inputs(image, geometry, evaluated, cos_sigma):
             np.ascontiguousarray(cos_sigma).reshape(-1), luminance.reshape(-1))
     # Blocks of whole chunks, one per thread where the ahead-of-time code runs them.
     workers = _field_luminance_kernel.threads_for(*flat)
-    dropped = sum(run_blocks(lambda a, b: _field_luminance_kernel(*(x[a:b] for x in flat)),
-                             row_blocks(luminance.size, workers, _CHUNK), workers))
+
+    def block(a, b):
+        populate(flat[3][a:b])
+        return _field_luminance_kernel(*(x[a:b] for x in flat))
+
+    parts = run_blocks(block, row_blocks(luminance.size, workers, _CHUNK), workers)
+    dropped = sum(part[0] for part in parts)
+    positive = (min((part[1] for part in parts), default=math.inf),
+                max((part[2] for part in parts), default=-math.inf))
     if dropped == 0 and evaluated is geometry.valid:
-        return geometry.valid, luminance, geometry.solid_angle
+        return geometry.valid, luminance, geometry.solid_angle, positive
     valid = np.empty(shape, dtype=bool)
     omega = np.empty(shape)
     _field_solid_angle_kernel(luminance.reshape(-1),
                               np.ascontiguousarray(geometry.solid_angle).reshape(-1),
                               valid.reshape(-1), omega.reshape(-1))
-    return valid, luminance, omega
+    return valid, luminance, omega, positive
 
 
 @dataclass
@@ -141,8 +166,9 @@ class Score:
     each metric under the map's noise (with its Monte Carlo standard error in
     ``noise_bias_standard_error``), ``sources`` the grouped sources,
     ``source_mask`` and ``source_labels`` the per-pixel selection (for the glare-source
-    map), ``contrast`` the Q criterion's per-pixel contrast map, ``notes`` the reasons for
-    undefined values.
+    map), ``quality`` the Q criterion's result and ``contrast`` its per-pixel contrast map
+    (made when first read, :class:`~lsadphoto.metrics.quality.QualityResult`), ``notes``
+    the reasons for undefined values.
     """
 
     values: dict
@@ -150,7 +176,7 @@ class Score:
     sources: list
     source_mask: np.ndarray
     source_labels: np.ndarray
-    contrast: np.ndarray
+    quality: object = field(repr=False)
     statistics: dict
     settings: dict
     provenance: dict
@@ -164,6 +190,10 @@ class Score:
     #: ``-d`` columns, in the order of ``sources`` (:mod:`~lsadphoto.metrics.analyses`).
     analyses: dict = field(default_factory=dict)
     source_details: list = field(default_factory=list)
+
+    @property
+    def contrast(self):
+        return self.quality.contrast
 
     def to_dict(self):
         """JSON-ready record: every metric at the top level (None where undefined)."""
@@ -540,7 +570,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if illuminance_fill is not None:
         image = fill_rows_evalglare(image, geometry.valid & (vf.cos_sigma >= 0),
                                     row_max=illuminance_fill[1], row_min=illuminance_fill[2])
-    valid, luminance, omega = _field_inputs(image, geometry, evaluated, vf.cos_sigma)
+    valid, luminance, omega, positive = _field_inputs(image, geometry, evaluated, vf.cos_sigma)
     pindex = vf.position_index
     # Q and the statistics need neither the sources nor the field sums: each on a thread of
     # its own (where the kernels run ahead of time) while they are computed — the same calls
@@ -549,7 +579,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
                      threshold=q_threshold, cutoff=q_cutoff, valid=valid)
     pending_quality = background(lambda: q_Budak2021(luminance, geometry, omega, pindex,
                                                      n_thresholds=n_thresholds, **q_options))
-    pending_statistics = background(lambda: luminance_statistics(luminance, omega, vf.cos_sigma))
+    pending_statistics = background(lambda: luminance_statistics(luminance, omega, vf.cos_sigma,
+                                                                 positive_range=positive))
     notes = []
     settings = {
         "line_of_sight": list(frame.axes()[0]), "up": list(frame.axes()[1]),
@@ -570,12 +601,12 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if source_method == "task":
         task = frame.axes()[0] if task_direction is None else task_direction
     # Whole-picture arrays: the evaluated field of the selection rules is exactly the valid
-    # pixels (NaN luminance and zero solid angle elsewhere).
+    # pixels (NaN luminance and zero solid angle elsewhere), handed over as it is.
     selection = select_source_pixels(
         luminance, omega, vf.cos_sigma, method=source_method, value=source_threshold,
         directions=geometry.directions if task is not None else None, task_direction=task,
         task_opening=math.radians(check_positive(task_opening_deg, "task opening")),
-        n_thresholds=n_thresholds, size_arcmin=size_arcmin)
+        n_thresholds=n_thresholds, size_arcmin=size_arcmin, field_mask=valid)
     settings["source_selection"] = dict(selection.settings)
     mask = np.asarray(selection.mask, dtype=bool)
     groups, labels = group_sources_evalglare(luminance, geometry, omega, mask,
@@ -588,6 +619,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
                                          projection=lmap.projection, search_angle=search_angle,
                                          peak_luminance=peak_luminance, smooth=smooth,
                                          patch_deg=patch_deg)
+    # The pixels that may carry a label: the selected ones (-s and -z label others too).
+    labelled = mask if not smooth and patch_deg is None else None
     sources = unsplit_sources = _scored_sources(
         groups, geometry, frame, position_index_method=position_index_method,
         source_position=source_position, notes=notes)
@@ -622,7 +655,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     analyses, details, regions, extra = evalglare_analyses(
         luminance=luminance, solid_angle=omega, directions=geometry,
         cos_sigma=vf.cos_sigma, valid=valid, projection=lmap.projection,
-        labels=labels, sources=sources, unsplit_sources=unsplit_sources,
+        labels=labels, labelled=labelled, sources=sources, unsplit_sources=unsplit_sources,
         values=dict(values, dgp_raw=dgp_Wienold2006(values["vertical_illuminance"], s_l, s_w,
                                                     s_p, coefficients=coefficients)),
         dgp_coefficients=coefficients, zones=zones, source_zones=source_zones,
@@ -713,7 +746,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         write_checkfile(checkfile, check_picture(luminance, labels=labels, zones=zones,
                                                  **regions), projection=lmap.projection)
     return Score(values=values, uncertainty=uncertainty, sources=sources, source_mask=mask,
-                 source_labels=labels, contrast=quality.contrast,
+                 source_labels=labels, quality=quality,
                  statistics=statistics,
                  settings=settings, provenance=provenance, notes=notes, q_sweep=sweep_record,
                  uncertainty_calibration=calibration, uncertainty_noise=noise, noise_bias=bias,

@@ -95,7 +95,8 @@ def task_luminance(luminance, directions, solid_angle, task_direction, opening_a
 
 def select_source_pixels(luminance, solid_angle, cos_sigma, *, method="fixed", value=None,
                          directions=None, task_direction=None, task_opening=np.radians(20.0),
-                         n_thresholds=50.0, size_arcmin=10.0, threshold_options=None):
+                         n_thresholds=50.0, size_arcmin=10.0, threshold_options=None,
+                         field_mask=None):
     """Glare-source pixels of a map by one of the threshold rules (see the module notes).
 
     Parameters
@@ -119,13 +120,20 @@ def select_source_pixels(luminance, solid_angle, cos_sigma, *, method="fixed", v
     threshold_options : dict, optional
         Extra keyword options for :func:`~lsadphoto.metrics.adrian.threshold_Adrian1989`
         (exposure time, age, polarity).
+    field_mask : ndarray of bool, shape (rows, cols), optional
+        The evaluated field of these arrays (:func:`~lsadphoto.metrics.field.evaluated_field`:
+        finite L, ω > 0, cos σ ≥ 0) where the caller has it already (a score's valid
+        pixels); computed from the arrays otherwise.
 
     Returns
     -------
     SourceSelection
     """
     check_choice(method, "glare-source method", SOURCE_METHODS)
-    field_mask = evaluated_field(luminance, solid_angle, cos_sigma)
+    if field_mask is None:
+        field_mask = evaluated_field(luminance, solid_angle, cos_sigma)
+    elif np.shape(field_mask) != np.shape(luminance):
+        raise BadInputError(f"field_mask must have the luminance's shape {np.shape(luminance)}")
     with np.errstate(invalid="ignore"):
         if method == "fixed":
             threshold = check_positive(DEFAULT_SOURCE_THRESHOLD if value is None else value,

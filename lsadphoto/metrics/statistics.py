@@ -137,7 +137,8 @@ def _quantiles(hist, zero, origin, percentiles, low, high):
 
 
 def luminance_statistics(luminance, solid_angle, cos_sigma, *,
-                         ring_edges_deg=DEFAULT_RING_EDGES_DEG, percentiles=DEFAULT_PERCENTILES):
+                         ring_edges_deg=DEFAULT_RING_EDGES_DEG, percentiles=DEFAULT_PERCENTILES,
+                         positive_range=None):
     """Solid-angle-weighted luminance statistics [cd·m⁻²] of the field and of σ rings.
 
     Parameters
@@ -148,6 +149,11 @@ def luminance_statistics(luminance, solid_angle, cos_sigma, *,
         σ edges of the rings [deg].
     percentiles : sequence of float
         Percentiles of the solid-angle distribution of luminance [%].
+    positive_range : (float, float), optional
+        The smallest and largest positive L of the evaluated field (finite L, ω > 0,
+        cos σ ≥ 0; +inf, −inf where there is none) where the caller found them already (a
+        score, in its pass over the picture): one pass over the pixels fewer. Found here
+        otherwise.
 
     Returns
     -------
@@ -185,8 +191,10 @@ def luminance_statistics(luminance, solid_angle, cos_sigma, *,
             return kernel(L[a:b], w[a:b], c[a:b], *arguments, *(x[k:k + 1] for x in outputs))
         return run_blocks(stripe, [(k, None) for k in range(stripes)], workers)
 
-    positive = np.concatenate(per_stripe(_positive_range, (1,)))
-    smallest, largest = positive[:, 0].min(), positive[:, 1].max()
+    if positive_range is None:
+        positive = np.concatenate(per_stripe(_positive_range, (1,)))
+        positive_range = positive[:, 0].min(), positive[:, 1].max()
+    smallest, largest = (float(v) for v in positive_range)
     if smallest <= largest:  # some positive luminance: bins of log10 L from its decade
         origin = math.floor(math.log10(smallest))
         n_bins = int((math.floor(math.log10(largest)) + 1 - origin) * QUANTILE_BINS_PER_DECADE)

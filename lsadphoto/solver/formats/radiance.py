@@ -149,8 +149,20 @@ def radiance_programs():
 #: ``data_samples/radiance/daylit_room.rad``, 38 random room pixels, 8 runs: with the default
 #: ``-as 512`` the pixel values are 4.9 ± 0.5 % below ρ/π times rtrace's own ``-I`` irradiance
 #: at the same hit points (rms z 5.9); with these options 1.001 in median (rms z 1.2)
-#: (benchmarks/radiance_super_samples.py, docs/accuracy.md).
-RTRACE_UNBIASED = ("-aa", "0", "-as", "0", "-lw", "1e-9", "-dj", "0")
+#: (benchmarks/radiance_super_samples.py, docs/accuracy.md). Every source is shadow-tested
+#: at every hit (``-dt 0 -dc 1``): by default Radiance's ``direct()`` (rt/source.c) tests the
+#: sources in order of their potential only while the rest carry more than ``-dt`` divided
+#: by the *ray weight* of the ray's value, and adds the untested ones scaled by hit rates
+#: gathered over the whole run — not this point's visibility. Ambient rays have small
+#: weights (≈ ρ/``-ad``), so in a scene where columns or benches hide some of many
+#: luminaires the indirect light comes out wrong per point, and changes with ``-ad``.
+#: Measured on the station hall (42 ies2rad luminaires; docs/accuracy.md, session 10): the
+#: one-bounce indirect irradiance at a floor point 27.3 lx with the defaults, 39.8 lx with
+#: ``-dt 0 -dc 1``, 40.7 lx as π × the mean of rtrace's own ``-ab 0`` radiances over 4000
+#: cosine-distributed directions (the luminaires' openings, black to ambient rays, left
+#: out); over 253 pixels the indirect light per surface kind was −10 … +3.5 %
+#: off ours with the defaults, within 1.5 % with these options.
+RTRACE_UNBIASED = ("-aa", "0", "-as", "0", "-lw", "1e-9", "-dj", "0", "-dt", "0", "-dc", "1")
 
 
 @dataclass(eq=False)  # identity: two definitions with equal words are still two modifiers

@@ -17,6 +17,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from ..._provenance import build_provenance
 from ...errors import BadInputError, SolverWarning
@@ -138,6 +139,37 @@ def emitted_luminance(scene, prim, towards):
     return out
 
 
+@njit(cache=True, error_model="numpy", nogil=True)
+def _opening_crossings(position, d, dist, centre, frame, half, ray, lum, t_out, denom_out):
+    """The crossings of rays (origin ``position``, directions ``d``) with the luminous
+    rectangles (``centre``, ``frame`` rows: the rectangle's axes and its normal, ``half``:
+    half its length and width) in front of the rays' surface hits (``dist``): ray, rectangle,
+    distance and d·normal of each, in rectangle order, written to the output arrays; returns
+    their count, or −(count) where it exceeds the arrays' size (nothing valid then)."""
+    cap = ray.size
+    m = 0
+    for k in range(centre.shape[0]):
+        nx, ny, nz = frame[k, 2, 0], frame[k, 2, 1], frame[k, 2, 2]
+        num = ((centre[k, 0] - position[0]) * nx + (centre[k, 1] - position[1]) * ny
+               + (centre[k, 2] - position[2]) * nz)
+        for i in range(d.shape[0]):
+            denom = d[i, 0] * nx + d[i, 1] * ny + d[i, 2] * nz
+            if not abs(denom) > 1e-6:
+                continue
+            t = num / denom
+            if not (t > 0 and t < dist[i]):
+                continue
+            hx = position[0] + t * d[i, 0] - centre[k, 0]
+            hy = position[1] + t * d[i, 1] - centre[k, 1]
+            hz = position[2] + t * d[i, 2] - centre[k, 2]
+            if (abs(hx * frame[k, 0, 0] + hy * frame[k, 0, 1] + hz * frame[k, 0, 2]) <= half[k, 0]
+                    and abs(hx * frame[k, 1, 0] + hy * frame[k, 1, 1] + hz * frame[k, 1, 2]) <= half[k, 1]):
+                if m < cap:
+                    ray[m], lum[m], t_out[m], denom_out[m] = i, k, t, denom
+                m += 1
+    return m if m <= cap else -m
+
+
 def luminous_openings(scene, position, d, dist):
     """Luminance [cd·m⁻²] of point luminaires' luminous rectangles seen along rays.
 
@@ -149,32 +181,36 @@ def luminous_openings(scene, position, d, dist):
     Rays that hit nothing see the distant sources (:func:`~lsadphoto.solver.sky.background_luminance`).
     """
     out = np.full(len(d), np.nan)
-    best = np.asarray(dist, float).copy()
+    dist = np.asarray(dist, float)
     if scene.distant_sources:  # rays that leave the scene see the sun and the sky
-        away = np.flatnonzero(~np.isfinite(best))
+        away = np.flatnonzero(~np.isfinite(dist))
         sky = background_luminance(scene, d[away])
         out[away[sky > 0]] = sky[sky > 0]
-    for lum in scene.point_luminaires:
-        length, width = lum.extent
-        if not (length > 0 and width > 0):
-            continue
-        nadir = lum.frame[2]
-        denom = d @ nadir
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = ((lum.position - position) @ nadir) / denom
-        ok = np.isfinite(t) & (t > 0) & (t < best) & (np.abs(denom) > 1e-6)
-        if not ok.any():
-            continue
-        hit = position + t[ok, None] * d[ok] - lum.position
-        inside = (np.abs(hit @ lum.frame[0]) <= length / 2) & (np.abs(hit @ lum.frame[1]) <= width / 2)
-        idx = np.flatnonzero(ok)[inside]
-        if idx.size == 0:
-            continue
-        lum_value = lum.intensity(-d[idx]) / (length * width * np.abs(denom[idx]))
-        seen = lum_value > 0
-        idx = idx[seen]
-        out[idx] = lum_value[seen]
-        best[idx] = t[idx]
+    lums = [lum for lum in scene.point_luminaires if lum.extent[0] > 0 and lum.extent[1] > 0]
+    if not lums or not len(d):
+        return out
+    centre = np.array([lum.position for lum in lums], dtype=float)
+    frame = np.array([lum.frame for lum in lums], dtype=float)
+    half = np.array([lum.extent for lum in lums], dtype=float) / 2
+    args = (np.asarray(position, float), np.ascontiguousarray(d, dtype=float), dist, centre, frame, half)
+    size = 1024
+    while True:  # one pass over rays × rectangles; again, larger, if the crossings overflow
+        ray, k, t, denom = np.empty(size, np.int64), np.empty(size, np.int64), np.empty(size), np.empty(size)
+        m = _opening_crossings(*args, ray, k, t, denom)
+        if m >= 0:
+            break
+        size = -m
+    ray, k, t, denom = ray[:m], k[:m], t[:m], denom[:m]
+    value = np.zeros(m)
+    for j in np.unique(k):
+        sel = np.flatnonzero(k == j)
+        lum = lums[j]
+        value[sel] = lum.intensity(-d[ray[sel]]) / (lum.extent[0] * lum.extent[1] * np.abs(denom[sel]))
+    # per ray the nearest opening that emits towards the eye (equal distances: the first)
+    seen = np.flatnonzero(value > 0)
+    order = seen[np.lexsort((k[seen], t[seen], ray[seen]))]
+    first = order[np.r_[True, ray[order][1:] != ray[order][:-1]]] if order.size else order
+    out[ray[first]] = value[first]
     return out
 
 

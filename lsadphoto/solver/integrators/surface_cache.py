@@ -126,8 +126,11 @@ GLOSSY_RAYS = 16
 #: Point-luminaire emission points drawn per vertex for the glossy part's next-event estimate.
 POINT_DRAWS = 4
 #: Area-luminaire emission points drawn per vertex and group for the glossy part's next-event
-#: estimate (combined with the lobe-sampled rays by the balance heuristic).
-EMITTER_DRAWS = 4
+#: estimate (combined with the lobe-sampled rays by the balance heuristic), stratified along the
+#: group's emission points. At the metal panel's highlight (docs/accuracy.md, session 10; six
+#: renders of one store at 16 glossy rays) 4 left a spread of 15 % per render against a
+#: reported 10 %; 16: 4.6 % against 5.0 %, for a few more shadow rays per glossy vertex.
+EMITTER_DRAWS = 16
 #: Directions per distant source (sun, sky) and vertex for the glossy part's next-event estimate.
 DISTANT_GLOSSY_SAMPLES = 4
 #: Vertices a sampled path visits at most (Russian roulette ends nearly all before).
@@ -206,6 +209,13 @@ class _NodeHull:
 
     hull = None
 
+    def _along_curve(self, nodes):
+        """``nodes`` (store indices) in the order of their positions along a Morton curve
+        through the scene's bounding cube (consecutive nodes are close in space)."""
+        corners = self.scene.triangles.reshape(-1, 3)
+        return nodes[_morton_order(self.store.position[nodes], corners.min(axis=0),
+                                   float(np.ptp(corners, axis=0).max()) or 1.0)]
+
     def _facing_nodes(self, x, n):
         """True where some node lies in front of the point's tangent plane (else the far
         part is exactly 0: every pair has cos θ_x ≤ 0), by the support function of the
@@ -260,11 +270,9 @@ class _IndirectEstimator(_NodeHull):
         # the k draws of a point stratified along a Morton curve through the pool (each
         # draw from its own 1/k of the coefficient mass, in space order: a spatially
         # stratified sample; unbiased, each draw being exact for its stratum).
-        lo = store.scene.triangles.reshape(-1, 3).min(axis=0)
-        extent = float(np.ptp(store.scene.triangles.reshape(-1, 3), axis=0).max()) or 1.0
         self.tables, self.totals, self.packed = [], [], []
         for pool in self.pools:
-            pool = pool[_morton_order(store.position[pool], lo, extent)]
+            pool = self._along_curve(pool)
             c = store.coefficient[pool]
             total = float(c.sum())
             self.totals.append(total)
@@ -904,12 +912,10 @@ class _MaterialIndirectEstimator(_NodeHull):
         self.near_rays = int(near_rays)
         self.kd, self.td = _diffuse_coefficients(scene)
         surface = np.flatnonzero(store.depth > 0) if connections else np.zeros(0, np.int64)
-        lo = scene.triangles.reshape(-1, 3).min(axis=0)
-        extent = float(np.ptp(scene.triangles.reshape(-1, 3), axis=0).max()) or 1.0
         self.pools, self.cdfs, self.totals = [], [], []
         for g in range(G):
             pool = surface[store.batch[surface] % G == g]
-            pool = pool[_morton_order(store.position[pool], lo, extent)]
+            pool = self._along_curve(pool)
             w = store.coefficient[pool]
             total = float(w.sum())
             self.pools.append(pool)
@@ -920,14 +926,15 @@ class _MaterialIndirectEstimator(_NodeHull):
         self.node_parts = scene.bsdf.parts(scene.material[store.triangle[surface]], mu)
         self.node_row = np.full(store.nodes, -1, np.int64)
         self.node_row[surface] = np.arange(surface.size)
-        # point-luminaire emission points (source nodes) per group: the glossy part's next-event
-        # estimate (no ray can hit a point)
+        # point-luminaire emission points (source nodes) per group, along a Morton curve (the
+        # draws are stratified over it): the glossy part's next-event estimate (no ray can
+        # hit a point)
         point = np.flatnonzero((store.depth == 0) & (store.kind != KIND_COSINE))
-        self.point_pools = [point[store.batch[point] % G == g] for g in range(G)]
+        self.point_pools = [self._along_curve(point[store.batch[point] % G == g]) for g in range(G)]
         # area-luminaire emission points per group, and each luminaire's emission-point
         # density per unit area (Φ_l/Φ)/A_l (the glossy part's next-event estimate)
         emit = np.flatnonzero((store.depth == 0) & (store.kind == KIND_COSINE) & (store.triangle >= 0))
-        self.emit_pools = [emit[store.batch[emit] % G == g] for g in range(G)]
+        self.emit_pools = [self._along_curve(emit[store.batch[emit] % G == g]) for g in range(G)]
         self.sampler = EmissionSampler(scene) if point.size or emit.size else None
         self.area_density = np.array([lum.flux / (scene.total_flux * scene.areas[lum.triangles].sum())
                                       for lum in scene.area_luminaires])
@@ -984,10 +991,15 @@ class _MaterialIndirectEstimator(_NodeHull):
         return val
 
     def _draw_from_pools(self, pools, draws, count, group, blocks, level, tag):
-        """``draws`` nodes per point drawn uniformly from the pool (one per group) of each of
-        ``count`` points' ``group``: the points' rows (``owner``, points whose pool is empty
-        left out), the nodes' indices in the store (``pick``) and each point's pool size."""
+        """``draws`` nodes per point from the pool (one per group, ordered along a Morton
+        curve) of each of ``count`` points' ``group``, stratified: draw j uniformly from the
+        j-th of ``draws`` equal slices of the pool (every node keeps the probability
+        draws/size of a uniform draw, so (size/draws)·Σ_j is unbiased, while each luminaire —
+        a stretch of the curve — gets its share of the draws instead of a binomial number of
+        them). Returns the points' rows (``owner``, points whose pool is empty left out), the
+        nodes' indices in the store (``pick``) and each point's pool size."""
         u = _uniforms_by(self.seed, group, blocks, draws, tag, self.key, level)
+        u = (np.arange(draws)[None, :] + u) / draws
         size = np.array([len(p) for p in pools])[group]
         owner = np.repeat(np.arange(count), draws)
         live = size[owner] > 0
@@ -1217,10 +1229,13 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, 
     group — and the glossy light of point and area luminaires (next-event; the rays' emission
     hits weighted by the balance heuristic's complement), and goes on by y's glossy
     and delta parts (chosen in proportion to rs + ts, R, T; Russian roulette min(1, weight)):
-    a path tracer whose diffuse parts are the cache's."""
+    a path tracer whose diffuse parts are the cache's. Returns ``(total, bias)``: the
+    estimates and, per row, the path-weighted sum of the estimated interpolation bias of
+    the cached values at its hits (:meth:`~lsadphoto.solver.cache_grid.SurfaceCache.interpolate_with_bias`
+    in the row's group)."""
     scene, engine, bsdf = est.scene, est.engine, est.scene.bsdf
     eps, G = engine.epsilon, cache.values.shape[1]
-    total = np.zeros(len(x))
+    total, bias = np.zeros(len(x)), np.zeros(len(x))
     row = np.arange(len(x))
     u = _uniforms_by(seed, group, blocks, 2, _TAG_GLOSSY, level, 0)
     wi, w, pdf = bsdf.sample_glossy(mat, n, wo, u, parts)
@@ -1259,8 +1274,9 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, 
         if diff.size:
             keys = {"seed": seed, "block_ids": blocks[diff] * G + group[diff], "purpose_key": 30000 + 64 * level + depth}
             value[diff] += est.direct_diffuse(y[diff], ny[diff], mat_y[diff], keys)[0]
-            cached, _ = _cached_diffuse(est, cache, prim[diff], y[diff], front[diff], mat_y[diff])
+            cached, b = _cached_diffuse(est, cache, prim[diff], y[diff], front[diff], mat_y[diff], with_bias=True)
             value[diff] += cached[np.arange(diff.size), group[diff]]
+            bias[row[diff]] += w[diff] * b[np.arange(diff.size), group[diff]]
         gl = np.flatnonzero(p["rs"] + p["ts"] > 0)
         if gl.size:
             value[gl] += est.point_glossy(y[gl], ny[gl], wo_y[gl], mat_y[gl], group[gl], blocks[gl],
@@ -1297,7 +1313,7 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, 
         delta = ~lobe
         side = np.where(np.einsum("ij,ij->i", wi, ny) > 0, 1.0, -1.0)[:, None]
         origin, d = y + eps * side * ny, wi
-    return total
+    return total, bias
 
 
 def _cached_diffuse(est, cache, prim, y, front, mat, *, with_bias=False):
@@ -1359,8 +1375,9 @@ def _material_chunk(est, cache, c, d, seed, glossy_rays):
             rep = np.repeat(gl, G * R)
             grp = np.tile(np.repeat(np.arange(G), R), gl.size)
             sub = {key: v[rep] for key, v in parts.items()}
-            val = _glossy_paths(est, cache, seed, x[rep], n[rep], wo[rep], mat[rep], sub, grp, blocks[rep], level, R)
+            val, vb = _glossy_paths(est, cache, seed, x[rep], n[rep], wo[rep], mat[rep], sub, grp, blocks[rep], level, R)
             val = val.reshape(gl.size, G, R).mean(axis=2)
+            np.add.at(bias, pix[gl], weight[gl, None] * vb.reshape(gl.size, G, R).mean(axis=2))
             rep = np.repeat(gl, G)
             grp = np.tile(np.arange(G), gl.size)
             val += est.point_glossy(x[rep], n[rep], wo[rep], mat[rep], grp, blocks[rep], level,
