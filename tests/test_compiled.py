@@ -10,6 +10,7 @@ array as float64 garbage).
 """
 
 import json
+import mmap
 import math
 import os
 import subprocess
@@ -61,7 +62,10 @@ def _resident_pages(array):
                     or tuple(int(x) for x in os.uname().release.split(".")[:2]) < (5, 14),
                     reason="MADV_POPULATE_WRITE is Linux 5.14 and later")
 def test_populate_faults_fresh_pages_in_and_keeps_values():
-    fresh = np.empty(16 << 20, np.uint8)  # mapped, not yet written: (almost) nothing resident
+    # An anonymous mapping of its own, not yet written: nothing resident (np.empty could reuse
+    # heap pages that earlier tests of the same process made resident: glibc raises its mmap
+    # threshold after large frees).
+    fresh = np.frombuffer(mmap.mmap(-1, 16 << 20), np.uint8)
     before, n = _resident_pages(fresh)
     _compiled.populate(fresh)
     assert before < n // 2 and _resident_pages(fresh) == (n, n)
