@@ -178,3 +178,41 @@ def test_q_uncertainty_from_one_sweep_equals_recomputing_at_scaled_luminance():
     # The sweep uses Q(kL; N) = Q(L; N')·N/N' exactly; only float rounding differs.
     assert score.uncertainty["q"] == pytest.approx(abs(direct[0] - direct[1]) / 2, rel=1e-6)
     assert score.uncertainty["q"] > 0
+
+
+def test_field_consumers_read_the_float32_picture_as_the_float64_map():
+    # score_map hands the float32 picture itself to the field sums, the statistics and Q
+    # where ω is 0 off the valid pixels. Reference: the same functions on the float64 map
+    # with NaN off the field (the path the evalglare comparisons check): equal bit for bit,
+    # since every float32 value is a float64 number and the pixels off the field are not
+    # read (here they hold 1e6 cd/m²: a consumer that took them into its field would change).
+    from lsadphoto.geometry import pixel_geometry
+    from lsadphoto.geometry.position_index import position_index as position_index_of
+    from lsadphoto.metrics.field import field_sums
+    from lsadphoto.metrics.quality import q_Budak2021
+    from lsadphoto.metrics.statistics import luminance_statistics
+
+    cam = IdealFisheyeProjection("equidistant", 63.5, 63.5, 64.0, 180.0, 128, 128)
+    geometry = pixel_geometry(cam)
+    d = cam.directions(*cam.pixel_grid())
+    rng = np.random.default_rng(2)
+    picture = disk_sources_scene(d, background=120.0, sources=[((0.3, 0.2, 0.93), 0.1, 9000.0)])
+    picture = (np.nan_to_num(picture) * rng.uniform(0.8, 1.2, picture.shape)).astype(np.float32)
+    picture[~geometry.valid] = 1e6
+    omega = geometry.solid_angle  # 0 off the valid pixels
+    cos_sigma = np.where(geometry.valid, np.nan_to_num(d[..., 2]), 0.0)
+    with np.errstate(invalid="ignore"):
+        sigma = np.arccos(np.clip(d[..., 2], -1, 1))
+        tau = np.arctan2(np.abs(d[..., 0]), d[..., 1])
+    pindex = np.where(geometry.valid, position_index_of(sigma, tau), np.nan)
+    masked = np.where(geometry.valid, picture.astype(np.float64), np.nan)
+    mask = geometry.valid & (masked > 2000.0)
+    assert field_sums(picture, omega, cos_sigma, pindex, mask) == \
+        field_sums(masked, omega, cos_sigma, pindex, mask)
+    assert luminance_statistics(picture, omega, cos_sigma) == \
+        luminance_statistics(masked, omega, cos_sigma)
+    ours, reference = (q_Budak2021(L, geometry, omega, pindex, valid=geometry.valid)
+                       for L in (picture, masked))
+    assert (ours.q, ours.mean_luminance, ours.kept_fraction) == \
+        (reference.q, reference.mean_luminance, reference.kept_fraction) and math.isfinite(ours.q)
+    np.testing.assert_array_equal(ours.contrast, reference.contrast)

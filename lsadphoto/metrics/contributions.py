@@ -66,9 +66,9 @@ def source_illuminance(labels, n_sources, luminance, cos_sigma, solid_angle, lab
     if n_sources == 0 or not inside.any():
         return np.zeros(n_sources)
     index, label = index[inside], label[inside]
-    e = (np.asarray(luminance, np.float64).reshape(-1)[index]
-         * np.asarray(cos_sigma, np.float64).reshape(-1)[index]
-         * np.asarray(solid_angle, np.float64).reshape(-1)[index])
+    e = (np.asarray(luminance).reshape(-1)[index].astype(np.float64)
+         * np.asarray(cos_sigma).reshape(-1)[index].astype(np.float64)
+         * np.asarray(solid_angle).reshape(-1)[index].astype(np.float64))
     return np.bincount(label - 1, weights=e, minlength=n_sources)[:n_sources]
 
 

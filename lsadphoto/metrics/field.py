@@ -214,8 +214,8 @@ class FieldSums:
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot=("Tuple((float64[:, ::1], int64[:, ::1]))(float64[::1], float64[::1], float64[::1], "
-           "float64[::1], boolean[::1], int64)"))
+      aot=tuple(f"Tuple((float64[:, ::1], int64[:, ::1]))({L}[::1], float64[::1], float64[::1], "
+                "float64[::1], boolean[::1], int64)" for L in ("float64", "float32")))
 def _field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask, chunk):
     n = luminance.size
     n_chunks = (n + chunk - 1) // chunk
@@ -225,7 +225,7 @@ def _field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask, 
         s = np.zeros(8)
         n_field, n_source = 0, 0
         for i in range(k * chunk, min(n, (k + 1) * chunk)):
-            L = float(luminance[i])
+            L = np.float64(luminance[i])  # float() of a float32 stays float32 in numba
             w = float(solid_angle[i])
             c = float(cos_sigma[i])
             if not (math.isfinite(L) and w > 0 and c >= 0):

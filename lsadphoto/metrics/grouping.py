@@ -402,7 +402,7 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
     if peak_luminance is not None and n:
         limit = check_positive(peak_luminance, "peak_luminance")
         with np.errstate(invalid="ignore"):
-            peak = luminance[rows, cols] >= limit
+            peak = luminance[rows, cols] >= np.float64(limit)  # float64 also for float32 L
         if peak.any():
             peak_mask = np.zeros(mask.shape, dtype=bool)
             peak_mask[rows[peak], cols[peak]] = True

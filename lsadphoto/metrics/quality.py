@@ -267,9 +267,10 @@ def _weight(P, m):
 
 
 @njit(parallel=True, **_KERNEL_OPTIONS,
-      aot=("void(float64[:, ::1], float64[:, ::1], float64[:, ::1], boolean[:, ::1], "
-           "float64[:, :, ::1], boolean, float64, boolean, boolean, boolean, boolean[:, ::1], "
-           "int64[::1], float64[:, ::1], int64[:, ::1], boolean[:, ::1])"))
+      aot=tuple(f"void({L}[:, ::1], float64[:, ::1], float64[:, ::1], boolean[:, ::1], "
+                "float64[:, :, ::1], boolean, float64, boolean, boolean, boolean, boolean[:, ::1], "
+                "int64[::1], float64[:, ::1], int64[:, ::1], boolean[:, ::1])"
+                for L in ("float64", "float32")))
 def _field_kernel(L, omega, P, valid, d, check_d, m, use_p, use_valid, weighted, field,
                   counts, sums, extent, flags):
     """The field and the field sums, row by row, in float32 as the numpy version had them
@@ -332,9 +333,10 @@ def _filled_row(L, field, row, c0, lo, hi, out):
 
 
 @njit(**_KERNEL_OPTIONS,
-      aot=("int64(float64[:, ::1], boolean[:, ::1], int64, int64, boolean[:, ::1], "
-           "float64[:, ::1], float64[::1], float64[::1], int64, int64, float64, int64, int64, "
-           "int64[::1], float64[::1], int64[::1], int64[::1], float32[::1], float32[::1])"))
+      aot=tuple(f"int64({L}[:, ::1], boolean[:, ::1], int64, int64, boolean[:, ::1], "
+                "float64[:, ::1], float64[::1], float64[::1], int64, int64, float64, int64, "
+                "int64, int64[::1], float64[::1], int64[::1], int64[::1], float32[::1], "
+                "float32[::1])" for L in ("float64", "float32")))
 def _candidates_kernel(L, field, r0, c0, evaluated, omega, derivative, smooth, parity_d,
                        parity_s, limit, e0, e1, counts, omega_sums, local, index, lu, lv):
     """The pixel derivatives of the filled map at the evaluated pixels of box rows ``e0`` …

@@ -77,11 +77,13 @@ _CHUNK = 1 << 16
            "Tuple((int64, float64, float64))(float64[::1], boolean[::1], float64[::1], "
            "float64[::1])"))
 def _field_luminance_kernel(image, evaluated, cos_sigma, luminance):
-    """The luminance (float64; NaN outside the valid pixels), the number of evaluated
-    pixels that are not valid (luminance not finite or cos σ < 0) and the smallest and
-    largest positive luminance of the valid pixels (+inf, −inf where there is none)."""
+    """The luminance (float64; NaN outside the valid pixels; not written where
+    ``luminance`` is empty), the number of evaluated pixels that are not valid (luminance
+    not finite or cos σ < 0) and the smallest and largest positive luminance of the valid
+    pixels (+inf, −inf where there is none)."""
     n = image.size
     n_chunks = (n + _CHUNK - 1) // _CHUNK
+    write = luminance.size == n
     dropped = 0
     ranges = np.empty((n_chunks, 2))
     for k in prange(n_chunks):
@@ -90,7 +92,8 @@ def _field_luminance_kernel(image, evaluated, cos_sigma, luminance):
         for i in range(k * _CHUNK, min(n, (k + 1) * _CHUNK)):
             L = np.float64(image[i])
             ok = evaluated[i] & (np.abs(L) < np.inf) & (cos_sigma[i] >= 0)
-            luminance[i] = L if ok else np.nan
+            if write:
+                luminance[i] = L if ok else np.nan
             count += 1 if evaluated[i] and not ok else 0
             positive = ok & (L > 0)
             lo = min(lo, L if positive else np.inf)
@@ -118,42 +121,67 @@ def _field_solid_angle_kernel(luminance, solid_angle, valid, omega):
 
 
 def _field_inputs(image, geometry, evaluated, cos_sigma):
-    """Valid pixels (``evaluated``, finite luminance, cos σ ≥ 0), the luminance [cd·m⁻²]
-    as float64 with NaN elsewhere, the solid angle [sr] with 0 elsewhere, and the smallest
-    and largest positive luminance of the valid pixels (the range of the statistics'
-    histogram, :func:`~lsadphoto.metrics.statistics.luminance_statistics`, found in the
-    same pass).
+    """The field: valid pixels (``evaluated``, finite luminance, cos σ ≥ 0), the luminance
+    [cd·m⁻²] that the field's consumers read, the solid angle [sr] (0 off the valid pixels),
+    the smallest and largest positive luminance of the valid pixels (the range of the
+    statistics' histogram, :func:`~lsadphoto.metrics.statistics.luminance_statistics`, found
+    in the same pass), and a function that gives the luminance as float64 with NaN off the
+    valid pixels (made once, on its first call).
 
     Where every evaluated pixel is valid and the evaluated pixels are the geometry's valid
     ones (the usual case), the validity and solid angle are the geometry's own read-only
-    maps (its solid angle is 0 where it is not valid): two full-size maps fewer to allocate
-    and fault in (9 bytes per pixel). (Outputs are allocated by numpy, so that its page
-    advice applies to them: a ``score`` process of a large picture asks for small pages,
-    which this project's virtual machine faults in 4–6 times faster than fresh huge pages,
-    lsadphoto.cli.)"""
+    maps (its solid angle is 0 where it is not valid: two full-size maps fewer to allocate
+    and fault in, 9 bytes per pixel), and the luminance the consumers read is the picture
+    itself: each of them takes a pixel into the field only where ω > 0 (field sums,
+    statistics, Q, the selection's mean and task luminance) or reads the selected pixels
+    (selection, grouping, Eglare), so the picture's values off the field are never used,
+    and a float32 value read as float64 is the same number — the same sums, bit for bit,
+    without a float64 copy of the picture (8 bytes per pixel: 24 MP 192 MB). The NaN map is
+    made only for what reads the luminance off the field (check picture, regions,
+    regrouping, zone split, per-pixel noise). (Outputs are allocated by numpy, so that its
+    page advice applies to them: a ``score`` process of a large picture asks for small
+    pages, which this project's virtual machine faults in 4–6 times faster than fresh huge
+    pages, lsadphoto.cli.)"""
     shape = evaluated.shape
+    image = np.ascontiguousarray(image)
+    flat = (image.reshape(-1), np.ascontiguousarray(evaluated).reshape(-1),
+            np.ascontiguousarray(cos_sigma).reshape(-1))
+
+    def field_pass(luminance):
+        """(dropped, positive range); ``luminance`` (flat) written unless empty."""
+        # Blocks of whole chunks, one per thread where the ahead-of-time code runs them.
+        workers = _field_luminance_kernel.threads_for(*flat, luminance)
+
+        def block(a, b):
+            out = luminance[a:b] if luminance.size else luminance
+            populate(out)
+            return _field_luminance_kernel(*(x[a:b] for x in flat), out)
+
+        parts = run_blocks(block, row_blocks(flat[0].size, workers, _CHUNK), workers)
+        return sum(part[0] for part in parts), (
+            min((part[1] for part in parts), default=math.inf),
+            max((part[2] for part in parts), default=-math.inf))
+
+    if evaluated is geometry.valid:
+        dropped, positive = field_pass(np.empty(0))
+        if dropped == 0:
+            made = []
+
+            def masked():
+                if not made:
+                    made.append(np.empty(shape))
+                    field_pass(made[0].reshape(-1))
+                return made[0]
+
+            return geometry.valid, image, geometry.solid_angle, positive, masked
     luminance = np.empty(shape)
-    flat = (np.ascontiguousarray(image).reshape(-1), np.ascontiguousarray(evaluated).reshape(-1),
-            np.ascontiguousarray(cos_sigma).reshape(-1), luminance.reshape(-1))
-    # Blocks of whole chunks, one per thread where the ahead-of-time code runs them.
-    workers = _field_luminance_kernel.threads_for(*flat)
-
-    def block(a, b):
-        populate(flat[3][a:b])
-        return _field_luminance_kernel(*(x[a:b] for x in flat))
-
-    parts = run_blocks(block, row_blocks(luminance.size, workers, _CHUNK), workers)
-    dropped = sum(part[0] for part in parts)
-    positive = (min((part[1] for part in parts), default=math.inf),
-                max((part[2] for part in parts), default=-math.inf))
-    if dropped == 0 and evaluated is geometry.valid:
-        return geometry.valid, luminance, geometry.solid_angle, positive
+    _, positive = field_pass(luminance.reshape(-1))
     valid = np.empty(shape, dtype=bool)
     omega = np.empty(shape)
     _field_solid_angle_kernel(luminance.reshape(-1),
                               np.ascontiguousarray(geometry.solid_angle).reshape(-1),
                               valid.reshape(-1), omega.reshape(-1))
-    return valid, luminance, omega, positive
+    return valid, luminance, omega, positive, lambda: luminance
 
 
 @dataclass
@@ -565,12 +593,14 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
 
         evaluated = geometry.valid & guth_field_mask(vf.sigma, vf.tau, kind=guth_field)
     # One pass: the valid pixels (in the evaluated part of the picture, finite luminance, in
-    # front of the observer), the luminance (NaN elsewhere) and solid angle (0 elsewhere).
+    # front of the observer), the luminance the field's consumers read (the picture, or NaN
+    # off the valid pixels; ``masked()``: NaN there) and solid angle (0 elsewhere).
     image = np.asarray(lmap.luminance)
     if illuminance_fill is not None:
         image = fill_rows_evalglare(image, geometry.valid & (vf.cos_sigma >= 0),
                                     row_max=illuminance_fill[1], row_min=illuminance_fill[2])
-    valid, luminance, omega, positive = _field_inputs(image, geometry, evaluated, vf.cos_sigma)
+    valid, luminance, omega, positive, masked = _field_inputs(image, geometry, evaluated,
+                                                              vf.cos_sigma)
     pindex = vf.position_index
     # Q and the statistics need neither the sources nor the field sums: each on a thread of
     # its own (where the kernels run ahead of time) while they are computed — the same calls
@@ -615,7 +645,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     if smooth or patch_deg is not None:
         from .grouping_options import regroup_sources  # only for -s/-z (scipy.ndimage)
 
-        groups, labels = regroup_sources(luminance, geometry.directions, omega, mask, valid,
+        groups, labels = regroup_sources(masked(), geometry.directions, omega, mask, valid,
                                          projection=lmap.projection, search_angle=search_angle,
                                          peak_luminance=peak_luminance, smooth=smooth,
                                          patch_deg=patch_deg)
@@ -631,7 +661,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         zones, labels, parent, source_zones = zone_split(
             labels, directions=geometry.directions, valid=valid, projection=lmap.projection,
             zone_centre=zone_centre, zone_opening_deg=zone_opening_deg)
-        groups = describe_sources(labels, len(parent), luminance, geometry, omega,
+        groups = describe_sources(labels, len(parent), masked(), geometry, omega,
                                   [groups[k].peak for k in parent])
         sources = _scored_sources(groups, geometry, frame,
                                   position_index_method=position_index_method,
@@ -652,8 +682,12 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         return evaluate_indices(quantities, settings)
 
     values = indices(sums, s_l)
+    # Without regions and with the sources from the selection, the analyses read the
+    # luminance at the labelled pixels alone (Eglare).
+    regions_read = labelled is None or any(x is not None for x in (band_deg, zones, region_mask,
+                                                                   task_direction))
     analyses, details, regions, extra = evalglare_analyses(
-        luminance=luminance, solid_angle=omega, directions=geometry,
+        luminance=masked() if regions_read else luminance, solid_angle=omega, directions=geometry,
         cos_sigma=vf.cos_sigma, valid=valid, projection=lmap.projection,
         labels=labels, labelled=labelled, sources=sources, unsplit_sources=unsplit_sources,
         values=dict(values, dgp_raw=dgp_Wienold2006(values["vertical_illuminance"], s_l, s_w,
@@ -694,7 +728,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     # Per-pixel noise, where the map has a per-pixel uncertainty; both parts combined.
     noise, bias, bias_error = _pixel_noise(
         lmap, values, indices, sums, s_w, labels, len(sources),
-        arrays=(luminance, omega, vf.cos_sigma, pindex), noise_samples=noise_samples,
+        arrays=(masked() if lmap.uncertainty is not None else luminance, omega, vf.cos_sigma,
+                pindex), noise_samples=noise_samples,
         q_noise_samples=q_noise_samples, seed=seed,
         q_of=lambda noisy: q_Budak2021(noisy, geometry, omega, pindex,
                                        n_thresholds=n_thresholds, **q_options).q)
@@ -743,7 +778,7 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     values["max_luminance"] = statistics["field"]["max"] if statistics["field"]["max"] \
         is not None else math.nan
     if checkfile is not None:
-        write_checkfile(checkfile, check_picture(luminance, labels=labels, zones=zones,
+        write_checkfile(checkfile, check_picture(masked(), labels=labels, zones=zones,
                                                  **regions), projection=lmap.projection)
     return Score(values=values, uncertainty=uncertainty, sources=sources, source_mask=mask,
                  source_labels=labels, quality=quality,

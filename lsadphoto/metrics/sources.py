@@ -130,6 +130,8 @@ def select_source_pixels(luminance, solid_angle, cos_sigma, *, method="fixed", v
     SourceSelection
     """
     check_choice(method, "glare-source method", SOURCE_METHODS)
+    # Thresholds compared as float64 numbers (numpy would round a Python float to a float32
+    # picture's precision before comparing).
     if field_mask is None:
         field_mask = evaluated_field(luminance, solid_angle, cos_sigma)
     elif np.shape(field_mask) != np.shape(luminance):
@@ -138,13 +140,13 @@ def select_source_pixels(luminance, solid_angle, cos_sigma, *, method="fixed", v
         if method == "fixed":
             threshold = check_positive(DEFAULT_SOURCE_THRESHOLD if value is None else value,
                                        "source threshold")
-            return SourceSelection(field_mask & (luminance > threshold), threshold,
+            return SourceSelection(field_mask & (luminance > np.float64(threshold)), threshold,
                                    {"method": method, "threshold": threshold})
         if method == "mean":
             factor = check_positive(DEFAULT_TASK_FACTOR if value is None else value, "factor")
             mean = mean_luminance(luminance, solid_angle, cos_sigma)
             threshold = factor * mean
-            mask = field_mask & (luminance > threshold) if np.isfinite(threshold) else \
+            mask = field_mask & (luminance > np.float64(threshold)) if np.isfinite(threshold) else \
                 np.zeros_like(field_mask)
             return SourceSelection(mask, threshold, {"method": method, "factor": factor,
                                                      "mean_luminance": mean})
@@ -157,7 +159,7 @@ def select_source_pixels(luminance, solid_angle, cos_sigma, *, method="fixed", v
             if not np.isfinite(l_task):
                 raise BadInputError("the task cone holds no valid pixel")
             threshold = factor * l_task
-            return SourceSelection(field_mask & (luminance > threshold), threshold,
+            return SourceSelection(field_mask & (luminance > np.float64(threshold)), threshold,
                                    {"method": method, "factor": factor,
                                     "task_luminance": l_task,
                                     "task_opening_deg": float(np.degrees(task_opening))})
@@ -182,7 +184,7 @@ def _contrast_sources(luminance, solid_angle, cos_sigma, field_mask, *, n_thresh
     mask = np.zeros_like(field_mask)
     for iteration in range(1, _MAX_CONTRAST_ITERATIONS + 1):
         threshold = l_b + n * delta
-        new_mask = field_mask & (luminance >= threshold)
+        new_mask = field_mask & (luminance >= np.float64(threshold))
         if np.array_equal(new_mask, mask) and iteration > 1:
             break
         mask = new_mask

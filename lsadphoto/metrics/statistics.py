@@ -74,9 +74,9 @@ def _positive_range(luminance, solid_angle, cos_sigma, n_stripes):
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot=("void(float64[::1], float64[::1], float64[::1], float64[::1], int64, float64, "
-           "int64, float64, int64[:, ::1], float64[:, :, ::1], float64[:, ::1], "
-           "float64[:, ::1], float64[:, :, ::1])"))
+      aot=tuple(f"void({L}[::1], float64[::1], float64[::1], float64[::1], int64, float64, "
+                "int64, float64, int64[:, ::1], float64[:, :, ::1], float64[:, ::1], "
+                "float64[:, ::1], float64[:, :, ::1])" for L in ("float64", "float32")))
 def _accumulate(luminance, solid_angle, cos_sigma, cos_edges, n_stripes, origin, n_bins,
                 per_decade, count, sums, low, high, hist):
     """Per stripe k and group g (ring, or outside every ring): pixel count ``count[k, g]``,
