@@ -277,6 +277,36 @@ photometry = "down.ies"
     assert lmap.luminance[0, 0] == 0  # the ray leaves the open scene: nothing seen
 
 
+def test_nearest_emitting_opening_wins(tmp_path):
+    # Three openings of the downlight (0.3 m × 0.6 m) on the z axis, an eye below looking up
+    # it: the nearest that emits towards the eye is seen, L = I(0)/A = 1000 cd/(0.18 m²)
+    # (closed form; the farthest, at twice the multiplier, would give twice that); one turned to face up (nadir +z) emits nothing downwards (γ = 180°:
+    # the file's 0 beyond 90°) and does not hide the ones behind it; a surface hit before
+    # every opening hides them all; a ray beside the rectangles sees none.
+    from lsadphoto.solver import load_scene
+    from lsadphoto.solver.integrators.eye import luminous_openings
+
+    (tmp_path / "down.ies").write_text(IES)
+    lum = """
+[[luminaires]]
+type = "point"
+position = [0, 0, {z}]
+photometry = "down.ies"
+nadir = [0, 0, {nz}]
+multiplier = {m}
+"""
+    text = ("[materials]\ngrey = { reflectance = 0.4 }\n[[surfaces]]\ntype = \"polygon\"\n"
+            "material = \"grey\"\nvertices = [[-20, -20, 0], [20, -20, 0], [20, 20, 0], [-20, 20, 0]]\n"
+            + lum.format(z=3.0, nz=-1, m=2) + lum.format(z=2.0, nz=1, m=1) + lum.format(z=2.5, nz=-1, m=1))
+    (tmp_path / "s.toml").write_text(text)
+    scene = load_scene(tmp_path / "s.toml")
+    eye = np.array([0.0, 0.0, 1.0])
+    d = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.6, 0.0, 0.8]])
+    out = luminous_openings(scene, eye, d, np.array([np.inf, 1.2, np.inf]))
+    assert out[0] == pytest.approx(1000 / (0.3 * 0.6), rel=1e-12)
+    assert np.isnan(out[1]) and np.isnan(out[2])
+
+
 def test_mixed_luminaires_double_local_estimate_agrees_with_path_tracing(tmp_path):
     # The canonical room lit by one Lambertian panel, the IES downlight (with its opening)
     # and an isotropic 50 cd point: point-luminaire nodes now feed interreflections and
