@@ -349,11 +349,16 @@ def test_store_keeps_its_surface_cache(tmp_path):
     store.save(tmp_path / "s.npz")
     again = load_store(tmp_path / "s.npz")
     assert isinstance(again.surface_cache, SurfaceCache)
-    for name in ("level", "offset", "values", "positions", "refined_key", "refined_offset"):
+    for name in ("level", "offset", "values", "positions", "refined_key", "refined_offset", "clearance"):
         assert np.array_equal(getattr(again.surface_cache, name), getattr(store.surface_cache, name))
     kw = {"position": view.position, "rotation": view.rotation}
     assert np.array_equal(render_cached(store, view.projection, **kw).luminance,
                           render_cached(again, view.projection, **kw).luminance, equal_nan=True)
+    # a store saved before the clearance existed loads with it ∞: the plain interpolation
+    with np.load(tmp_path / "s.npz") as data:
+        np.savez_compressed(tmp_path / "old.npz", **{k: data[k] for k in data.files if k != "cache_clearance"})
+    old = load_store(tmp_path / "old.npz").surface_cache
+    assert np.all(np.isinf(old.clearance)) and old.clearance.size == old.size
     store.extend(simulate(room, samples=1024, seed=2))
     assert store.surface_cache is None  # stale after new chains
 
