@@ -250,6 +250,10 @@ def test_rendered_uncertainty_covers_the_interpolation_error_of_a_known_field():
     view = room.views[0]
     store = simulate(room, samples=1024, seed=3)
     cache = build_surface_cache(store, spacing=0.8, nodes=64, seed=4)
+    # the known field is smooth across the luminaires' outlines, where real E_ind is not:
+    # the ceiling's points 1 cm behind them would be dropped (their clearance), so the rule
+    # is off here — it has its own test (test_wall_points_behind_a_panel_...)
+    cache.clearance[:] = np.inf
     G = cache.values.shape[1]
     field = lambda p: 80.0 * (1 + 0.5 * np.cos(2 * np.pi * p[:, 0] / 6)) * (1 + 0.3 * (p[:, 2] / 3) ** 2)
     rng = np.random.default_rng(7)
@@ -345,11 +349,16 @@ def test_store_keeps_its_surface_cache(tmp_path):
     store.save(tmp_path / "s.npz")
     again = load_store(tmp_path / "s.npz")
     assert isinstance(again.surface_cache, SurfaceCache)
-    for name in ("level", "offset", "values", "positions", "refined_key", "refined_offset"):
+    for name in ("level", "offset", "values", "positions", "refined_key", "refined_offset", "clearance"):
         assert np.array_equal(getattr(again.surface_cache, name), getattr(store.surface_cache, name))
     kw = {"position": view.position, "rotation": view.rotation}
     assert np.array_equal(render_cached(store, view.projection, **kw).luminance,
                           render_cached(again, view.projection, **kw).luminance, equal_nan=True)
+    # a store saved before the clearance existed loads with it ∞: the plain interpolation
+    with np.load(tmp_path / "s.npz") as data:
+        np.savez_compressed(tmp_path / "old.npz", **{k: data[k] for k in data.files if k != "cache_clearance"})
+    old = load_store(tmp_path / "old.npz").surface_cache
+    assert np.all(np.isinf(old.clearance)) and old.clearance.size == old.size
     store.extend(simulate(room, samples=1024, seed=2))
     assert store.surface_cache is None  # stale after new chains
 
@@ -497,3 +506,49 @@ def test_patch_interpolation_keeps_parallel_sheets_apart():
          + (su - u[:, 1] * su)[:, None] * tri[:, 2])
     assert np.all(cache.interpolate(scene, t, x, np.zeros(400, int)) == 1.0)
     assert np.all(cache.interpolate(scene, t, x, np.ones(400, int)) == 0.0)
+
+
+def test_wall_points_behind_a_panel_do_not_darken_the_wall_beside_it():
+    # The canonical room with a grey 1.4 × 1.2 m panel 1 cm in front of the wall x = 6: the
+    # wall's cache points in the gap are dark, and interpolated into the visible wall they
+    # made the pixels 1–10 cm outside the panel's outline 7 % too dark on average (22 % at
+    # worst; median |z| 2.2, 55 % within 3σ, measured with the clearance rule off). The
+    # reference per pixel is independent of the cache: ρ/π·(E_dir + E_ind) at the pixel's hit,
+    # E_dir by 64 shadow samples per luminaire and E_ind by the cache's estimator evaluated
+    # there (its own streams, 4096 node draws: 0.45 % standard error), no interpolation.
+    # Measured with the rule: mean ratio 0.989, median |z| 0.91, 89 % within 3σ; asserted
+    # within 3 % (the rule removes 6 of the 7 %), median |z| < 1.5 (0.67 for pure noise; the
+    # margin for the constant extrapolation from the corners left) and 80 % within 3σ.
+    import tomllib
+
+    from lsadphoto.geometry.pinhole import PinholeProjection
+
+    data = tomllib.loads(canonical_room_toml(size=8))
+    data["surfaces"].append({"type": "polygon", "material": "wall", "vertices": [
+        [5.99, 1.3, 0.8], [5.99, 2.7, 0.8], [5.99, 2.7, 2.0], [5.99, 1.3, 2.0]]})
+    room = scene_from_dict(data)
+    store = simulate(room, samples=2 ** 15, seed=11)
+    store.surface_cache = build_surface_cache(store, nodes=512, seed=12)
+    size = 64
+    focal = size / (2 * math.tan(math.radians(30)))
+    proj = PinholeProjection(fx=focal, fy=focal, cx=(size - 1) / 2, cy=(size - 1) / 2, width=size, height=size)
+    pos, rot = np.array([3.0, 2.0, 1.4]), camera_to_world([1, 0, 0])
+    lmap = render(store, proj, position=pos, rotation=rot, estimator="cache", seed=15)
+    engine = engine_for(room)
+    valid, prim, dist, d = primary_rays(room, engine, proj, pos, rot)
+    x = pos + d * dist[:, None]
+    outside = np.maximum(np.maximum(1.3 - x[:, 1], x[:, 1] - 2.7), np.maximum(0.8 - x[:, 2], x[:, 2] - 2.0))
+    band = np.flatnonzero((prim >= 0) & (np.abs(x[:, 0] - 6) < 1e-6) & (outside > 0.01) & (outside < 0.10))
+    assert band.size > 100
+    normal = np.tile([-1.0, 0, 0], (band.size, 1))
+    e_ind = indirect_illuminance(store, x[band], normal, nodes=4096, seed=13, key=5)
+    e_dir, var = direct_illuminance(room, engine, x[band], normal, samples=64, seed=14,
+                                    block_ids=np.arange(band.size))
+    k = 0.5 / math.pi
+    ref = k * (e_dir + e_ind.mean(axis=1))
+    ref_se = k * np.hypot(np.sqrt(var), e_ind.std(axis=1, ddof=1) / math.sqrt(e_ind.shape[1]))
+    ours = lmap.luminance.ravel()[valid][band]
+    z = (ours - ref) / np.hypot(lmap.uncertainty.ravel()[valid][band], ref_se)
+    assert abs(np.mean(ours / ref) - 1) < 0.03
+    assert np.median(np.abs(z)) < 1.5
+    assert np.mean(np.abs(z) <= 3) >= 0.8

@@ -210,15 +210,16 @@ def patch_neighbours(point, radius, reach):
 
 
 @njit(inline="always", **_NUMBA)
-def _patch_weight(x, n, i, point, normal, j, r2):
+def _patch_weight(x, n, i, point, normal, clearance, j, r2):
     """Kernel weight of patch point j at point i (normal n[i]) and their offset
     (point[j] − x[i]): (1 − d²/r²)² within the radius, times how well the normals agree
-    (above cos 60°) and how close j lies to i's tangent plane; 0 outside."""
+    (above cos 60°) and how close j lies to i's tangent plane; 0 outside, and 0 where the
+    distance exceeds j's clearance (:attr:`SurfaceCache.clearance`)."""
     dx = point[j, 0] - x[i, 0]
     dy = point[j, 1] - x[i, 1]
     dz = point[j, 2] - x[i, 2]
     d2 = dx * dx + dy * dy + dz * dz
-    if d2 >= r2:
+    if d2 >= r2 or d2 > clearance[j] * clearance[j]:
         return 0.0, dx, dy, dz
     agree = n[i, 0] * normal[j, 0] + n[i, 1] * normal[j, 1] + n[i, 2] * normal[j, 2]
     if agree <= _PATCH_COS:
@@ -232,7 +233,8 @@ def _patch_weight(x, n, i, point, normal, j, r2):
 
 
 @njit(**_NUMBA)
-def _patch_kernel(x, n, own, point, normal, radius, start, index, values, with_bias, out, bias):
+def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, values, with_bias, out,
+                  bias):
     """out[i] = the kernel average of ``values`` over the patches near point i (see
     :meth:`SurfaceCache.interpolate`), its own patch's value where none qualifies; and, with
     ``with_bias``, bias[i] = that average's first-order bias per group: g·ū, ū the weights'
@@ -271,7 +273,7 @@ def _patch_kernel(x, n, own, point, normal, radius, start, index, values, with_b
             bias[i, g] = 0.0
         for k in range(start[c], start[c + 1]):
             j = index[k]
-            w, dx, dy, dz = _patch_weight(x, n, i, point, normal, j, r2)
+            w, dx, dy, dz = _patch_weight(x, n, i, point, normal, clearance, j, r2)
             if w <= 0.0:
                 continue
             total += w
@@ -363,6 +365,10 @@ class SurfaceCache:
     patch_start, patch_index : ndarray of int
         CSR lists of the patches that may lie within the kernel radius of a point of each
         patch (:func:`patch_neighbours`) and whose point that patch's point sees.
+    clearance : ndarray, shape (V,)
+        Free distance [m] in front of each point along its normal (∞ where the ray leaves
+        the scene; ∞ for caches saved without it): a point counts in an interpolation at x
+        only if |x − point| ≤ its clearance (:meth:`interpolate`).
     """
 
     spacing: float
@@ -380,15 +386,18 @@ class SurfaceCache:
     patch_radius: np.ndarray = field(default_factory=lambda: np.zeros(0))
     patch_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))
     patch_index: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    clearance: np.ndarray = None
 
     #: The arrays a store saves (besides ``spacing``, ``refine`` and ``provenance``).
     ARRAYS = ("level", "offset", "values", "positions", "refined_key", "refined_offset",
               "patch", "patch_row", "patch_normal", "patch_radius", "patch_start",
-              "patch_index")
+              "patch_index", "clearance")
 
     def __post_init__(self):
         if self.patch is None:
             self.patch = np.full((len(self.level), 2), -1, np.int64)
+        if self.clearance is None:
+            self.clearance = np.full(len(self.values), np.inf)
 
     @property
     def size(self):
@@ -432,6 +441,16 @@ class SurfaceCache:
         with d = |q_j − x|, c_j = n·n_j > ½ (normals within 60°) and s_j = |n·(q_j − x)|/d
         < ½ (q_j within 30° of the tangent plane at x, which keeps the far side of a column
         or a parallel sheet out); the side's own patch where no point qualifies.
+
+        Both drop a point farther from x than its clearance t_j (the free distance along its
+        normal) and renormalise the others' weights: a surface at t_j in front of a point
+        changes E_ind over distances of about t_j along the surface, so a point behind a
+        panel, a shelf or furniture standing close does not stand for the uncovered surface
+        beside it (Ward et al. 1988's validity radius, with the distance along the normal
+        in place of the harmonic mean of the hemisphere's, which a concave corner's
+        grazing rays would shrink to nothing where E_ind varies smoothly). A grid cell
+        none of whose corners with a positive weight qualifies keeps its plain
+        interpolation: within a convex occluder's footprint, where no pixel sees the wall.
         """
         return self._interpolate(scene, prim, x, side, False)[0]
 
@@ -456,6 +475,7 @@ class SurfaceCache:
         grid = np.flatnonzero(m >= 1)
         if grid.size:
             index, weight, cells = self._cells(scene, prim[grid], x[grid], side[grid])
+            weight = self._seen(x[grid], index, weight)
             value[grid] = np.einsum("nk,nkg->ng", weight, self.values[index])
             if with_bias:
                 bias[grid] = self._grid_bias(weight, cells)
@@ -465,6 +485,17 @@ class SurfaceCache:
             if with_bias:
                 bias[small] = b
         return value, bias
+
+    def _seen(self, x, index, weight):
+        """The corner weights (n, 3) of points ``x`` with the corners farther than their
+        clearance dropped and the rest renormalised (unchanged where none with a positive
+        weight qualifies; :meth:`interpolate`)."""
+        far = np.linalg.norm(self.positions[index] - x[:, None], axis=2) > self.clearance[index]
+        if not far.any():
+            return weight
+        kept = np.where(far, 0.0, weight)
+        total = kept.sum(axis=1, keepdims=True)
+        return np.where(total > 0, kept / np.where(total > 0, total, 1.0), weight)
 
     def _grid_bias(self, weight, cells):
         """Estimated bias of the linear interpolation [lx] per group at points in ``cells``
@@ -511,7 +542,8 @@ class SurfaceCache:
         bias = np.empty_like(value)
         _patch_kernel(np.ascontiguousarray(x, dtype=np.float64), n, own,
                       np.ascontiguousarray(self.positions[self.patch_row]),
-                      np.ascontiguousarray(self.patch_normal), self.patch_radius,
+                      np.ascontiguousarray(self.patch_normal),
+                      np.ascontiguousarray(self.clearance[self.patch_row]), self.patch_radius,
                       self.patch_start, self.patch_index,
                       np.ascontiguousarray(self.values[self.patch_row]), with_bias, value, bias)
         return value, bias

@@ -222,7 +222,9 @@ def load_store(path):
             c = meta["surface_cache"]
             cache = SurfaceCache(spacing=c["spacing"], refine=c["refine"],
                                  provenance=c.get("provenance", {}),
-                                 **{name: arrays[f"cache_{name}"] for name in SurfaceCache.ARRAYS})
+                                 **{name: arrays[f"cache_{name}"] for name in SurfaceCache.ARRAYS
+                                    # stores saved before the clearance load without it (∞)
+                                    if name != "clearance" or "cache_clearance" in arrays})
     except KeyError as exc:
         raise UnsupportedFileError(f"{path}: LSAD store lacks {exc.args[0]!r}") from None
     return LsadStore(scene, **nodes, chains=meta["chains"], batches=meta["batches"],

@@ -654,6 +654,7 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         refined_offset = len(points) + len(ab) * np.arange(keys.size, dtype=np.int64)
         values = np.concatenate([values, fine_values.reshape(-1, est.groups)])
         points = np.concatenate([points, fine_points.reshape(-1, 3)])
+        normals = np.concatenate([normals, np.repeat(normals[corners[:, 0]], len(ab), axis=0)])
     # Patches that differ strongly from a neighbour are split at half their size (their
     # points stay in the cache but no side refers to them any more).
     leaf = np.ones(len(p_point), dtype=bool)
@@ -675,6 +676,7 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         new_values = evaluate(finer.point, finer.normal, next_block())
         p_row = np.concatenate([p_row, len(points) + np.arange(len(finer.point))])
         points = np.concatenate([points, finer.point])
+        normals = np.concatenate([normals, finer.normal])
         values = np.concatenate([values, new_values])
         p_point = np.concatenate([p_point, finer.point])
         p_normal = np.concatenate([p_normal, finer.normal])
@@ -690,6 +692,8 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
                                   *patch_neighbours(p_point[keep], radius, p_reach[keep]))
     patch = np.full((len(scene.triangles), 2), -1, np.int64)
     patch[side_tri, side_of] = renumber[leaf_of_side]
+    # each point's free distance along its normal: its validity radius (SurfaceCache.interpolate)
+    clearance = engine.closest_hit(points + engine.epsilon * normals, normals)[1]
     return SurfaceCache(spacing, level, offset, values, points, keys, refined_offset, int(refine),
                         provenance={
         "nodes_per_point": int(est.draws * est.groups), "groups": int(est.groups),
@@ -699,7 +703,8 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         "leaf_patches": int(keep.size), "points": len(values), "refine_contrast": float(contrast),
         "build_time_s": time.perf_counter() - t0},
                         patch=patch, patch_row=p_row[keep], patch_normal=p_normal[keep],
-                        patch_radius=radius, patch_start=start, patch_index=index)
+                        patch_radius=radius, patch_start=start, patch_index=index,
+                        clearance=clearance)
 
 
 def _visible_lists(engine, point, normal, start, index):
