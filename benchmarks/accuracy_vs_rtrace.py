@@ -47,7 +47,9 @@ Run (2-core machine)::
     python benchmarks/accuracy_vs_rtrace.py --scene canonical --size 128
     python benchmarks/accuracy_vs_rtrace.py --scene hall --size 128 --hall-scale 0.5
 
-Writes a Markdown fragment with the command to ``--output``.
+Writes a Markdown fragment with the command to ``--output``. The references are kept in
+``--reference-cache`` (default: a folder in the system's temporary directory), keyed by the
+scene's files and every option that makes them, so that runs of two builds share one.
 """
 
 import argparse
@@ -121,11 +123,30 @@ def _hall_rad(folder, scale):
     return path, [(v.name, v.position, v.rotation) for v in scene.views]
 
 
-def _reference(rad, view_options, size, pixels, rtrace_options, seed, runs=2):
+def _reference(rad, view_options, size, pixels, rtrace_options, seed, runs=2, cache=None):
     """Flat pixel indices, reference luminance [cd·m⁻²], its standard error, rtrace's
-    primary hit points [m] and rtrace CPU [s]."""
-    binpath, env, _ = _radiance()
+    primary hit points [m] and rtrace CPU [s]; kept in the folder ``cache`` (if given) under a
+    hash of the scene's files, the view, the pixels, the options, the runs and Radiance's
+    version, so that two of our builds compare against one reference (the CPU is that of the
+    run that made it)."""
+    binpath, env, version = _radiance()
     folder = rad.parent
+    if cache:
+        import hashlib
+
+        h = hashlib.sha256(repr((view_options, size, pixels, rtrace_options, seed, runs, version)).encode())
+        for f in sorted(folder.iterdir()):
+            if f.suffix in (".rad", ".dat", ".cal"):
+                h.update(f.name.encode() + f.read_bytes())
+        path = Path(cache) / f"rtrace_{h.hexdigest()[:24]}.npz"
+        if path.exists():
+            with np.load(path) as z:
+                print(f"reference from {path}", file=sys.stderr)
+                return z["pick"], z["mean"], z["sigma"], z["hits"], float(z["cpu"])
+        result = _reference(rad, view_options, size, pixels, rtrace_options, seed, runs)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        np.savez(path, **dict(zip(("pick", "mean", "sigma", "hits", "cpu"), result)))
+        return result
     octree = folder / "scene.oct"
     with open(octree, "wb") as fh:
         subprocess.run([os.path.join(binpath, "oconv"), "-f", rad.name], stdout=fh, cwd=folder, env=env,
@@ -216,6 +237,8 @@ def main(argv=None):
     parser.add_argument("--estimators", default="cache,points,local",
                         help="comma-separated: cache, points (needs cache), local")
     parser.add_argument("--output", default="/tmp/frag_accuracy_rtrace.md")
+    parser.add_argument("--reference-cache", default=os.path.join(tempfile.gettempdir(), "lsadphoto_rtrace_refs"),
+                        help="folder that keeps the rtrace references between runs ('' : none)")
     args = parser.parse_args(argv)
     if args.runs < 2:
         parser.error(f"--runs must be at least 2 (the reference's own noise), got {args.runs}")
@@ -241,7 +264,8 @@ def main(argv=None):
     view = scene.views[0]
     pose = {"position": view.position, "rotation": view.rotation}
     pick, ref, ref_sigma, ref_hits, rtrace_cpu = _reference(rad, view_options, args.size, args.pixels, args.rtrace,
-                                                            seed=5, runs=args.runs)
+                                                            seed=5, runs=args.runs,
+                                                            cache=args.reference_cache)
     # Pixels whose primary rays hit the same point in both programs: at a silhouette our
     # float64 eye ray and vwrays' float32 one can hit different objects (hall: 1 pixel of
     # 256, 0.8 m apart; the others agree to 2 µm at the 95th percentile), which compares two
