@@ -720,10 +720,6 @@ def cmd_simulate(args):
     if args.samples is None and args.target_error is None:
         args.samples = 65536
     scene = _load_any_scene(args.scene)
-    if args.surface_cache:
-        from .solver.integrators.surface_cache import check_cache_materials
-
-        check_cache_materials(scene, "--surface-cache")
     callback, close = progress_callback("simulating", enabled=False if args.quiet else None)
     try:
         store = simulate(scene, samples=args.samples, target_error=args.target_error, seed=args.seed,

@@ -152,7 +152,7 @@ class Patches:
     size: float
 
 
-def patch_sides(triangles, normals, areas, size, *, origin):
+def patch_sides(triangles, normals, areas, size, *, origin, label=None):
     """Group triangle sides into patches of about ``size`` [m] (module docstring).
 
     Parameters
@@ -167,6 +167,9 @@ def patch_sides(triangles, normals, areas, size, *, origin):
         Edge of the grid's cubes [m].
     origin : array_like, shape (3,)
         Corner of the grid [m].
+    label : ndarray of int or bool, shape (S,), optional
+        Sides of different labels never share a patch (the cache's Fresnel-weighted sides and
+        the others, whose values are different quantities).
 
     Returns
     -------
@@ -179,7 +182,8 @@ def patch_sides(triangles, normals, areas, size, *, origin):
     cube = np.floor((centroid - origin) / size).astype(np.int64)
     middle = np.asarray(origin) + (cube + 0.5) * size
     offset = np.floor(np.einsum("ij,ij->i", normals, centroid - middle) * _PATCH_SLICES / size)
-    key = np.column_stack([cube, _normal_cell(normals), offset.astype(np.int64)])
+    key = np.column_stack([cube, _normal_cell(normals), offset.astype(np.int64),
+                           np.zeros(S, np.int64) if label is None else np.asarray(label, np.int64)])
     _, patch = np.unique(key, axis=0, return_inverse=True)
     patch = patch.ravel()
     C = int(patch.max()) + 1

@@ -24,6 +24,15 @@ distribution I, emitted from a point or uniformly from a luminous rectangle) con
 I(ω_{y→x})·cos⁺θ_x·V/r², averaged over ``samples`` points of the rectangle (one for a point):
 unbiased.
 
+At points on smooth plastic, metal or trans of specularity ≥ 0.018 the diffuse part
+scatters the *Fresnel-weighted* illuminance E_F = ∫(1 − F(μ))·L·μ dω (Radiance's factor
+1 − F(μ_i) of ``normal.c``, :func:`~lsadphoto.solver.materials.diffuse_fresnel_factor`);
+``fresnel=`` asks for it. Every sample's term is weighted by 1 − F(cos θ_x): the point
+luminaires' and the distant sources' terms stay unbiased, the area luminaires' ratio becomes
+Ê_F,l = L·Π_l·Σ_j (1 − F_j)·V_j·g_j / Σ_j g_j — consistent, with the same order-1/s bias,
+no longer exact where the luminaire is fully visible (it then estimates the g-weighted mean
+of 1 − F over the luminaire, which varies little unless it is seen at grazing angles).
+
 Each estimate comes with its sampling variance (the delta-method variance of the ratio; for
 point luminaires the sample variance over s). Both ignore the stratification, which lowers
 the true variance: conservative (1.2–1.4× the observed variance in the half-shadow test).
@@ -64,7 +73,7 @@ from numba import njit
 
 from .._validation import check_positive_int
 from ._sampling import stream
-from .materials import shadow_transmittance, shadows_transmit
+from .materials import diffuse_fresnel_factor, shadow_transmittance, shadows_transmit
 from .photometry import pack_photometries, packed_intensity
 from .sky import distant_illuminance, distant_uniforms
 
@@ -196,11 +205,11 @@ def _projected_solid_angle(points, normals, tris, front):
 
 
 @njit(**_NUMBA)
-def _area_samples(x, n, tris, tri_normals, cdf, u, offset, targets, g):
+def _area_samples(x, n, tris, tri_normals, cdf, u, offset, targets, g, cosine):
     """Stratified points on a luminaire's triangles for points x (normals n): shadow-ray
-    targets (the point moved ``offset`` off the emitting side) and g = cos⁺θ_x·cos⁺θ_y/r²
-    (one-sided emitter). ``u`` (P, s, 3): the first uniform picks the triangle within its
-    stratum of the area CDF, the other two the point (square-root warp)."""
+    targets (the point moved ``offset`` off the emitting side), g = cos⁺θ_x·cos⁺θ_y/r²
+    (one-sided emitter) and cos θ_x. ``u`` (P, s, 3): the first uniform picks the triangle
+    within its stratum of the area CDF, the other two the point (square-root warp)."""
     P, s = g.shape
     nt = cdf.size
     for i in range(P):
@@ -227,6 +236,7 @@ def _area_samples(x, n, tris, tri_normals, cdf, u, offset, targets, g):
             cx = rx * n[i, 0] + ry * n[i, 1] + rz * n[i, 2]
             cy = -(rx * tri_normals[t, 0] + ry * tri_normals[t, 1] + rz * tri_normals[t, 2])
             g[i, j] = cx * cy / (r2 * r2) if (cx > 0.0 and cy > 0.0) else 0.0
+            cosine[i, j] = cx / math.sqrt(r2) if r2 > 0.0 else 0.0
 
 
 class _LuminaireSampler:
@@ -243,21 +253,23 @@ class _LuminaireSampler:
         self.cdf[-1] = 1.0
 
     def sample(self, x, n, u, offset):
-        """Shadow-ray targets (P, s, 3) and g (P, s) for points x, normals n, uniforms u."""
+        """Shadow-ray targets (P, s, 3), g and cos θ_x (P, s) for points x, normals n, uniforms u."""
         P, s, _ = u.shape
         targets = np.empty((P, s, 3))
         g = np.empty((P, s))
+        cosine = np.empty((P, s))
         _area_samples(np.ascontiguousarray(x), np.ascontiguousarray(n), self.triangles,
-                      self.normals, self.cdf, np.ascontiguousarray(u), offset, targets, g)
-        return targets, g
+                      self.normals, self.cdf, np.ascontiguousarray(u), offset, targets, g, cosine)
+        return targets, g, cosine
 
 
-def _area_estimate(scene, sampler, x, n, origins, u, engine, unoccluded=None):
+def _area_estimate(scene, sampler, x, n, origins, u, engine, unoccluded=None, fresnel=None):
     """Ratio estimate of one area luminaire's direct illuminance [lx] at points x (normals
     n, ray origins ``origins``) from uniforms u (P, s, 3), and its delta-method variance;
     ``unoccluded`` = L·Π at x where already known. V_j is the shadow transmittance (1 or 0;
     through glass and smooth ``trans`` their straight-through T:
-    :func:`~lsadphoto.solver.materials.shadow_transmittance`, as Radiance's shadow rays)."""
+    :func:`~lsadphoto.solver.materials.shadow_transmittance`, as Radiance's shadow rays),
+    times 1 − F(cos θ_x) at the points where ``fresnel`` (module docstring)."""
     P, s, _ = u.shape
     E = np.zeros(P)
     var = np.zeros(P)
@@ -269,12 +281,14 @@ def _area_estimate(scene, sampler, x, n, origins, u, engine, unoccluded=None):
     lit = np.flatnonzero(pi_l > 0)
     if lit.size == 0:
         return E, var
-    targets, g = sampler.sample(x[lit], n[lit], u[lit], engine.epsilon)
+    targets, g, cosine = sampler.sample(x[lit], n[lit], u[lit], engine.epsilon)
     seen = np.zeros_like(g)
     cand = np.flatnonzero(g.ravel() > 0)
     if cand.size:
         p_of = lit[cand // s]
         seen.ravel()[cand] = g.ravel()[cand] * shadow_transmittance(scene, engine, origins[p_of], targets.reshape(-1, 3)[cand])
+        if fresnel is not None:
+            seen.ravel()[cand] *= diffuse_fresnel_factor(cosine.ravel()[cand], fresnel[p_of])
     total = g.sum(axis=1)
     sampled = total > 0  # else no sample fell where g > 0: taken as visible
     ratio = np.ones(lit.size)
@@ -373,13 +387,13 @@ def _unoccluded_all(x, n, points, areas, n_area, out):
 
 
 @njit(**_NUMBA)
-def _point_terms(x, n, offset, point, lum, guide, count, u, u_start, points, values, o32, d32, t32,
-                 ray):
+def _point_terms(x, n, offset, point, lum, guide, count, u, u_start, points, values, cosine, o32, d32,
+                 t32, ray):
     """Terms of the estimates of point luminaires ``lum[e]`` (index among the point
     luminaires) at points ``point[e]``: ``values[e, j]`` = I·cos⁺θ_x/r² from emission point j
     < ``count[e]`` of the luminous rectangle (uniforms ``u[u_start[e] + j, :2]``; one point, the centre,
-    with the exact ``guide[e]`` as its value, for a luminaire without one); returns the number m of nonzero
-    terms, whose flat index and float32 shadow ray (from x moved ``offset`` along n to the
+    with the exact ``guide[e]`` as its value, for a luminaire without one), and ``cosine[e, j]``
+    its cos θ_x where nonzero; returns the number m of nonzero terms, whose flat index and float32 shadow ray (from x moved ``offset`` along n to the
     emission point, stopped ``offset`` short) are in ``ray``, ``o32``, ``d32``, ``t32`` [:m].
     Returns also how many terms each estimate has (``ns``)."""
     E, s = values.shape
@@ -409,6 +423,8 @@ def _point_terms(x, n, offset, point, lum, guide, count, u, u_start, points, val
                 v = guide[e]
             values[e, j] = v
             if v > 0.0:
+                rx, ry, rz = y0 - x[i, 0], y1 - x[i, 1], y2 - x[i, 2]
+                cosine[e, j] = (rx * n[i, 0] + ry * n[i, 1] + rz * n[i, 2]) / math.sqrt(rx * rx + ry * ry + rz * rz)
                 ex, ey, ez = y0 - ox, y1 - oy, y2 - oz
                 d = math.sqrt(ex * ex + ey * ey + ez * ez)
                 if d > offset:  # (else: taken as visible, as RayEngine.visible does)
@@ -420,21 +436,24 @@ def _point_terms(x, n, offset, point, lum, guide, count, u, u_start, points, val
     return m, ns
 
 
-def _point_estimates(scene, lights, x, n, point, lum, guide, u, u_start, count, engine):
+def _point_estimates(scene, lights, x, n, point, lum, guide, u, u_start, count, engine, fresnel=None):
     """Direct illuminance [lx] of point luminaires ``lum`` (index among the point luminaires)
     at points ``x[point]``, and the sample variance of each mean: the mean over ``count[e]``
     emission points of a luminous rectangle (placed by the uniforms ``u[u_start[e]:][:count[e],
     :2]``), or the exact ``guide`` times the visibility of the centre; all shadow rays in one
-    Embree call."""
+    Embree call. Each term times 1 − F(cos θ_x) at the points where ``fresnel``."""
     E = len(point)
     s = max(int(count.max(initial=1)), 1)
     values = np.empty((E, s))
+    cosine = np.zeros((E, s))
     o32 = np.empty((E * s, 3), dtype=np.float32)
     d32 = np.empty((E * s, 3), dtype=np.float32)
     t32 = np.empty(E * s, dtype=np.float32)
     ray = np.empty(E * s, dtype=np.int64)
     m, ns = _point_terms(x, n, engine.epsilon, point, lum, guide, count, u, u_start, lights.points,
-                         values, o32, d32, t32, ray)
+                         values, cosine, o32, d32, t32, ray)
+    if fresnel is not None:
+        values *= diffuse_fresnel_factor(cosine, fresnel[point][:, None])
     if m and shadows_transmit(scene):
         o = o32[:m].astype(float)
         values.ravel()[ray[:m]] *= shadow_transmittance(scene, engine, o, o + d32[:m] * t32[:m, None])
@@ -554,7 +573,7 @@ def _plan(x, n, row, cand, n_cand, rest_w, rest_cum, picks, points, areas, n_are
 
 
 def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES, seed=0,
-                       block_ids=None, purpose_key=0, luminaires="auto", distant_samples=None):
+                       block_ids=None, purpose_key=0, luminaires="auto", distant_samples=None, fresnel=None):
     """Direct illuminance [lx] at surface points, and its sampling variance [lx²].
 
     Parameters
@@ -588,6 +607,12 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     distant_samples : int, optional
         Shadow rays per distant source (sun, sky: :func:`~lsadphoto.solver.sky.distant_illuminance`)
         and point; default ``samples``.
+    fresnel : ndarray of bool, shape (P,), optional
+        Points where the *Fresnel-weighted* illuminance E_F = ∫(1 − F(μ))·L·μ dω [lx] is
+        wanted instead of E (F: Radiance's Fresnel estimate; the irradiance the diffuse part
+        of smooth plastic, metal and trans of specularity ≥ 0.018 scatters,
+        :func:`~lsadphoto.solver.materials.diffuse_fresnel_factor`): each sample's term is
+        weighted by 1 − F(cos θ_x) (module docstring).
 
     Returns
     -------
@@ -614,10 +639,11 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     n_lum = lights.count
     draws = _luminaire_draws(luminaires, n_lum)
     blocks = np.zeros(P, dtype=np.int64) if block_ids is None else np.asarray(block_ids)
+    fresnel = _fresnel_points(fresnel, P)
     if scene.distant_sources:  # the sun and the sky, next-event estimated (solver/sky.py)
         u = distant_uniforms(scene, seed, (0, purpose_key), blocks,
                              s if distant_samples is None else check_positive_int(distant_samples, "distant samples"))
-        E, var = distant_illuminance(scene, engine, x, n, u)
+        E, var = distant_illuminance(scene, engine, x, n, u, fresnel=fresnel)
     if P == 0 or n_lum == 0:
         return E, var
     origins = x + engine.epsilon * n
@@ -631,7 +657,7 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         _unoccluded_all(x, n, lights.points, lights.areas, lights.n_area, guide)
         point, lum = np.nonzero((guide > 0) | ~lights.exact[None, :])
         e, v = _estimates(scene, lights, engine, x, n, origins, point, lum, guide[point, lum],
-                          u[point, lum].reshape(-1, 3), np.full(len(point), s, dtype=np.int64))
+                          u[point, lum].reshape(-1, 3), np.full(len(point), s, dtype=np.int64), fresnel)
         return E + np.bincount(point, e, P), var + np.bincount(point, v, P)
     # Importance sampling of luminaires (_plan): each point evaluates its whole luminaires
     # and its draws; a block's stream gives first its draws, then the evaluations' uniforms.
@@ -670,7 +696,7 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         rows = np.repeat(u_start[sel] - (np.cumsum(need) - need), need) + np.arange(int(need.sum()))
         u[rows] = g.random((rows.size, 3))
     e, v = _estimates(scene, lights, engine, x, n, origins, point, lum, ev_guide[point, slot],
-                      u, count)
+                      u, count, fresnel)
     E += np.bincount(point, weight * e, P)
     var += np.bincount(point[~drawn], v[~drawn], P)
     if draws > 1 and drawn.any():
@@ -691,12 +717,13 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     return E, var
 
 
-def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count):
+def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count, fresnel=None):
     """Direct illuminance [lx] of luminaire ``lum[e]`` at point ``point[e]`` and its
     sampling variance, for every pair e (``guide``: the unoccluded value, exact for area
     luminaires and points), from ``count[e]`` samples (uniforms: the rows of ``u`` (U, 3) in
     order, ``count[e]`` per pair): point luminaires in one compiled pass and one Embree call,
-    area luminaires by :func:`_area_estimate` per luminaire."""
+    area luminaires by :func:`_area_estimate` per luminaire (Fresnel-weighted at the points where
+    ``fresnel``)."""
     e = np.zeros(len(point))
     v = np.zeros(len(point))
     u_start = np.cumsum(count) - count
@@ -704,15 +731,24 @@ def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count
     if is_point.any():
         sel = np.flatnonzero(is_point)
         e[sel], v[sel] = _point_estimates(scene, lights, x, n, point[sel], lum[sel] - lights.n_area,
-                                          guide[sel], u, u_start[sel], count[sel], engine)
+                                          guide[sel], u, u_start[sel], count[sel], engine, fresnel)
     samplers = _samplers(scene)
     for li in np.unique(lum[~is_point]):
         sel = np.flatnonzero(lum == li)
         p = point[sel]
         u3 = u[u_start[sel, None] + np.arange(int(count[sel[0]]))]
         e[sel], v[sel] = _area_estimate(scene, samplers[li], x[p], n[p], origins[p], u3, engine,
-                                        unoccluded=guide[sel])
+                                        unoccluded=guide[sel], fresnel=None if fresnel is None else fresnel[p])
     return e, v
+
+
+def _fresnel_points(fresnel, count):
+    """The ``fresnel`` argument of :func:`direct_illuminance` as a bool array of ``count``
+    points, or None where no point is Fresnel-weighted."""
+    if fresnel is None:
+        return None
+    fresnel = np.broadcast_to(np.asarray(fresnel, dtype=bool), (count,))
+    return fresnel if fresnel.any() else None
 
 
 def _luminaire_draws(luminaires, n_lum):
@@ -918,7 +954,7 @@ def _luminaire_table(scene):
 
 
 def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0, block_ids=None,
-                               purpose_key=0):
+                               purpose_key=0, fresnel=None):
     """Direct illuminance [lx] at points by one luminaire drawn from a :class:`LuminaireTable`.
 
     Each point draws one luminaire l with the probability p_l of its region's row of bounds
@@ -931,7 +967,7 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
 
     Parameters
     ----------
-    scene, engine, points, normals
+    scene, engine, points, normals, fresnel
         As :func:`direct_illuminance`.
     table : LuminaireTable
     seed, block_ids, purpose_key
@@ -946,9 +982,11 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
     P = len(x)
     E = np.zeros(P)
     blocks = np.zeros(P, dtype=np.int64) if block_ids is None else np.asarray(block_ids)
+    fresnel = _fresnel_points(fresnel, P)
     sky = 0.0
     if scene.distant_sources:  # the sun and the sky, one next-event sample each (solver/sky.py)
-        sky = distant_illuminance(scene, engine, x, n, distant_uniforms(scene, seed, (2, purpose_key), blocks, 1))[0]
+        sky = distant_illuminance(scene, engine, x, n, distant_uniforms(scene, seed, (2, purpose_key), blocks, 1),
+                                  fresnel=fresnel)[0]
     if P == 0 or table.count == 0:
         return E + sky
     u = np.empty((P, 4))
@@ -967,14 +1005,16 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
                           lights.n_area, guide)
         E[of_point] = _point_estimates(scene, lights, x, n, of_point, pick[of_point] - lights.n_area, guide,
                                        np.ascontiguousarray(u[of_point, 1:]), np.arange(of_point.size),
-                                       np.ones(of_point.size, dtype=np.int64), engine)[0]
+                                       np.ones(of_point.size, dtype=np.int64), engine, fresnel)[0]
     origins = x + engine.epsilon * n
     samplers = _samplers(scene)
     for li in np.unique(pick[pick < lights.n_area]):
         m = np.flatnonzero(pick == li)
         s = samplers[li]
-        targets, g = s.sample(x[m], n[m], u[m, None, 1:], engine.epsilon)
+        targets, g, cosine = s.sample(x[m], n[m], u[m, None, 1:], engine.epsilon)
         lit = np.flatnonzero(g[:, 0] > 0)
         if lit.size:
             E[m[lit]] = s.luminance * s.area * g[lit, 0] * shadow_transmittance(scene, engine, origins[m[lit]], targets[lit, 0])
+            if fresnel is not None:
+                E[m[lit]] *= diffuse_fresnel_factor(cosine[lit, 0], fresnel[m[lit]])
     return E / prob + sky

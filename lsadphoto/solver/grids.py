@@ -42,7 +42,7 @@ from .direct import DIRECT_SAMPLES, direct_illuminance
 from .engine import engine_for
 from .sky import DISTANT_RAYS_PER_DIRECT_SAMPLE
 from .store import LsadStore
-from .integrators.surface_cache import CACHE_NODES, check_cache_materials, indirect_illuminance
+from .integrators.surface_cache import CACHE_NODES, indirect_illuminance
 
 __all__ = ["GRID_KINDS", "CalculationGrid", "GridIlluminance", "cylindrical_discretisation_bound",
            "grid_illuminance", "grid_spacing_EN12464", "work_plane_grid"]
@@ -227,7 +227,6 @@ def grid_illuminance(store, grid, *, nodes=CACHE_NODES, direct_samples=DIRECT_SA
     """
     if not isinstance(store, LsadStore):
         raise BadInputError("grid_illuminance needs a simulated store (LsadStore)")
-    check_cache_materials(store.scene, "grid_illuminance (direct light and the surface cache)")
     if not isinstance(grid, CalculationGrid):
         raise BadInputError("grid_illuminance needs a CalculationGrid (see work_plane_grid)")
     check_positive_int(nodes, "nodes")

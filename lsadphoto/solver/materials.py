@@ -73,6 +73,7 @@ __all__ = [
     "KINDS",
     "Material",
     "MaterialTable",
+    "diffuse_fresnel_factor",
     "fresnel_estimate",
     "glass_transmissivity",
     "luminance_of",
@@ -104,6 +105,20 @@ def luminance_of(rgb):
 def fresnel_estimate(mu):
     """Radiance's Fresnel estimate F(μ) = e^(−5.85 μ) − 0.00287989916 (``normal.c``) [–]."""
     return np.exp(-5.85 * np.asarray(mu, float)) - 0.00287989916
+
+
+def diffuse_fresnel_factor(mu, fresnel):
+    """g(μ_i) = 1 − F(|μ_i|) where ``fresnel`` (bool, per element), else 1 [–]: the factor of
+    the diffuse part of smooth plastic, metal and trans of specularity ≥ 0.018 at the cosine
+    μ_i of the incoming direction (Radiance's ``dirnorm`` in ``normal.c``; module docstring).
+
+    Examples
+    --------
+    >>> [round(float(v), 4) for v in diffuse_fresnel_factor([1.0, 0.1, 0.1], [True, True, False])]
+    [1.0, 0.4458, 1.0]
+    """
+    mu = np.abs(np.asarray(mu, float))
+    return np.where(fresnel, 1 - fresnel_estimate(mu), 1.0)
 
 
 def glass_transmissivity(transmittance):
@@ -316,7 +331,7 @@ class MaterialTable:
         mu_o = np.clip(_dot(n, wo), 1e-3, 1.0)
         mu_i = _dot(n, wi)
         p = self.parts(m, mu_o) if parts is None else parts
-        g = np.where(p["fresnel"], 1 - fresnel_estimate(np.abs(mu_i)), 1.0)
+        g = diffuse_fresnel_factor(mu_i, p["fresnel"])
         refl = mu_i > 0
         f = np.where(refl, p["kd"], p["td"]) * g / math.pi
         diffuse = f.copy() if split else None

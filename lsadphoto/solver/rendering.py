@@ -23,7 +23,7 @@ from .direct import DIRECT_SAMPLES, LUMINAIRE_DRAWS
 from .integrators.local_estimate import (AUTO_NODES_PER_PIXEL, RAYS_PER_VERTEX, render_local_estimate,
                                          render_local_estimate_materials)
 from .integrators.path_tracer import render_path_traced
-from .integrators.surface_cache import CACHE_NODES, build_surface_cache, check_cache_materials, render_cached
+from .integrators.surface_cache import CACHE_NODES, build_surface_cache, render_cached
 from .scene import Scene
 from .simulation import DEFAULT_BATCHES, DEFAULT_CHAINS, ChainRun, check_simulation_options, simulate
 from .store import LsadStore
@@ -323,7 +323,6 @@ def _render_from_cache(store_or_scene, projection, *, position, rotation, sample
     def cache_of(store, node_draws):
         return build_surface_cache(store, spacing=spacing, nodes=node_draws, seed=seed, workers=workers)
 
-    check_cache_materials(store_or_scene.scene if isinstance(store_or_scene, LsadStore) else store_or_scene)
     if isinstance(store_or_scene, LsadStore):
         store = store_or_scene
         _refuse_chains_for_store(store, samples, target_error)

@@ -48,7 +48,7 @@ import numpy as np
 
 from ..errors import BadInputError
 from ._sampling import orthonormal_basis, stream
-from .materials import shadow_transmittance, shadows_transmit
+from .materials import diffuse_fresnel_factor, shadow_transmittance, shadows_transmit
 
 __all__ = ["DISTANT_RAYS_PER_DIRECT_SAMPLE", "DistantSource", "GATHER_DISTANT_SAMPLES", "SKY_FUNCTIONS",
            "TOML_SKY_MODELS", "background_luminance", "distant_illuminance", "distant_reflection",
@@ -353,7 +353,7 @@ def _groups(samples):
     return STRATIFIED_GROUPS if samples >= 16 else 1
 
 
-def distant_illuminance(scene, engine, points, normals, u):
+def distant_illuminance(scene, engine, points, normals, u, *, fresnel=None):
     """Direct illuminance [lx] of the scene's distant sources at points, and its variance.
 
     ``u`` ``(P, sources, s, 2)`` uniforms (:func:`distant_uniforms`): s shadow rays per
@@ -362,7 +362,9 @@ def distant_illuminance(scene, engine, points, normals, u):
     their straight-through transmittance. The variance is the spread of the
     independent stratified groups' means (from 16 samples on); below, the samples' spread as
     if they were independent, an upper bound for stratified samples (for s = 1 the square of
-    the estimate, also an upper bound).
+    the estimate, also an upper bound). ``fresnel`` (bool per point, optional): where true,
+    the Fresnel-weighted illuminance E_F, each term times 1 − F(n·ω)
+    (:func:`~lsadphoto.solver.direct.direct_illuminance`).
     """
     x = np.asarray(points, float).reshape(-1, 3)
     n = np.asarray(normals, float).reshape(-1, 3)
@@ -377,7 +379,8 @@ def distant_illuminance(scene, engine, points, normals, u):
     reach = np.float32(4 * scene.sphere[1] + 1.0)
     for k, src in enumerate(sources):
         d, w = src.sample(u[:, k].reshape(-1, 2))
-        g = w * np.einsum("ij,ij->i", d, normals_s)
+        cos = np.einsum("ij,ij->i", d, normals_s)
+        g = w * cos if fresnel is None else w * cos * diffuse_fresnel_factor(cos, np.repeat(fresnel, s))
         lit = np.flatnonzero(g > 0)
         value = np.zeros(P * s)
         if lit.size and shadows_transmit(scene):

@@ -53,9 +53,13 @@ Per pixel the eye path follows deltas; each vertex takes its diffuse part from E
 rays through glass with its transmittance) + the interpolated E_ind, and its glossy part from
 lobe-sampled rays whose hits are evaluated the same way, with next-event estimates for what
 rays cannot hit (point luminaires, the sun and sky) (:func:`_material_chunk`). Smooth
-materials whose diffuse part carries Radiance's Fresnel factor are refused
-(:func:`check_cache_materials`). docs/user-guide-solver.md §2a gives the rules and where the
-estimate is not unbiased.
+plastic, metal and trans of specularity ≥ 0.018 carry Radiance's Fresnel factor 1 − F(μ_i) on
+their diffuse part (:mod:`~lsadphoto.solver.materials`), which then scatters the
+*Fresnel-weighted* irradiance E_F = ∫(1 − F(μ_i))·L·μ_i dω, not E: their cache points hold
+E_F,ind (each far connection weighted by 1 − F(cos θ_x), each cosine-sampled ray's π by
+1 − F(μ_i) of its direction; patches never mix the two quantities), and their vertices take
+E_F,dir from the direct part (``fresnel=`` of :func:`direct_illuminance`).
+docs/user-guide-solver.md §2a gives the rules and where the estimate is not unbiased.
 
 References
 ----------
@@ -80,14 +84,14 @@ from ..cache_grid import PATCH_KERNEL, SurfaceCache, grid_index, patch_neighbour
 from ..direct import (ALL_LUMINAIRES_UP_TO, DIRECT_SAMPLES, LuminaireTable, direct_illuminance,
                       sampled_direct_illuminance)
 from ..engine import engine_for
-from ..materials import shadow_transmittance
+from ..materials import diffuse_fresnel_factor, shadow_transmittance
 from ..sky import DISTANT_RAYS_PER_DIRECT_SAMPLE, background_luminance, distant_reflection, stratified
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance, luminance_map_from_batches,
                   luminous_openings, near_step, primary_rays, run_chunks, warn_odd_view)
 
 __all__ = ["CACHE_NODES", "GLOSSY_RAYS", "RELATIVE_CACHE_SPACING", "build_surface_cache",
-           "check_cache_materials", "indirect_illuminance", "render_cached"]
+           "indirect_illuminance", "render_cached"]
 
 #: Default cache spacing as a fraction of the scene's bounding-box diagonal.
 RELATIVE_CACHE_SPACING = 1 / 24
@@ -401,7 +405,6 @@ def indirect_illuminance(store, points, normals, *, nodes=CACHE_NODES, near_dist
     if not isinstance(store, LsadStore):
         raise BadInputError("indirect_illuminance needs an LsadStore")
     scene = store.scene
-    check_cache_materials(scene, "the indirect illuminance of the surface cache")
     eps = RELATIVE_CACHE_NEAR_DISTANCE * scene.size if near_distance is None else float(near_distance)
     if not eps > 0:
         raise BadInputError(f"near_distance must be positive, got {near_distance!r}")
@@ -418,7 +421,8 @@ def indirect_illuminance(store, points, normals, *, nodes=CACHE_NODES, near_dist
 def _cache_points(scene, spacing, inset, reflecting):
     """Levels, offsets, points and normals of the regular cache grids (both sides) of the
     ``reflecting`` triangles larger than the spacing (level ≥ 1); level 0 marks the smaller
-    ones, which share patch points (:func:`_patches`), −1 the others."""
+    ones, which share patch points (:func:`_patches`), −1 the others; and the triangle of each
+    point."""
     tris = scene.triangles
     T = len(tris)
     longest = np.stack([np.linalg.norm(tris[:, 1] - tris[:, 0], axis=1),
@@ -431,7 +435,7 @@ def _cache_points(scene, spacing, inset, reflecting):
     level = np.where(extent < spacing, 0, np.ceil(extent / spacing)).astype(np.int64)
     level[~reflecting] = -1
     offset = np.full((T, 2), -1, dtype=np.int64)
-    pts, nrm = [], []
+    pts, nrm, owner = [], [], []
     cursor = 0
     for t in np.flatnonzero(level >= 1):
         m = level[t]
@@ -448,10 +452,12 @@ def _cache_points(scene, spacing, inset, reflecting):
             offset[t, side] = cursor
             pts.append(p)
             nrm.append(np.broadcast_to(sign * scene.normals[t], p.shape))
+            owner.append(np.full(len(p), t, np.int64))
             cursor += len(p)
     points = np.concatenate(pts) if pts else np.zeros((0, 3))
     normals = np.concatenate(nrm) if nrm else np.zeros((0, 3))
-    return level, offset, points, np.ascontiguousarray(normals)
+    triangle = np.concatenate(owner) if owner else np.zeros(0, np.int64)
+    return level, offset, points, np.ascontiguousarray(normals), triangle
 
 
 def _small_sides(scene, level):
@@ -576,7 +582,6 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     if not isinstance(store, LsadStore):
         raise BadInputError("build_surface_cache needs an LsadStore")
     scene = store.scene
-    check_cache_materials(scene)
     spacing = RELATIVE_CACHE_SPACING * scene.size if spacing is None else float(spacing)
     if not (spacing > 0 and math.isfinite(spacing)):
         raise BadInputError(f"cache spacing must be a positive length in metres, got {spacing!r}")
@@ -596,31 +601,41 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     else:  # a diffuse reflection or transmission: its triangles' sides get cache points
         kd, td = _diffuse_coefficients(scene)
         reflecting = (kd + td)[scene.material] > 0
-    level, offset, points, normals = _cache_points(scene, spacing, inset, reflecting)
-    # The small triangles' sides share patch points (cache_grid.patch_sides).
+    level, offset, points, normals, point_tri = _cache_points(scene, spacing, inset, reflecting)
+    # The sides of smooth plastic, metal and trans (Radiance's Fresnel factor on their diffuse
+    # part) cache the Fresnel-weighted E_ind (_MaterialIndirectEstimator.estimate).
+    weighted_tri = np.zeros(len(scene.triangles), bool) if scene.lambertian else scene.bsdf.fresnel[scene.material]
+    weighted = weighted_tri[point_tri]
+    # The small triangles' sides share patch points (cache_grid.patch_sides), never across
+    # weightings.
     side_tri, side_of, side_normal = _small_sides(scene, level)
     origin = scene.triangles.reshape(-1, 3).min(axis=0) if len(scene.triangles) else np.zeros(3)
     side_tris = scene.triangles[side_tri]
     side_areas = scene.areas[side_tri]
-    groups = patch_sides(side_tris, side_normal, side_areas, spacing, origin=origin)
+    side_weighted = weighted_tri[side_tri]
+    groups = patch_sides(side_tris, side_normal, side_areas, spacing, origin=origin, label=side_weighted)
     grid_points = len(points)
     leaf_of_side = groups.patch.copy()
     p_point, p_normal, p_reach = groups.point, groups.normal, groups.reach
+    p_weighted = _patch_weighting(groups, side_weighted)
     p_size = np.full(len(p_point), spacing)
     p_row = grid_points + np.arange(len(p_point))
     points = np.concatenate([points, p_point])
     normals = np.concatenate([normals, p_normal])
+    weighted = np.concatenate([weighted, p_weighted])
     estimator = _IndirectEstimator if scene.lambertian else _MaterialIndirectEstimator
     est = estimator(store, engine, nodes=nodes, near_distance=eps, direct_samples=direct_samples, seed=seed, key=0)
 
-    def evaluate(pts, nrm, first_block):
+    def evaluate(pts, nrm, fresnel, first_block):
         values = np.zeros((len(pts), est.groups))
         blocks = first_block + np.arange(len(pts)) // POINT_BLOCK
 
         def work(start):
             sl = slice(start, start + POINT_BLOCK)
             idx = np.arange(start, min(start + POINT_BLOCK, len(pts)))
-            return idx, est.estimate(pts[sl], nrm[sl], blocks[sl])
+            if scene.lambertian:
+                return idx, est.estimate(pts[sl], nrm[sl], blocks[sl])
+            return idx, est.estimate(pts[sl], nrm[sl], blocks[sl], fresnel[sl])
 
         run_chunks(work, range(0, len(pts), POINT_BLOCK), values, int(workers), progress,
                     time.perf_counter(), len(pts))
@@ -629,7 +644,7 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     def next_block():
         return (len(points) + POINT_BLOCK - 1) // POINT_BLOCK
 
-    values = evaluate(points, normals, 0)
+    values = evaluate(points, normals, weighted, 0)
     first_points = len(points)
     keys, corners = (_cells_to_refine(level, offset, values, contrast) if refine > 1
                      else (np.zeros(0, np.int64), np.zeros((0, 3), np.int64)))
@@ -649,12 +664,13 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         new = np.setdiff1d(np.arange(len(ab)), corner_slots)
         fresh_points = fine_points[:, new].reshape(-1, 3)
         fresh_normals = np.repeat(normals[corners[:, 0]], new.size, axis=0)
-        fine_values[:, new] = evaluate(fresh_points, fresh_normals, next_block()).reshape(
-            keys.size, new.size, est.groups)
+        fine_values[:, new] = evaluate(fresh_points, fresh_normals, np.repeat(weighted[corners[:, 0]], new.size),
+                                       next_block()).reshape(keys.size, new.size, est.groups)
         refined_offset = len(points) + len(ab) * np.arange(keys.size, dtype=np.int64)
         values = np.concatenate([values, fine_values.reshape(-1, est.groups)])
         points = np.concatenate([points, fine_points.reshape(-1, 3)])
         normals = np.concatenate([normals, np.repeat(normals[corners[:, 0]], len(ab), axis=0)])
+        weighted = np.concatenate([weighted, np.repeat(weighted[corners[:, 0]], len(ab))])
     # Patches that differ strongly from a neighbour are split at half their size (their
     # points stay in the cache but no side refers to them any more).
     leaf = np.ones(len(p_point), dtype=bool)
@@ -662,24 +678,27 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     for halving in range(1, int(patch_refine) + 1):
         radius = PATCH_KERNEL * p_size
         start, index = patch_neighbours(p_point, radius, p_reach)
-        start, index = _visible_lists(engine, p_point, p_normal, *_leaf_lists(start, index, leaf))
+        start, index = _visible_lists(engine, p_point, p_normal, *_kin_lists(start, index, leaf, p_weighted))
         split = _patches_to_split(values[p_row], p_point, p_normal, radius, start, index, contrast)
         if split.size == 0:
             break
         sides = np.flatnonzero(np.isin(leaf_of_side, split))
         finer = patch_sides(side_tris[sides], side_normal[sides], side_areas[sides],
-                            spacing / 2 ** halving, origin=origin)
+                            spacing / 2 ** halving, origin=origin, label=side_weighted[sides])
+        finer_weighted = _patch_weighting(finer, side_weighted[sides])
         leaf[split] = False
         split_patches += split.size
         first = len(p_point)
         leaf_of_side[sides] = first + finer.patch
-        new_values = evaluate(finer.point, finer.normal, next_block())
+        new_values = evaluate(finer.point, finer.normal, finer_weighted, next_block())
         p_row = np.concatenate([p_row, len(points) + np.arange(len(finer.point))])
         points = np.concatenate([points, finer.point])
         normals = np.concatenate([normals, finer.normal])
+        weighted = np.concatenate([weighted, finer_weighted])
         values = np.concatenate([values, new_values])
         p_point = np.concatenate([p_point, finer.point])
         p_normal = np.concatenate([p_normal, finer.normal])
+        p_weighted = np.concatenate([p_weighted, finer_weighted])
         p_reach = np.concatenate([p_reach, finer.reach])
         p_size = np.concatenate([p_size, np.full(len(finer.point), finer.size)])
         leaf = np.concatenate([leaf, np.ones(len(finer.point), dtype=bool)])
@@ -689,7 +708,8 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
     renumber[keep] = np.arange(keep.size)
     radius = PATCH_KERNEL * p_size[keep]
     start, index = _visible_lists(engine, p_point[keep], p_normal[keep],
-                                  *patch_neighbours(p_point[keep], radius, p_reach[keep]))
+                                  *_kin_lists(*patch_neighbours(p_point[keep], radius, p_reach[keep]),
+                                              np.ones(keep.size, bool), p_weighted[keep]))
     patch = np.full((len(scene.triangles), 2), -1, np.int64)
     patch[side_tri, side_of] = renumber[leaf_of_side]
     # each point's free distance along its normal: its validity radius (SurfaceCache.interpolate)
@@ -700,7 +720,8 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         "near_distance_m": eps, "near_rays": est.near_rays, "direct_samples": int(direct_samples),
         "seed": int(seed), "grid_points": grid_points, "patch_points": int(first_points - grid_points),
         "refined_cells": int(keys.size), "split_patches": int(split_patches),
-        "leaf_patches": int(keep.size), "points": len(values), "refine_contrast": float(contrast),
+        "leaf_patches": int(keep.size), "points": len(values), "fresnel_weighted_points": int(weighted.sum()),
+        "refine_contrast": float(contrast),
         "build_time_s": time.perf_counter() - t0},
                         patch=patch, patch_row=p_row[keep], patch_normal=p_normal[keep],
                         patch_radius=radius, patch_start=start, patch_index=index,
@@ -723,13 +744,22 @@ def _visible_lists(engine, point, normal, start, index):
     return new_start, index[keep]
 
 
-def _leaf_lists(start, index, leaf):
-    """The CSR lists ``start``/``index`` restricted to leaf entries (rows kept)."""
+def _kin_lists(start, index, leaf, weighted):
+    """The CSR lists ``start``/``index`` restricted to the leaf entries weighted as their row's
+    patch (rows kept): a kernel never averages a Fresnel-weighted E_ind with a plain one."""
     owner = np.repeat(np.arange(len(start) - 1), np.diff(start))
-    keepers = leaf[index]
+    keepers = leaf[index] & (weighted[index] == weighted[owner])
     new_start = np.zeros_like(start)
     new_start[1:] = np.cumsum(np.bincount(owner[keepers], minlength=len(start) - 1))
     return new_start, index[keepers]
+
+
+def _patch_weighting(patches, side_weighted):
+    """Whether each patch of ``patches`` caches the Fresnel-weighted E_ind (its sides all do:
+    :func:`patch_sides` keeps the weightings apart)."""
+    out = np.zeros(len(patches.point), bool)
+    out[patches.patch] = side_weighted
+    return out
 
 
 def render_cached(store, projection, *, position, rotation, cache=None,
@@ -773,7 +803,6 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     if not isinstance(store, LsadStore):
         raise BadInputError("render_cached needs an LsadStore (simulate the scene first)")
     scene = store.scene
-    check_cache_materials(scene)
     check_positive_int(glossy_rays, "glossy_rays")
     luminaires = "auto" if luminaire_draws is None else check_positive_int(luminaire_draws, "luminaire draws")
     if cache is None:
@@ -843,28 +872,10 @@ def render_cached(store, projection, *, position, rotation, cache=None,
 # --- scenes with glossy, specular and transmitting materials ---------------------------------
 
 
-def check_cache_materials(scene, what="the surface cache"):
-    """Raise :class:`BadInputError` (one line, exit 2 on the command line) for the scenes with
-    non-Lambertian materials the surface cache does not model: smooth plastic, metal or
-    trans of specularity ≥ 0.018 with a diffuse part (Radiance's (1 − F(μ_i)) factor makes
-    their diffuse part not ρ/π times an irradiance)."""
-    if scene.lambertian:
-        return
-    bsdf = scene.bsdf
-    kd, td = _diffuse_coefficients(scene)
-    bad = np.flatnonzero(bsdf.fresnel & (kd + td > 0))
-    if bad.size:
-        names = [scene.material_names[i] for i in bad] if len(scene.material_names) == len(bsdf.materials) \
-            else [str(i) for i in bad]
-        kinds = sorted({bsdf.materials[i].kind for i in bad})
-        raise BadInputError(f"{scene.name}: {what} does not model the Fresnel-weighted diffuse part of smooth "
-                            f"{'/'.join(kinds)} (specularity ≥ 0.018, roughness 0: material "
-                            f"{', '.join(names)}); use --estimator local (the double local estimate with materials)")
-
-
 def _diffuse_coefficients(scene):
-    """Diffuse reflection and transmission coefficients kd, td [–] of every material (f_d =
-    kd/π on the side of ω_o, td/π on the other; constant where no Fresnel factor applies)."""
+    """Diffuse reflection and transmission coefficients kd, td [–] of every material at normal
+    incidence μ_o = 1 (f_d = kd·g/π on the side of ω_o, td·g/π on the other; they depend on μ_o
+    where a Fresnel factor applies, and are positive at every μ_o where they are at 1)."""
     bsdf = scene.bsdf
     p = bsdf.parts(np.arange(len(bsdf.materials)), np.ones(len(bsdf.materials)))
     return p["kd"], p["td"]
@@ -915,7 +926,6 @@ class _MaterialIndirectEstimator(_NodeHull):
         self.draws = max(1, int(nodes) // G)
         self.near_draws = max(1, self.draws // 8)
         self.near_rays = int(near_rays)
-        self.kd, self.td = _diffuse_coefficients(scene)
         surface = np.flatnonzero(store.depth > 0) if connections else np.zeros(0, np.int64)
         self.pools, self.cdfs, self.totals = [], [], []
         for g in range(G):
@@ -947,11 +957,12 @@ class _MaterialIndirectEstimator(_NodeHull):
 
     # -- connections -----------------------------------------------------------------------
 
-    def far(self, x, n, group, blocks, level, draws=None, wo=None, mat=None):
+    def far(self, x, n, group, blocks, level, draws=None, wo=None, mat=None, fresnel=None):
         """Far part [lx, or cd·m⁻² with ``mat``] at points ``x`` (normals ``n``) of one group:
         (ΣW/k)/N_g · Σ_draws f_y|μ_y|·h_x·T/r² over k nodes drawn ∝ W, stratified; h_x = cos θ_x
-        (irradiance, cos θ_x > 0 only) or, at a path vertex of material ``mat`` seen from
-        ``wo``, f_x(ω_{x→y}, ω_o)·|cos θ_x| (its whole non-delta BSDF, both sides)."""
+        (irradiance, cos θ_x > 0 only; times 1 − F(cos θ_x) at the cache points where
+        ``fresnel``: the Fresnel-weighted irradiance) or, at a path vertex of material ``mat``
+        seen from ``wo``, f_x(ω_{x→y}, ω_o)·|cos θ_x| (its whole non-delta BSDF, both sides)."""
         P = len(x)
         cdf = self.cdfs[group]
         if P == 0 or cdf is None:
@@ -961,10 +972,10 @@ class _MaterialIndirectEstimator(_NodeHull):
         v = (np.arange(k)[None, :] + u) / k
         pick = self.pools[group][np.minimum(np.searchsorted(cdf, v.ravel()), cdf.size - 1)]
         owner = np.repeat(np.arange(P), k)
-        return np.bincount(owner, weights=self._terms(pick, owner, x, n, wo, mat), minlength=P) * (
+        return np.bincount(owner, weights=self._terms(pick, owner, x, n, wo, mat, fresnel), minlength=P) * (
             self.totals[group] / k / self.chains_per_group)
 
-    def _terms(self, pick, owner, x, n, wo, mat):
+    def _terms(self, pick, owner, x, n, wo, mat, fresnel):
         """f_y|μ_y|·h_x·T/r² of the pairs (point ``owner``, node ``pick``), 0 closer than ε."""
         st, bsdf, eps = self.store, self.scene.bsdf, self.engine.epsilon
         y, ny = st.position[pick], st.normal[pick]
@@ -976,6 +987,8 @@ class _MaterialIndirectEstimator(_NodeHull):
         cos_y = -np.einsum("ij,ij->i", w, ny)
         if mat is None:
             h = np.where(cos_x > 0, cos_x, 0.0)
+            if fresnel is not None:
+                h *= diffuse_fresnel_factor(cos_x, fresnel[owner])
         else:
             h = bsdf.evaluate(mat[owner], nx, wo[owner], w) * np.abs(cos_x)
         far = r2 >= self.eps2
@@ -1093,12 +1106,15 @@ class _MaterialIndirectEstimator(_NodeHull):
         u = stratified(u.reshape(len(x), sources, DISTANT_GLOSSY_SAMPLES, 2))
         return distant_reflection(self.scene, self.engine, x, n, wo, mat, u)[1]
 
-    def direct_diffuse(self, y, ny, mat, keys, distant_samples=None):
+    def direct_diffuse(self, y, ny, parts, keys, distant_samples=None):
         """kd/π·E_dir(front) + td/π·E_dir(back) [cd·m⁻²] at points ``y`` (facing normals
-        ``ny``), and its sampling variance (``distant_samples``: shadow rays per distant
-        source, default ``direct_samples``)."""
+        ``ny``; kd, td and the Fresnel flag from ``parts``, :meth:`~lsadphoto.solver.materials.MaterialTable.parts`
+        at the points' μ_o), E_dir Fresnel-weighted on smooth plastic, metal and trans
+        (``fresnel`` of :func:`direct_illuminance`), and its sampling variance
+        (``distant_samples``: shadow rays per distant source, default ``direct_samples``)."""
         out, var = np.zeros(len(y)), np.zeros(len(y))
-        for coef, sign in ((self.kd[mat], 1.0), (self.td[mat], -1.0)):
+        fresnel = parts["fresnel"]
+        for coef, sign in ((parts["kd"], 1.0), (parts["td"], -1.0)):
             m = np.flatnonzero(coef > 0)
             if not m.size:
                 continue
@@ -1106,31 +1122,35 @@ class _MaterialIndirectEstimator(_NodeHull):
             if self.luminaire_table is None:
                 e, v = direct_illuminance(self.scene, self.engine, y[m], sign * ny[m],
                                           samples=self.direct_samples, distant_samples=distant_samples,
-                                          luminaires=self.luminaires, **sub)
+                                          luminaires=self.luminaires, fresnel=fresnel[m], **sub)
             else:
                 e, v = sampled_direct_illuminance(self.scene, self.engine, y[m], sign * ny[m],
-                                                  table=self.luminaire_table, **sub), 0.0
+                                                  table=self.luminaire_table, fresnel=fresnel[m], **sub), 0.0
             out[m] += coef[m] / math.pi * e
             var[m] += (coef[m] / math.pi) ** 2 * v
         return out, var
 
     # -- the cache points ------------------------------------------------------------------
 
-    def estimate(self, x, n, blocks):
-        """E_ind [lx] at points ``x`` (normals ``n``), shape (P, groups)."""
+    def estimate(self, x, n, blocks, fresnel=None):
+        """E_ind [lx] at points ``x`` (normals ``n``), shape (P, groups); Fresnel-weighted,
+        E_F,ind = ∫(1 − F(μ_i))·L_ind·μ_i dω, at the points where ``fresnel`` (bool, (P,)):
+        what the diffuse part of smooth plastic, metal and trans scatters."""
         out = np.zeros((len(x), self.groups))
         lit = np.flatnonzero(self._facing_nodes(x, n))
+        sub = None if fresnel is None else fresnel[lit]
         for g in range(self.groups):
-            out[lit, g] = self.far(x[lit], n[lit], g, blocks[lit], 0)
-        return out + self._rays(x, n, blocks)
+            out[lit, g] = self.far(x[lit], n[lit], g, blocks[lit], 0, fresnel=sub)
+        return out + self._rays(x, n, blocks, fresnel)
 
-    def _rays(self, x0, n0, blocks0):
+    def _rays(self, x0, n0, blocks0, fresnel=None):
         """The part of E_ind no far connection gives, per group: the mean of ``near_rays``
         cosine-sampled paths per point and group (estimator π·L). A path carries the weight
         w of what no connection covers and the weight w_e of emission it may count:
 
-        * leaving the point, w = π, w_e = 0 (the luminaires, seen directly or through glass,
-          are the direct part);
+        * leaving the point, w = π (π·(1 − F(μ_i)) of the sampled direction at the points
+          where ``fresnel``), w_e = 0 (the luminaires, seen directly or through glass, are
+          the direct part);
         * at a hit y, its emission counts w_e; its non-delta light counts w where no
           connection covered it — closer than ε along the path from the last non-delta
           vertex, or after a delta reflection — as kd/π·E_dir + td/π·E_dir(back) + the far
@@ -1155,6 +1175,8 @@ class _MaterialIndirectEstimator(_NodeHull):
         travelled = np.zeros(row.size)
         u = _uniforms_by(self.seed, group, blocks, 2, _TAG_RAYS, self.key, 0)
         d = cosine_directions(n0[point], u)
+        if fresnel is not None:
+            w *= diffuse_fresnel_factor(np.einsum("ij,ij->i", d, n0[point]), fresnel[point])
         origin = x0[point] + eps * n0[point]
         for level in range(1, MAX_PATH_VERTICES + 1):
             prim, dist = engine.closest_hit(origin, d)
@@ -1177,7 +1199,7 @@ class _MaterialIndirectEstimator(_NodeHull):
             if nd.size:
                 keys = {"seed": self.seed, "block_ids": blocks[nd] * G + group[nd],
                         "purpose_key": self._direct_key(level)}
-                value, _ = self.direct_diffuse(y[nd], ny[nd], mat[nd], keys)
+                value, _ = self.direct_diffuse(y[nd], ny[nd], {k: v[nd] for k, v in parts.items()}, keys)
                 for g in np.unique(group[nd]):
                     m = np.flatnonzero(group[nd] == g)
                     value[m] += self.far(y[nd[m]], ny[nd[m]], int(g), blocks[nd[m]], level, self.near_draws,
@@ -1278,8 +1300,9 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, 
         diff = np.flatnonzero(p["kd"] + p["td"] > 0)
         if diff.size:
             keys = {"seed": seed, "block_ids": blocks[diff] * G + group[diff], "purpose_key": 30000 + 64 * level + depth}
-            value[diff] += est.direct_diffuse(y[diff], ny[diff], mat_y[diff], keys)[0]
-            cached, b = _cached_diffuse(est, cache, prim[diff], y[diff], front[diff], mat_y[diff], with_bias=True)
+            sub = {key: v[diff] for key, v in p.items()}
+            value[diff] += est.direct_diffuse(y[diff], ny[diff], sub, keys)[0]
+            cached, b = _cached_diffuse(est, cache, prim[diff], y[diff], front[diff], sub, with_bias=True)
             value[diff] += cached[np.arange(diff.size), group[diff]]
             bias[row[diff]] += w[diff] * b[np.arange(diff.size), group[diff]]
         gl = np.flatnonzero(p["rs"] + p["ts"] > 0)
@@ -1321,14 +1344,15 @@ def _glossy_paths(est, cache, seed, x, n, wo, mat, parts, group, blocks, level, 
     return total, bias
 
 
-def _cached_diffuse(est, cache, prim, y, front, mat, *, with_bias=False):
-    """kd/π·E_ind(front) + td/π·E_ind(back) [cd·m⁻²] from the cache per group, shape (n, G),
-    and with ``with_bias`` its estimated interpolation bias (else None)."""
+def _cached_diffuse(est, cache, prim, y, front, parts, *, with_bias=False):
+    """kd/π·E_ind(front) + td/π·E_ind(back) [cd·m⁻²] from the cache per group, shape (n, G)
+    (kd, td from ``parts`` at the points' μ_o; E_ind as cached: Fresnel-weighted on smooth
+    plastic, metal and trans), and with ``with_bias`` its estimated interpolation bias (else None)."""
     side = np.where(front, 0, 1)
     G = cache.values.shape[1]
     out = np.zeros((len(y), G))
     bias = np.zeros((len(y), G)) if with_bias else None
-    for coef, s in ((est.kd[mat], side), (est.td[mat], 1 - side)):
+    for coef, s in ((parts["kd"], side), (parts["td"], 1 - side)):
         m = np.flatnonzero(coef > 0)
         if m.size:
             k = (coef[m] / math.pi)[:, None]
@@ -1368,9 +1392,10 @@ def _material_chunk(est, cache, c, d, seed, glossy_rays):
         diff = np.flatnonzero(parts["kd"] + parts["td"] > 0)
         if diff.size:
             keys = {"seed": seed, "block_ids": blocks[diff], "purpose_key": 0 if level == 0 else 20000 + level}
-            value, var = est.direct_diffuse(x[diff], n[diff], mat[diff], keys,
+            sub = {key: v[diff] for key, v in parts.items()}
+            value, var = est.direct_diffuse(x[diff], n[diff], sub, keys,
                                             DISTANT_RAYS_PER_DIRECT_SAMPLE * est.direct_samples)
-            ind, b = _cached_diffuse(est, cache, tri[diff], x[diff], front[diff], mat[diff], with_bias=True)
+            ind, b = _cached_diffuse(est, cache, tri[diff], x[diff], front[diff], sub, with_bias=True)
             np.add.at(out, pix[diff], weight[diff, None] * (value[:, None] + ind))
             np.add.at(direct_var, pix[diff], weight[diff] ** 2 * var)
             np.add.at(bias, pix[diff], weight[diff, None] * b)
