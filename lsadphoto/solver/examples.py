@@ -10,6 +10,7 @@ first hit ambiguous in float32; their backs are black.
 """
 
 import math
+import re
 
 from .scene import scene_from_dict
 
@@ -100,7 +101,7 @@ panel polygon p4 0 0 12 4.2 2.7 2.99  4.2 3.3 2.99  4.8 3.3 2.99  4.8 2.7 2.99
 
 
 #: Variants of :func:`material_room_rad`.
-MATERIAL_ROOMS = ("glossy floor", "metal panel", "mirror", "glass partition", "curved shapes")
+MATERIAL_ROOMS = ("glossy floor", "smooth floor", "metal panel", "mirror", "glass partition", "curved shapes")
 
 _METAL = ("void metal alu 0 0 5 0.8 0.8 0.8 0.9 0.1\n"
           "alu polygon m1 0 0 12 3 0.01 0.3  3 0.01 2.5  1 0.01 2.5  1 0.01 0.3\n")
@@ -119,6 +120,13 @@ def material_room_rad(variant):
     ``variant`` (:data:`MATERIAL_ROOMS`, or ``"metal and mirror"`` for both panels):
 
     * ``glossy floor``: the floor as ``plastic`` of specularity 0.05, roughness 0.05;
+    * ``smooth floor``: the floor as perfectly smooth ``plastic`` of specularity 0.05 (roughness
+      0: a mirror reflection raised by Radiance's Fresnel factor, which also weights its
+      diffuse part), seen from the glossy floor's eye, the panels as ``glow`` of the same
+      luminance (radius 0): Radiance's ambient rays skip ``light`` sources, so the panels'
+      light that the floor mirrors onto the ceiling would be missing from a Radiance
+      reference (``rtrace -I`` at the ceiling's centre: 86.7 lx with ``light`` panels, 93.7 ± 1.0
+      lx with ``glow``);
     * ``metal panel``: a 2 × 2.2 m ``metal`` panel (grey 0.8, specularity 0.9, roughness 0.1)
       1 cm in front of the wall y = 0;
     * ``mirror``: a 1.8 × 2.2 m ``mirror`` (0.9) there;
@@ -141,6 +149,10 @@ def material_room_rad(variant):
     if variant == "glossy floor":
         return (room.replace("void plastic floor 0 0 5 0.2 0.2 0.2 0 0",
                              "void plastic floor 0 0 5 0.2 0.2 0.2 0.05 0.05"), (1.0, 2.0, 1.5), (1.2, -0.3, -1.5))
+    if variant == "smooth floor":
+        room = room.replace("void plastic floor 0 0 5 0.2 0.2 0.2 0 0", "void plastic floor 0 0 5 0.2 0.2 0.2 0.05 0")
+        return re.sub(r"void light panel 0 0 3 (\S+) (\S+) (\S+)", r"void glow panel 0 0 4 \1 \2 \3 0", room), \
+            (1.0, 2.0, 1.5), (1.2, -0.3, -1.5)
     panels = {"metal panel": _METAL, "mirror": _MIRROR, "metal and mirror": _METAL + _MIRROR}
     if variant in panels:
         return room + panels[variant], (3.0, 3.5, 1.4), (0.0, -1.0, -0.1)
