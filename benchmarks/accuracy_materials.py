@@ -1,7 +1,8 @@
 """Per-pixel accuracy of the material estimators against unbiased Radiance references (issue 14).
 
 Scenes: :func:`lsadphoto.solver.examples.material_room_rad` — the canonical room with a
-glossy floor, a metal panel, a mirror, or a glass partition (glow ceiling). One Radiance
+glossy floor, a smooth (Fresnel-weighted) floor under glow panels, a metal panel, a mirror, a
+glass partition (glow ceiling) or curved shapes. One Radiance
 file goes to both programs (our :func:`~lsadphoto.solver.read_radiance_scene`, Radiance's
 ``oconv``). The reference is pure Monte Carlo ``rtrace -aa 0`` (no irradiance cache, so no
 interpolation bias) with many ambient samples through the rays of our own pinhole view's
