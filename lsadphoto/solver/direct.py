@@ -634,7 +634,8 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     Returns
     -------
     (E, variance) : tuple of ndarray, shape (P,)
-        Exact where luminaires are fully visible or hidden and none is drawn, never
+        Exact where luminaires are fully visible or hidden and none is drawn (at
+        Fresnel-weighted points up to the sampled Fresnel part of area luminaires), never
         negative; in a partial shadow of an area luminaire a ratio estimate (bias of order
         1/s, module docstring). With sampled luminaires the variance is that of the whole
         ones plus the draws' (collapsed strata: Σ over pairs of adjacent strata of
