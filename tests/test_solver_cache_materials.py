@@ -92,17 +92,19 @@ def test_direct_light_through_glass_matches_rtrace(tmp_path):
 def _room(variant):
     """A material room of :func:`material_room_rad`, or its glass partition replaced by a
     ``trans`` one (diffuse reflection and transmission, straight or, with roughness 0.1, a
-    glossy transmitted lobe)."""
+    glossy transmitted lobe; "smooth trans": specularity 0.05, roughness 0, so that Radiance's
+    Fresnel factor weights both diffuse parts)."""
     if "trans" in variant:
         rad, eye, sight = material_room_rad("glass partition")
         alpha = "0.1" if "rough" in variant else "0"
-        return rad.replace("void glass gl 0 0 3 0.96 0.96 0.96", f"void trans gl 0 0 7 0.6 0.6 0.6 0 {alpha} 0.5 0.3"), \
-            eye, sight
+        spec = "0.05" if "smooth" in variant else "0"
+        return rad.replace("void glass gl 0 0 3 0.96 0.96 0.96",
+                           f"void trans gl 0 0 7 0.6 0.6 0.6 {spec} {alpha} 0.5 0.3"), eye, sight
     return material_room_rad(variant)
 
 
 @pytest.mark.parametrize("variant", ["glossy floor", "smooth floor", "glass partition", "mirror", "metal panel",
-                                     "trans partition", "rough trans partition"])
+                                     "trans partition", "rough trans partition", "smooth trans partition"])
 def test_cache_agrees_with_the_material_local_estimate(variant):
     # Independent simulations (seeds 1 and 2) and estimators; a coarse cache (1/12 of the
     # diagonal) so that the test runs in seconds — its interpolation bias is in its reported
