@@ -213,6 +213,32 @@ def test_cache_points_of_a_smooth_floor_hold_the_fresnel_weighted_irradiance():
             assert np.mean(((mean - ref) / se) ** 2) < 2.0
 
 
+def test_patches_never_mix_fresnel_weighted_and_plain_sides():
+    # A floor of 0.2 m tiles, smooth plastic and Lambertian in a checkerboard, under a light:
+    # at a cache spacing of 0.5 m the tiles are small triangles whose sides share patch points,
+    # and a 0.5 m cube holds tiles of both materials. The cache values of the two kinds are
+    # different quantities (E_F,ind and E_ind), so no patch may hold sides of both and no
+    # patch's kernel may reach a patch of the other kind.
+    tiles = "".join(f"{'smooth' if (i + j) % 2 else 'grey'} polygon t{i}_{j} 0 0 12 "
+                    f"{0.2 * i} {0.2 * j} 0  {0.2 * i + 0.2} {0.2 * j} 0  {0.2 * i + 0.2} {0.2 * j + 0.2} 0  "
+                    f"{0.2 * i} {0.2 * j + 0.2} 0\n" for i in range(10) for j in range(10))
+    scene = read_radiance_scene("void plastic smooth 0 0 5 .3 .3 .3 .05 0\nvoid plastic grey 0 0 5 .5 .5 .5 0 0\n"
+                                "void light lamp 0 0 3 10 10 10\n"
+                                "lamp polygon l 0 0 12 .8 .8 1.5  .8 1.2 1.5  1.2 1.2 1.5  1.2 .8 1.5\n"
+                                "grey polygon wall 0 0 12 0 2 0  2 2 0  2 2 1.5  0 2 1.5\n" + tiles)
+    cache = build_surface_cache(simulate(scene, samples=2048, seed=1), spacing=0.5, nodes=64, seed=1)
+    weighted = scene.bsdf.fresnel[scene.material]
+    kind = np.full(len(cache.patch_radius), -1)
+    tri, side = np.nonzero(cache.patch >= 0)
+    for t, p in zip(tri, cache.patch[tri, side], strict=True):
+        assert kind[p] in (-1, int(weighted[t])), "a patch holds Fresnel-weighted and plain sides"
+        kind[p] = int(weighted[t])
+    assert {0, 1} <= set(kind.tolist())
+    owner = np.repeat(np.arange(len(cache.patch_start) - 1), np.diff(cache.patch_start))
+    assert np.array_equal(kind[owner], kind[cache.patch_index])
+    assert cache.provenance["fresnel_weighted_points"] > 0
+
+
 def test_cli_simulates_a_cache_of_a_smooth_fresnel_floor(tmp_path):
     # Refused until session 11 (exit 2): simulate --surface-cache on a smooth plastic floor
     # writes a store with its cache, and render --estimator cache gives, bit for bit, what
