@@ -356,9 +356,9 @@ def test_fresnel_weighted_illuminance_matches_quadrature():
     # unbiased at the default 4 samples: within 4 standard errors of 400 estimates (0.03–0.5 %),
     # where the plain E lies 2.3–23 % away
     assert np.all(np.abs(est.mean(axis=0) - ref) < 4 * se), (est.mean(axis=0), ref, se)
-    assert np.all(np.abs(plain - ref) > 50 * se)
+    assert np.all(np.abs(plain - ref) > 20 * se)
     # the delta-method variance is conservative by the stratification it ignores (measured
-    # 1.5–2.8 × the observed variance here), never below it by more than its own scatter
+    # 1.5–3.1 × the observed variance here), never below it by more than its own scatter
     ratio = var.mean(axis=0) / est.var(axis=0, ddof=1)
     assert np.all((ratio > 0.7) & (ratio < 4.0)), ratio
     # without the flag, the closed form as before

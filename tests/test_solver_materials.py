@@ -240,6 +240,27 @@ def test_mirror_and_glass_deltas_match_rtrace(tmp_path):
     assert np.allclose(ours, theirs, rtol=2e-4, atol=1e-9), (ours, theirs)
 
 
+@pytest.mark.parametrize("material", ["plastic 0 0 5 0 0 0 0.05 0", "plastic 0 0 5 0 0 0 0.5 0",
+                                      "trans 0 0 7 0 0 0 0.05 0 0.5 0"])
+def test_fresnel_raised_mirror_reflectance_matches_rtrace(tmp_path, material):
+    # Smooth black plastic and trans (roughness 0, specularity ≥ 0.018) mirror a uniform glow
+    # sky of radiance 1: rtrace -ab 0 returns their mirror reflectance R(μ_o) at six angles. The
+    # constant of Radiance's Fresnel estimate decides it: with the older 0.00287989916
+    # (F(1) = 0) the plastic's R came out 0.00081 (s 0.05) and 0.00042 (s 0.5) below
+    # Radiance's at every angle (1.6 % of the reflection near the normal).
+    binpath = radiance_bin()
+    rad = ("void glow sky_glow 0 0 4 1 1 1 0\nsky_glow source sky 0 0 4 0 0 1 180\n"
+           f"void {material.split()[0]} mat {' '.join(material.split()[1:])}\n" + FLOOR)
+    scene = read_radiance_scene(rad)
+    mu = np.array([0.95, 0.789, 0.6, 0.4, 0.2, 0.1])
+    rays = [(np.array([0.0, 0.0, 0.3]), np.array([math.sqrt(1 - m * m), 0.0, -m])) for m in mu]  # hits within 3 m
+    theirs = _rtrace(binpath, tmp_path, rad, rays, ["-ab", "0", "-st", "0", "-av", "0", "0", "0"])
+    mat = scene.material[np.flatnonzero(scene.emitter < 0)[0]]
+    ours = scene.bsdf.delta(np.full(mu.size, mat), mu)[0]
+    # rtrace writes 7 significant digits
+    assert np.allclose(ours, theirs, rtol=1e-5, atol=1e-7), (ours, theirs)
+
+
 # --- both estimators against pure Monte Carlo rtrace --------------------------------------------
 
 _REFERENCES = {}
