@@ -41,6 +41,7 @@ from numba import njit
 
 from ..errors import BadInputError
 from .engine import engine_for
+from .materials import shadow_transmittance
 
 __all__ = ["PATCH_KERNEL", "Patches", "SurfaceCache", "grid_index", "patch_neighbours", "patch_sides"]
 
@@ -453,7 +454,7 @@ class SurfaceCache:
         triangles a corner is also dropped where a visibility ray between x and it (both a
         ray offset off the surface) is blocked: a column, a partition or a box standing on
         the triangle, whose footprint's points are dark and whose lid or the far ceiling
-        gives them a large clearance. A grid cell none of whose corners with a positive
+        gives them a large clearance (a glass pane does not hide). A grid cell none of whose corners with a positive
         weight qualifies keeps its plain interpolation: within a convex occluder's
         footprint, where no pixel sees the wall. (Patches need no such ray: their
         neighbour lists hold only the patches that the own patch's point sees.)
@@ -498,8 +499,9 @@ class SurfaceCache:
         with the corners farther than their clearance or hidden from x dropped and the rest
         renormalised (unchanged where none with a positive weight qualifies;
         :meth:`interpolate`). Hidden: the segment between x and the corner, both a ray offset
-        off the surface, is blocked — a column, a partition or a box standing on the
-        triangle between them."""
+        off the surface, is blocked by an opaque surface — a column, a partition or a box
+        standing on the triangle between them (glass lets it pass, as shadow rays do:
+        :func:`~lsadphoto.solver.materials.shadow_transmittance`)."""
         q = self.positions[index]
         drop = np.linalg.norm(q - x[:, None], axis=2) > self.clearance[index]
         test = np.flatnonzero(~drop & (weight > 0))
@@ -507,7 +509,7 @@ class SurfaceCache:
             engine = engine_for(scene)
             row, corner = np.divmod(test, 3)
             lift = engine.epsilon * normal[row]
-            drop.flat[test] = ~engine.visible(x[row] + lift, q[row, corner] + lift)
+            drop.flat[test] = shadow_transmittance(scene, engine, x[row] + lift, q[row, corner] + lift) <= 0
         if not drop.any():
             return weight
         kept = np.where(drop, 0.0, weight)
