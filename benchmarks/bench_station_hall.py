@@ -7,8 +7,9 @@ points, each step's wall time, CPU time and peak memory (``resource.getrusage`` 
 per-pixel relative errors (median, 95th percentile) are printed as a table row. Variants:
 ``--detail 2`` (4× triangles), ``--luminaires 480`` (4× luminaires). With ``--target-error E``
 the scene is rendered directly, as ``lsadphoto render hall.toml --estimator cache
---target-error E`` (rounds of simulate + render from ``--samples`` chains until the median
-per-pixel error is E; one process, shown in the render column, with the rounds' chains).
+--target-error E`` (rounds of simulate + render from ``--samples`` chains until the
+per-pixel error is E — since session 11 the expected mean absolute relative error, before it
+the median; one process, shown in the render column, with the rounds' chains).
 
     PYTHONPATH=. .venv/bin/python benchmarks/bench_station_hall.py [--detail 1] [--luminaires 120]
         [--size 1024] [--samples 262144] [--estimator cache|local] [--nodes-per-pixel auto]
@@ -88,12 +89,15 @@ def _to_target(a, scene, triangles, out):
     rounds = " → ".join(str(r["chains"]) for r in p["rounds"])
     last = p["rounds"][-1]
     knobs = ", ".join(f"{k} {last[k]}" for k in ("cache_nodes", "direct_samples", "luminaire_draws") if k in last)
+    expected = p.get("pixel_relative_error_expected_mean_absolute")
     print("| triangles | luminaires | chains per round | view | estimator | target | last round | "
-          "render (simulate included): wall / CPU [s] | peak memory [GB] | per-pixel error median / p95 |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+          "render (simulate included): wall / CPU [s] | peak memory [GB] | per-pixel error median / p95 | "
+          "expected mean absolute per-pixel error |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     print(f"| {triangles} | {a.luminaires} | {rounds} | {a.size}² | {a.estimator} | {100 * a.target_error:g} % "
           f"{'reached' if p['target_reached'] else 'NOT reached'} | {knobs} | {wall:.0f} / {cpu:.0f} | {mem:.1f} | "
-          f"{100 * p['pixel_relative_error_median']:.2g} % / {100 * p['pixel_relative_error_p95']:.2g} % |")
+          f"{100 * p['pixel_relative_error_median']:.2g} % / {100 * p['pixel_relative_error_p95']:.2g} % | "
+          f"{'–' if expected is None else f'{100 * expected:.2g} %'} |")
 
 
 if __name__ == "__main__":

@@ -880,7 +880,8 @@ def cmd_render(args):
               f"{_format(p.get('field_mean_luminance'), 4)} cd/m² (relative Monte Carlo error "
               f"{_percent(p.get('achieved_relative_error'))}); per-pixel relative error: median "
               f"{_percent(p.get('pixel_relative_error_median'))}, 95th percentile "
-              f"{_percent(p.get('pixel_relative_error_p95'))}"
+              f"{_percent(p.get('pixel_relative_error_p95'))}, mean absolute (expected) "
+              f"{_percent(p.get('pixel_relative_error_expected_mean_absolute'))}"
               f"{' — biased (clamped near field)' if p.get('near_field') == 'clamp' else ''}"
               + (f"; in quadrature of noise {_percent(p['pixel_relative_noise_median'])} / "
                  f"{_percent(p['pixel_relative_noise_p95'])} and estimated interpolation bias "
@@ -1177,8 +1178,9 @@ def _build_parser():
     ren.add_argument("--up", metavar="X,Y,Z", help="up in the scene (with --profile; default 0,0,1)")
     ren.add_argument("--samples", type=int, help="light chains when rendering a scene directly")
     ren.add_argument("--target-error", type=float, metavar="E",
-                     help="rendering a scene: simulate and render in rounds until the median per-pixel "
-                          "relative error is at most E (default 0.02 for a scene without --samples)")
+                     help="rendering a scene: simulate and render in rounds until the mean absolute per-pixel "
+                          "relative error that the map's uncertainties imply is at most E (default 0.02 for a "
+                          "scene without --samples)")
     ren.add_argument("--estimator", choices=_Choices("lsadphoto.solver.rendering", "ESTIMATORS"), default="auto",
                      help="local: the double local estimate per pixel (unbiased reference); cache: direct "
                           "light per pixel, indirect interpolated from a surface cache (the store's, or built) "

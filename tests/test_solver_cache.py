@@ -552,3 +552,40 @@ def test_wall_points_behind_a_panel_do_not_darken_the_wall_beside_it():
     assert abs(np.mean(ours / ref) - 1) < 0.03
     assert np.median(np.abs(z)) < 1.5
     assert np.mean(np.abs(z) <= 3) >= 0.8
+
+
+def test_floor_points_inside_a_box_standing_on_the_floor_do_not_darken_the_floor_beside_it():
+    # A closed 0.4 × 0.4 × 1 m box standing on the canonical room's floor (two large
+    # triangles with their own grids): the floor's cache points inside its footprint get no
+    # light (E_ind = 0 there), and their normal ray reaches the box's lid 1 m up, so the
+    # clearance rule keeps them. Written into the cache as 0 there and 1 everywhere else, the
+    # interpolation at floor points 1–15 cm outside the box must reproduce the constant 1
+    # (corners hidden from the point are left out): before the visibility test a quarter of
+    # them came out darker (down to 0.52, mean 0.948); the rule's fallback (a cell whose
+    # corners with a positive weight are all hidden keeps its plain interpolation) may leave
+    # a few.
+    import tomllib
+
+    data = tomllib.loads(canonical_room_toml(size=8))
+    data["surfaces"].append({"type": "box", "min": [2.8, 1.8, 0.0], "max": [3.2, 2.2, 1.0],
+                             "facing": "outward", "material": "wall"})
+    room = scene_from_dict(data)
+    store = simulate(room, samples=2 ** 12, seed=11)
+    cache = build_surface_cache(store, nodes=16, seed=12)
+    floor = np.flatnonzero(np.all(np.abs(room.triangles[:, :, 2]) < 1e-9, axis=1) & (room.normals[:, 2] > 0.5))
+    assert floor.size == 2 and np.all(cache.level[floor] >= 1)
+    p = cache.positions
+    inside = (np.abs(p[:, 2]) < 1e-6) & (np.abs(p[:, 0] - 3) < 0.2) & (np.abs(p[:, 1] - 2) < 0.2)
+    assert inside.sum() > 10
+    cache.values[:] = 1.0
+    cache.values[inside] = 0.0
+    rng = np.random.default_rng(0)
+    xy = rng.uniform([2.6, 1.6], [3.4, 2.4], (8000, 2))
+    gap = np.maximum(np.abs(xy[:, 0] - 3), np.abs(xy[:, 1] - 2)) - 0.2
+    xy = xy[(gap > 0.01) & (gap < 0.15)]
+    x = np.column_stack([xy, np.zeros(len(xy))])
+    engine = engine_for(room)
+    prim, _ = engine.closest_hit(x + [0, 0, 0.5], np.tile([0.0, 0.0, -1.0], (len(x), 1)))
+    assert np.all(np.isin(prim, floor))
+    value = cache.interpolate(room, prim, x, np.zeros(len(x), int))
+    assert np.mean(np.abs(value - 1.0) < 1e-9) >= 0.99

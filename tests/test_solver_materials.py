@@ -464,8 +464,9 @@ def test_a_material_store_agrees_with_the_path_tracer_on_another_view(variant):
 def test_a_material_scene_renders_to_a_per_pixel_target_in_rounds():
     # Rounds append chains to one run (chain i has its own stream) and grow the node draws and
     # sampled rays with the chains: the final map must be, bit for bit, that of one
-    # simulation of the final chains rendered with the final round's settings, and its median
-    # per-pixel relative error (recomputed from the map) at most the target.
+    # simulation of the final chains rendered with the final round's settings, and the mean
+    # absolute relative error that its uncertainties imply (recomputed from the map) at most the
+    # target.
     from lsadphoto.solver.integrators.local_estimate import render_local_estimate_materials
 
     rad, eye, sight = material_room_rad("metal and mirror")
@@ -477,7 +478,7 @@ def test_a_material_scene_renders_to_a_per_pixel_target_in_rounds():
     assert p["estimator_choice"].startswith("auto: local (non-Lambertian materials")
     last = p["rounds"][-1]
     lit = np.isfinite(lmap.luminance) & (lmap.luminance > 0)
-    assert np.median(lmap.uncertainty[lit] / lmap.luminance[lit]) <= 0.03
+    assert math.sqrt(2 / math.pi) * np.mean(lmap.uncertainty[lit] / lmap.luminance[lit]) <= 0.03 * (1 + 1e-5)
     again = render_local_estimate_materials(simulate(scene, samples=last["chains"], seed=2), proj, **pose, seed=2,
                                             nodes_per_pixel=last["nodes_per_pixel"],
                                             rays_per_vertex=last["rays_per_vertex"])

@@ -17,6 +17,7 @@ from lsadphoto.solver.chains import trace_chains
 from lsadphoto.solver.direct import LUMINAIRE_DRAWS
 from lsadphoto.solver.engine import engine_for
 from lsadphoto.solver.examples import canonical_room
+from lsadphoto.solver.rendering import TARGET_MEASURE
 
 NODE_FIELDS = ("position", "normal", "coefficient", "kind", "luminaire", "batch", "depth", "triangle")
 
@@ -132,19 +133,23 @@ def test_per_pixel_errors_are_reported_and_honest(room):
     rel = a.uncertainty[lit] / a.luminance[lit]
     assert math.isclose(p["pixel_relative_error_median"], np.median(rel), rel_tol=1e-6)
     assert math.isclose(p["pixel_relative_error_p95"], np.percentile(rel, 95), rel_tol=1e-6)
+    assert math.isclose(p["pixel_relative_error_expected_mean_absolute"], math.sqrt(2 / math.pi) * np.mean(rel),
+                        rel_tol=1e-6)
     assert p["pixel_relative_error_median"] > 5 * p["achieved_relative_error"]
 
 
 def test_render_to_a_per_pixel_target_error(room):
-    # Rounds: 1/√chains predicts the chains; the reported median is the honest per-pixel error
-    # (test above), so reaching the target means the map has it.
+    # Rounds: 1/√chains predicts the chains; the reported errors are honest (test above), so
+    # reaching the target means the map has it: the mean absolute relative error that they
+    # imply (TARGET_MEASURE; measured against a reference in the test below).
     proj, pose = view_args(room)
     lmap = render(room, proj, **pose, samples=1024, target_error=0.01)
     p = lmap.provenance
-    assert p["target_reached"] is True and p["pixel_relative_error_median"] <= 0.01
+    assert TARGET_MEASURE in p["target_measure"]
+    assert p["target_reached"] is True and p[TARGET_MEASURE] <= 0.01
     assert len(p["rounds"]) >= 2 and p["rounds"][0]["chains"] == 1024  # 1024 give ≈ 2 %
     assert p["rounds"][-1]["chains"] == p["chains"]
-    errors = [r["pixel_relative_error_median"] for r in p["rounds"]]
+    errors = [r[TARGET_MEASURE] for r in p["rounds"]]
     assert all(b < a for a, b in zip(errors, errors[1:]))
     # The rounds append chains to the earlier ones (chain i has its own random stream), so
     # the result is exactly one simulation of the final number of chains, rendered once:
@@ -155,16 +160,42 @@ def test_render_to_a_per_pixel_target_error(room):
 
 
 @pytest.mark.slow
+def test_a_per_pixel_target_bounds_the_mean_absolute_error_against_a_reference(room):
+    # What the target promises, measured: the map rendered to 2 % against an independent
+    # reference (another seed, 16× the chains, every node connected: its own mean absolute
+    # error ≈ 0.4 %, removed in quadrature). Measured: 1.59 % for an expected 1.54 % (198
+    # pixels; the pixels share their chains, so the mean absolute error of one map moves
+    # with them: 1.3× the target allowed). In this uniformly lit room the median of σ/L, the
+    # measure before session 11, is as large (1.52 %); on the station hall it was 1.5× below
+    # the mean absolute error (docs/accuracy.md).
+    proj, pose = view_args(room)
+    lmap = render(room, proj, **pose, samples=1024, target_error=0.02)
+    p = lmap.provenance
+    assert p["target_reached"] is True and p[TARGET_MEASURE] <= 0.02
+    ref = render(simulate(room, samples=16 * p["chains"], seed=99), proj, **pose, seed=5, nodes_per_pixel="all")
+    ok = np.isfinite(lmap.luminance) & (lmap.luminance > 0) & (ref.uncertainty > 0)
+    assert ok.sum() > 150
+    error = np.mean(np.abs(lmap.luminance[ok] / ref.luminance[ok] - 1))
+    own = math.sqrt(2 / math.pi) * np.mean(ref.uncertainty[ok] / ref.luminance[ok])
+    assert own < 0.3 * error
+    assert math.sqrt(error ** 2 - own ** 2) <= 1.3 * 0.02
+
+
+@pytest.mark.slow
 def test_surface_cache_render_to_a_per_pixel_target(room):
     # The cache's rounds grow chains, node draws, shadow rays and luminaire draws by one factor
     # (the room's 4 luminaires: every one whole, "auto", then any K ≥ 4), so the reported
     # per-pixel error (the map's own: the honesty of these errors is tested above and in
     # test_solver_cache.py) falls round by round until it reaches the target.
     proj, pose = view_args(room)
+    # (0.4 %, the target here before session 11, when it bounded the median σ/L, is not reached
+    # by the mean absolute error: the interpolation bias's tail near the panels, which more
+    # chains do not lower, holds it at 0.41 % — twice the median — and the rounds stop with a
+    # SolverWarning. 0.8 % is reached in two rounds: 1024 → 13 568 chains.)
     lmap = render(room, proj, **pose, estimator="cache", samples=1024, cache_nodes=256,
-                  direct_samples=1, target_error=0.004)
+                  direct_samples=1, target_error=0.008)
     p = lmap.provenance
-    assert p["target_reached"] is True and p["pixel_relative_error_median"] <= 0.004
+    assert p["target_reached"] is True and p[TARGET_MEASURE] <= 0.008
     rounds = p["rounds"]
     assert len(rounds) >= 2 and rounds[0] == {**rounds[0], "chains": 1024, "cache_nodes": 256,
                                               "direct_samples": 1, "luminaire_draws": "auto"}
@@ -173,7 +204,7 @@ def test_surface_cache_render_to_a_per_pixel_target(room):
         assert 2 <= growth <= 16
         assert b["cache_nodes"] == pytest.approx(a["cache_nodes"] * growth, rel=0.01)
         assert b["luminaire_draws"] == pytest.approx(LUMINAIRE_DRAWS * b["chains"] / rounds[0]["chains"], abs=1)
-        assert b["pixel_relative_error_median"] < a["pixel_relative_error_median"]
+        assert b[TARGET_MEASURE] < a[TARGET_MEASURE]
     with pytest.raises(BadInputError, match="apply to the double local estimate"):
         render(room, proj, **pose, estimator="cache", nodes_per_pixel=4)
     with pytest.raises(BadInputError, match="apply to the surface cache"):

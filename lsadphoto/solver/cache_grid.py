@@ -40,6 +40,8 @@ import numpy as np
 from numba import njit
 
 from ..errors import BadInputError
+from .engine import engine_for
+from .materials import shadow_transmittance
 
 __all__ = ["PATCH_KERNEL", "Patches", "SurfaceCache", "grid_index", "patch_neighbours", "patch_sides"]
 
@@ -452,9 +454,14 @@ class SurfaceCache:
         panel, a shelf or furniture standing close does not stand for the uncovered surface
         beside it (Ward et al. 1988's validity radius, with the distance along the normal
         in place of the harmonic mean of the hemisphere's, which a concave corner's
-        grazing rays would shrink to nothing where E_ind varies smoothly). A grid cell
-        none of whose corners with a positive weight qualifies keeps its plain
-        interpolation: within a convex occluder's footprint, where no pixel sees the wall.
+        grazing rays would shrink to nothing where E_ind varies smoothly). On grid
+        triangles a corner is also dropped where a visibility ray between x and it (both a
+        ray offset off the surface) is blocked: a column, a partition or a box standing on
+        the triangle, whose footprint's points are dark and whose lid or the far ceiling
+        gives them a large clearance (a glass pane does not hide). A grid cell none of whose corners with a positive
+        weight qualifies keeps its plain interpolation: within a convex occluder's
+        footprint, where no pixel sees the wall. (Patches need no such ray: their
+        neighbour lists hold only the patches that the own patch's point sees.)
         """
         return self._interpolate(scene, prim, x, side, False)[0]
 
@@ -479,7 +486,8 @@ class SurfaceCache:
         grid = np.flatnonzero(m >= 1)
         if grid.size:
             index, weight, cells = self._cells(scene, prim[grid], x[grid], side[grid])
-            weight = self._seen(x[grid], index, weight)
+            normal = np.where((side[grid] == 0)[:, None], 1.0, -1.0) * scene.normals[prim[grid]]
+            weight = self._seen(scene, x[grid], normal, index, weight)
             value[grid] = np.einsum("nk,nkg->ng", weight, self.values[index])
             if with_bias:
                 bias[grid] = self._grid_bias(weight, cells)
@@ -490,14 +498,25 @@ class SurfaceCache:
                 bias[small] = b
         return value, bias
 
-    def _seen(self, x, index, weight):
-        """The corner weights (n, 3) of points ``x`` with the corners farther than their
-        clearance dropped and the rest renormalised (unchanged where none with a positive
-        weight qualifies; :meth:`interpolate`)."""
-        far = np.linalg.norm(self.positions[index] - x[:, None], axis=2) > self.clearance[index]
-        if not far.any():
+    def _seen(self, scene, x, normal, index, weight):
+        """The corner weights (n, 3) of points ``x`` (unit normals ``normal`` of their side)
+        with the corners farther than their clearance or hidden from x dropped and the rest
+        renormalised (unchanged where none with a positive weight qualifies;
+        :meth:`interpolate`). Hidden: the segment between x and the corner, both a ray offset
+        off the surface, is blocked by an opaque surface — a column, a partition or a box
+        standing on the triangle between them (glass lets it pass, as shadow rays do:
+        :func:`~lsadphoto.solver.materials.shadow_transmittance`)."""
+        q = self.positions[index]
+        drop = np.linalg.norm(q - x[:, None], axis=2) > self.clearance[index]
+        test = np.flatnonzero(~drop & (weight > 0))
+        if test.size:
+            engine = engine_for(scene)
+            row, corner = np.divmod(test, 3)
+            lift = engine.epsilon * normal[row]
+            drop.flat[test] = shadow_transmittance(scene, engine, x[row] + lift, q[row, corner] + lift) <= 0
+        if not drop.any():
             return weight
-        kept = np.where(far, 0.0, weight)
+        kept = np.where(drop, 0.0, weight)
         total = kept.sum(axis=1, keepdims=True)
         return np.where(total > 0, kept / np.where(total > 0, total, 1.0), weight)
 

@@ -293,6 +293,12 @@ def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, ex
     max(bias² − bias_variance, 0) (an unbiased estimate of the squared bias); the provenance
     keeps the noise part (``pixel_relative_noise_*``) and the bias part
     (``pixel_relative_bias_*``) apart, and the field mean's signed bias estimate.
+
+    Over the pixels with light the provenance gives the median and 95th percentile of the
+    relative uncertainty σ/L (``pixel_relative_error_median``, ``_p95``) and the mean absolute
+    relative error that σ implies, √(2/π)·mean(σ/L)
+    (``pixel_relative_error_expected_mean_absolute``; the mean |x| of a Gaussian error of σ is
+    √(2/π)·σ).
     """
     rows, cols = projection.shape
     shared = np.zeros(len(valid)) if shared_variance is None else shared_variance
@@ -345,6 +351,10 @@ def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, ex
         "field_mean_standard_error": field_se,
         "achieved_relative_error": field_se / field_mean if field_mean > 0 else float("nan"),
         **quantiles("error", rel),
+        # what a target on the per-pixel error bounds (rendering.render's target_error): the
+        # mean absolute relative error to expect, √(2/π)·σ for a Gaussian error of σ
+        "pixel_relative_error_expected_mean_absolute": float(math.sqrt(2 / math.pi) * np.mean(rel[lit]))
+        if lit.any() else float("nan"),
         **parts,
         "render_time_s": float(elapsed),
         "scene": model.scene.name if hasattr(model, "scene") else model.name,
