@@ -339,6 +339,9 @@ def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, ex
     # estimator, its noise and bias parts and the field mean's signed relative bias estimate
     parts = {} if bias is None else {
         **quantiles("noise", rel_noise), **quantiles("bias", rel_bias),
+        # their means: which of the two holds the mean absolute error that a target bounds
+        "pixel_relative_noise_mean": float(np.mean(rel_noise[lit])) if lit.any() else float("nan"),
+        "pixel_relative_bias_mean": float(np.mean(rel_bias[lit])) if lit.any() else float("nan"),
         "field_mean_relative_bias_estimate": float((omega * bias).sum() / omega.sum() / field_mean)
         if field_mean > 0 else float("nan")}
 
