@@ -258,11 +258,17 @@ def disc_polygon(centre, normal, radius, segments=64):
 
 @dataclass
 class AreaLuminaire:
-    """A Lambertian emitting surface: its triangles emit ``flux`` [lm] from their front side."""
+    """A Lambertian emitting surface: its triangles emit ``flux`` [lm] from their front side.
+
+    ``light_source``: whether Radiance's direct calculation takes it as a light source (a
+    ``light``; not a ``glow`` of radius 0), which decides the factor 1 − F(μ_i) under the
+    ``"radiance"`` rule (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`).
+    """
 
     name: str
     flux: float
     triangles: np.ndarray  # indices into Scene.triangles
+    light_source: bool = True
 
     def luminance(self, scene):
         """Uniform luminance of the emitting surface [cd·m⁻²]: Φ/(π·A)."""
