@@ -16,7 +16,8 @@ the weights the reader and the photo pipeline use), Y(C) = 0.265074 R + 0.670115
   for plastic (an uncoloured highlight) or Y(C)·s for metal (coloured). For α = 0 (α² ≤ 10⁻⁶,
   Radiance's ``FTINY``) the specular part is a mirror reflection of reflectance ρ_s, and
   for s ≥ 0.018 (``FRESTHRESH``) Radiance's Fresnel estimate F(μ) = e^(−5.85 μ) − 0.00202943064
-  raises it to s + F(μ_o)(1 − s) (metal: F + Y(C)(s + F(1 − s))(1 − F)), while the diffuse
+  raises it to s + F(μ_o)(1 − s) (metal: F + Y(C)·s·(1 − F), ``normal.c``'s colour of the
+  mirror ray, which ``rtrace -ab 0`` reproduces at every angle), while the diffuse
   part becomes Y(C)(1 − s)(1 − F(μ_o))(1 − F(μ_i))/π — the factor (1 − F(μ_i)) is the one
   Radiance's direct calculation (``dirnorm``) applies, which makes f reciprocal. Radiance's
   ambient calculation leaves it out; :data:`FRESNEL_RULES` chooses between the two
@@ -331,7 +332,7 @@ class MaterialTable:
             tspec = trans * self.tau_s[mm]
             kd[nk] = y * (1 - trans - rspec)
             td[nk] = y * (trans - tspec)
-            spec = np.where(self.metal[mm], np.where(f > _FTINY, f + y * rspec * (1 - f), y * rspec), rspec)
+            spec = np.where(self.metal[mm], f + y * s * (1 - f), rspec)   # metal: F + Y·s·(1 − F)
             pure = self.pure[mm]
             rs[nk] = np.where(pure, 0.0, spec)
             R[nk] = np.where(pure, spec, 0.0)
