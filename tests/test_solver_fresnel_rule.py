@@ -132,11 +132,38 @@ def test_light_sources_as_radiance_counts_them():
            "void glow g5 0 0 4 1 1 1 5\ng5 polygon c 0 0 9 4 0 3 5 0 3 4 1 3\n"
            + GLOW_SKY + SUN + FLOOR)
     scene = read_radiance_scene(rad)
-    assert [lum.light_source for lum in scene.area_luminaires] == [True, False, True]
+    assert [lum.light_source_radius for lum in scene.area_luminaires] == [math.inf, 0.0, 5.0]
+    # the glow of radius 5 is one within 5 m of its centre (4.5, 0.25, 3) only
+    assert scene.light_source_at([0, 1, 2, 2], [[0, 0, 0], [0, 0, 0], [4.5, 0, 0], [-1, 0, 0]]).tolist() == [
+        True, False, True, False]
     assert [src.light_source for src in scene.distant_sources] == [False, True]
     # gensky's sky and ground glows, as the TOML sky writes them
     assert [src.light_source for src in sky_sources("sky", "uniform", 1000.0, ground_luminance=100.0)] == [False,
                                                                                                          False]
+
+
+def test_glow_of_positive_radius_is_a_light_source_within_it(tmp_path):
+    # Radiance's direct calculation takes a glow of radius r as a light source at points within
+    # r of its centre only (rtrace -ab 0: direct light at 2 m from a glow of radius 5, none from
+    # one of radius 1 or 0); under the Radiance rule the floor 2 m below renders as under a `light`
+    # (r = 5) or a glow of radius 0 (r = 1), bit for bit
+    panel = "g polygon src 0 0 12  -0.5 -0.5 2  -0.5 0.5 2  0.5 0.5 2  0.5 -0.5 2\n"
+    files = {name: f"void {kind} g 0 0 {len(reals.split())} {reals}\n" + panel + FLOOR
+             for name, kind, reals in (("light", "light", "1 1 1"), ("r5", "glow", "1 1 1 5"),
+                                       ("r1", "glow", "1 1 1 1"), ("r0", "glow", "1 1 1 0"))}
+    direct = {name: _rtrace(rad, [(0, 0, 1, 0, 0, -1)], ["-ab", "0", "-av", "0", "0", "0"], tmp_path)[0]
+              for name, rad in files.items() if name != "light"}
+    # (the floor's mirror reflection of the glow is in all three)
+    assert direct["r5"] > 1.5 * direct["r0"] and direct["r1"] == direct["r0"]
+    pose = {"position": np.array([0.0, 0.0, 1.0]), "rotation": camera_to_world((0.3, 0, -1), (0, 0, 1))}
+    maps = {name: render_path_traced(read_radiance_scene(rad), _projection(), samples=64, seed=1,
+                                     fresnel_rule="radiance", **pose).luminance for name, rad in files.items()}
+    assert np.array_equal(maps["r5"], maps["light"]) and np.array_equal(maps["r1"], maps["r0"])
+    assert not np.array_equal(maps["r5"], maps["r0"])
+    # the light chains and the local estimate: every floor point lies beyond 1 m of the glow
+    local = {name: render(simulate(read_radiance_scene(files[name]), samples=1024, seed=1, fresnel_rule="radiance"),
+                          _projection(), seed=1, **pose).luminance for name in ("r1", "r0", "r5")}
+    assert np.array_equal(local["r1"], local["r0"]) and not np.array_equal(local["r5"], local["r0"])
 
 
 def test_rule_changes_nothing_without_smooth_materials():

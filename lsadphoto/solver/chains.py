@@ -85,10 +85,10 @@ class EmissionSampler:
         dist_flux = np.array([scene.distant_flux(d) for d in self.distant], dtype=float)
         mass = np.concatenate([tri_mass, fluxes[self.n_area:], dist_flux])
         self._n_point = len(points)
-        # whether each choice is a light source of Radiance's direct calculation (point
-        # luminaires are ``light``s or ``spotlight``s)
+        # whether each choice can be a light source of Radiance's direct calculation (point
+        # luminaires are ``light``s or ``spotlight``s; area luminaires within their radius)
         self._light_source = np.concatenate([
-            np.array([l.light_source for l in area], bool)[self._tri_lum], np.ones(len(points), bool),
+            np.array([l.light_source_radius > 0 for l in area], bool)[self._tri_lum], np.ones(len(points), bool),
             np.array([d.light_source for d in self.distant], bool)])
         self._cdf = np.cumsum(mass) / mass.sum()
         self._cdf[-1] = 1.0
@@ -112,9 +112,8 @@ class EmissionSampler:
         """``n`` emission points: dict of position, normal, luminaire, kind, coefficient.
 
         ``luminaire`` indexes area luminaires (kind 0), point luminaires (kind 1) or distant
-        sources (:data:`KIND_DISTANT`); ``light_source`` says whether it is a light source of
-        Radiance's direct calculation (the ``"radiance"`` rule of
-        :data:`~lsadphoto.solver.materials.FRESNEL_RULES`). ``coefficient`` is Φ_total/π for Lambertian emitters
+        sources (:data:`KIND_DISTANT`); ``light_source`` says whether it can be a light source
+        of Radiance's direct calculation (:meth:`light_source_at` says where). ``coefficient`` is Φ_total/π for Lambertian emitters
         and Φ_total/Φ_luminaire for point luminaires (see
         :class:`~lsadphoto.solver.store.LsadStore`). A distant sample is a direction ω
         towards its source (``direction``, drawn by
@@ -183,6 +182,17 @@ class EmissionSampler:
         out["luminaire"][rows] = k
         out["coefficient"][rows] = self.total_flux / (math.pi * radius ** 2)
 
+    def light_source_at(self, src, points):
+        """Whether the emission samples ``src`` (of :meth:`sample`) are light sources of
+        Radiance's direct calculation at ``points`` (n, 3) [m] (bool, shape (n,)): area
+        luminaires within their light-source radius
+        (:meth:`~lsadphoto.solver.scene.Scene.light_source_at`), the others by their kind
+        (the ``"radiance"`` rule of :data:`~lsadphoto.solver.materials.FRESNEL_RULES`)."""
+        out = src["light_source"].copy()
+        area = np.flatnonzero(out & (src["kind"] == KIND_COSINE))
+        out[area] = self.scene.light_source_at(src["luminaire"][area], np.asarray(points)[area])
+        return out
+
     def point_intensity(self, luminaire, directions):
         """Intensity [cd] of point luminaires ``luminaire`` (indices, shape (n,)) towards
         world ``directions`` (n, 3), evaluated once per distinct intensity table."""
@@ -241,7 +251,7 @@ def _chain_starts(engine, sampler, seed, block, n, batches):
     direction, factor = sampler.first_directions(rng, src)
     origin = src["position"] + engine.epsilon * np.where(
         (src["kind"] == KIND_COSINE)[:, None], src["normal"], 0.0)
-    return rng, out, batch, direction, sampler.total_flux * factor, origin, src["light_source"]
+    return rng, out, batch, direction, sampler.total_flux * factor, origin, src
 
 
 def _block_chains(scene, engine, sampler, seed, block, n, batches, max_depth, absorption):
@@ -342,7 +352,11 @@ def _material_block_group(scene, engine, sampler, seed, blocks, batches, limit, 
     starts = [_chain_starts(engine, sampler, seed, block, n, batches) for block in blocks]
     streams = GroupStreams([s[0] for s in starts])
     out = {key: [np.concatenate([s[1][key][0] for s in starts])] for key in starts[0][1]}
-    batch, direction, weight, origin, straight = (np.concatenate([s[k] for s in starts]) for k in range(2, 7))
+    batch, direction, weight, origin = (np.concatenate([s[k] for s in starts]) for k in range(2, 6))
+    # whether each chain's light may still be straight from a Radiance light source, and its
+    # area luminaire (−1: none), which is one only within its radius
+    straight = np.concatenate([s[6]["light_source"] for s in starts])
+    source = np.concatenate([np.where(s[6]["kind"] == KIND_COSINE, s[6]["luminaire"], -1) for s in starts])
     group = np.repeat(np.arange(len(starts)), n)   # of each chain
     # the source nodes of each block (distant sources leave none)
     sources = np.repeat(np.arange(len(starts)), [len(s[1]["batch"][0]) for s in starts])
@@ -355,24 +369,28 @@ def _material_block_group(scene, engine, sampler, seed, blocks, batches, limit, 
         streams.counts = np.bincount(group[alive], minlength=len(starts))
         u = streams.random((alive.size, 3))
         hit = prim >= 0
-        alive, origin, direction, weight, prim, dist, u, straight = (
-            alive[hit], origin[hit], direction[hit], weight[hit], prim[hit], dist[hit], u[hit], straight[hit])
+        alive, origin, direction, weight, prim, dist, u, straight, source = (
+            alive[hit], origin[hit], direction[hit], weight[hit], prim[hit], dist[hit], u[hit], straight[hit],
+            source[hit])
         if not alive.size:
             break
         point = origin + dist[:, None] * direction
+        direct = straight.copy()
+        area = np.flatnonzero(straight & (source >= 0))
+        direct[area] = scene.light_source_at(source[area], point[area])
         nrm, front = scene.facing_normals(prim, direction)
         mat = scene.material[prim]
         p = bsdf.parts(mat, -np.einsum("ij,ij->i", direction, nrm), front)
         keep = (p["kd"] + p["td"] + p["rs"] + p["ts"]) > 0
         for key, value in (("position", point), ("normal", nrm), ("coefficient", weight),
                            ("incoming", -direction), ("front", front), ("triangle", prim),
-                           ("batch", batch[alive]), ("group", group[alive]), ("direct", straight)):
+                           ("batch", batch[alive]), ("group", group[alive]), ("direct", direct)):
             out[key].append(value[keep])
         k = int(keep.sum())
         out["kind"].append(np.zeros(k, np.int8))
         out["luminaire"].append(np.full(k, -1, np.int32))
         out["depth"].append(np.full(k, depth, np.int16))
-        wi, w, delta, _ = bsdf.sample(mat, nrm, -direction, u, front, rule=rule, direct=straight, adjoint=True)
+        wi, w, delta, _ = bsdf.sample(mat, nrm, -direction, u, front, rule=rule, direct=direct, adjoint=True)
         weight = weight * w
         low = weight < floor
         q = np.where(low, weight / floor, 1.0)
@@ -380,8 +398,9 @@ def _material_block_group(scene, engine, sampler, seed, blocks, batches, limit, 
         weight = np.where(low, floor, weight)
         side = np.sign(np.einsum("ij,ij->i", wi, nrm))
         straight = straight & delta & (side < 0)
-        alive, point, nrm, wi, weight, side, straight = (alive[survive], point[survive], nrm[survive],
-                                                         wi[survive], weight[survive], side[survive], straight[survive])
+        alive, point, nrm, wi, weight, side, straight, source = (
+            alive[survive], point[survive], nrm[survive], wi[survive], weight[survive], side[survive],
+            straight[survive], source[survive])
         direction = wi
         origin = point + engine.epsilon * side[:, None] * nrm
     nodes = {key: np.concatenate(v) for key, v in out.items()}

@@ -764,7 +764,7 @@ def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count
         u3 = u[u_start[sel, None] + np.arange(int(count[sel[0]]))]
         e[sel], v[sel] = _area_estimate(scene, samplers[li], x[p], n[p], origins[p], u3, engine,
                                         unoccluded=guide[sel], fresnel=None if fresnel is None else fresnel_weighted(
-                                            fresnel[p], rule=rule, direct=scene.area_luminaires[li].light_source))
+                                            fresnel[p], rule=rule, direct=scene.light_source_at(np.full(p.size, li), x[p])))
     return e, v
 
 
@@ -1043,5 +1043,5 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
             E[m[lit]] = s.luminance * s.area * g[lit, 0] * shadow_transmittance(scene, engine, origins[m[lit]], targets[lit, 0])
             if fresnel is not None:
                 E[m[lit]] *= diffuse_fresnel_factor(cosine[lit, 0], fresnel[m[lit]], rule=fresnel_rule,
-                                                    direct=scene.area_luminaires[li].light_source)
+                                                    direct=scene.light_source_at(np.full(lit.size, li), x[m[lit]]))
     return E / prob + sky

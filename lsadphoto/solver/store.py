@@ -21,6 +21,7 @@ storage of the computed LSAD). Keller, A. (1997). Instant radiosity. *SIGGRAPH '
 """
 
 import json
+import math
 import zipfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -164,7 +165,8 @@ class LsadStore:
             "scene": {
                 "name": scene.name,
                 "material_names": list(scene.material_names),
-                "area_luminaires": [{"name": l.name, "flux": l.flux, "light_source": l.light_source}
+                "area_luminaires": [{"name": l.name, "flux": l.flux, "light_source_radius":
+                                     None if math.isinf(l.light_source_radius) else l.light_source_radius}
                                     for l in scene.area_luminaires],
                 "point_luminaires": [
                     {"name": l.name, "position": l.position.tolist(), "frame": l.frame.tolist(),
@@ -217,7 +219,8 @@ def load_store(path):
     try:
         s = meta["scene"]
         emitter = arrays["emitter"]
-        area = [AreaLuminaire(l["name"], l["flux"], np.flatnonzero(emitter == k), l.get("light_source", True))
+        area = [AreaLuminaire(l["name"], l["flux"], np.flatnonzero(emitter == k),
+                              math.inf if l.get("light_source_radius") is None else l["light_source_radius"])
                 for k, l in enumerate(s["area_luminaires"])]
         points = []
         for k, l in enumerate(s["point_luminaires"]):

@@ -522,7 +522,7 @@ class _Reader:
             self.add(tris, None, k)
             self.area_luminaires.append(AreaLuminaire(ident, math.pi * area * luminance,
                                                       np.arange(first, first + len(tris)),
-                                                      light_source=_is_light_source(material)))
+                                                      light_source_radius=_light_source_radius(material)))
             return
         if material.kind not in SURFACE_MATERIALS:
             raise BadInputError(f"{where}: {what}: {material.describe()} is not supported: "
@@ -1081,13 +1081,14 @@ def _angle_grid(top, step, node_sets, cuts):
     return grid
 
 
-def _is_light_source(material):
-    """Whether Radiance's direct calculation takes a surface of ``light``/``glow`` material
-    as a light source: a ``light``, and a ``glow`` of positive radius of influence (Radiance's
-    ``marksources`` skips those of radius 0, which light only through its ambient calculation).
-    Radiance limits a glow of positive radius to the points within that distance of its
-    centre (``srcskip``); the solver takes it as a light source everywhere."""
-    return material.kind == "light" or material.reals[3] > 1e-6
+def _light_source_radius(material):
+    """Distance [m] from its centre within which Radiance's direct calculation takes a surface
+    of ``light``/``glow`` material as a light source: ∞ for a ``light``, a ``glow``'s radius of
+    influence (``srcskip``), 0 for a ``glow`` of radius 0 (``marksources`` skips it: it lights
+    only through the ambient calculation)."""
+    if material.kind == "light":
+        return math.inf
+    return material.reals[3] if material.reals[3] > 1e-6 else 0.0
 
 
 def _check_glow_radius(material, where, what):

@@ -460,10 +460,8 @@ class _MaterialGatherer:
         self.mirrors = mirrors if mirrors.size <= MAX_VIRTUAL_MIRRORS else mirrors[:0]
         self.virtual = np.zeros(len(scene.triangles) + 1, bool)   # index −1: no triangle
         self.virtual[self.mirrors] = True
-        #: the smooth materials' rule for 1 − F(μ_i) (the store's), and per triangle whether it
-        #: emits as a light source of Radiance's direct calculation
+        #: the smooth materials' rule for 1 − F(μ_i) (the store's)
         self.rule = nodes.fresnel_rule
-        self.light_source = np.array([lum.light_source for lum in scene.area_luminaires] + [False])[scene.emitter]
 
     def draws(self, k):
         """Draws per point and stratum of each batch when a point gathers ``k`` nodes: k split
@@ -540,10 +538,15 @@ class _MaterialGatherer:
         cos_p = np.einsum("ij,ij->i", w, np_)
         kind = nd.kind[pick]
         surface = nd.depth[pick] > 0
-        # the light of source nodes arrives straight from their luminaire, that of surface nodes not
+        # the light of source nodes arrives straight from their luminaire (a Radiance light
+        # source there, or not), that of surface nodes not
+        direct = True
+        if self.rule != "reciprocal":
+            direct = nd.direct[pick] & ~surface
+            area = np.flatnonzero(direct & (kind == KIND_COSINE))
+            direct[area] = self.scene.light_source_at(self.scene.emitter[nd.triangle[pick[area]]], x[owner[area]])
         f_d, f_g = bsdf.evaluate(mat[owner], np_, wo[owner], w, split=True,
-                                 parts={key: v[owner] for key, v in parts.items()},
-                                 rule=self.rule, direct=nd.direct[pick] & ~surface)
+                                 parts={key: v[owner] for key, v in parts.items()}, rule=self.rule, direct=direct)
         cos_n = -np.einsum("ij,ij->i", w, ny)
         f_pg = np.where(kind == KIND_COSINE, 0.0, f_g)
         emitter = np.flatnonzero((kind == KIND_COSINE) & ~surface & (f_g > 0))
@@ -722,7 +725,8 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     Under the ``"radiance"`` rule (the store's, :data:`~lsadphoto.solver.materials.FRESNEL_RULES`)
     the rays carry the smooth materials' diffuse part without 1 − F(μ_i), and emission of a
     Radiance light source reached from a non-delta vertex (through straight-through
-    transmissions only) takes that vertex's factor 1 − F(μ_i), ``g_v``.
+    transmissions only; within the source's radius of that vertex, ``x_v``) takes that vertex's
+    factor 1 − F(μ_i), ``g_v``.
     """
     bsdf = scene.bsdf
     rule = gatherer.rule
@@ -742,17 +746,16 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     # weight of the distant sources' radiance, which the connections' next-event estimate
     # covers except after delta reflections (and straight transmissions after those)
     beta_s = np.zeros(len(x))
-    g_v = np.ones(len(x))
+    g_v, x_v = np.ones(len(x)), x.copy()
     first = True
     while idx.size:
         u = _uniforms(rng, batch, 4)
         wi, w, delta, _ = bsdf.sample(mat, n, wo, u[:, :3], front, rule=rule, direct=False)
         keep = (w > 0) & ~(delta & first)
         (idx, beta, beta_f, beta_s, x, n, wi, w, delta, wo, mat, u, batch, e_near, e_far, pdf_v, primary_v,
-         travelled, through, tri, arrived, g_v) = (a[keep] for a in (idx, beta, beta_f, beta_s, x, n, wi, w, delta,
-                                                                     wo, mat, u, batch, e_near, e_far, pdf_v,
-                                                                     primary_v, travelled, through, tri, arrived,
-                                                                     g_v))
+         travelled, through, tri, arrived, g_v, x_v) = (a[keep] for a in (
+             idx, beta, beta_f, beta_s, x, n, wi, w, delta, wo, mat, u, batch, e_near, e_far, pdf_v, primary_v,
+             travelled, through, tri, arrived, g_v, x_v))
         front = np.asarray(front)[keep]
         if not idx.size:
             break
@@ -774,6 +777,7 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
             mu = np.abs(np.einsum("ij,ij->i", n[nd], wi[nd]))
             if rule != "reciprocal":
                 g_v[nd] = diffuse_fresnel_factor(mu, bsdf.fresnel[mat[nd]], rule=rule, direct=True)
+                x_v[nd] = x[nd]
             near = dist[nd] < near_distance
             scale = np.where(pdf > 0, mu / np.maximum(pdf, 1e-300), 0.0)
             b[nd] = (beta[nd] * f_d * near + beta_f[nd] * f_g) * scale
@@ -798,7 +802,8 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
         hit = prim >= 0
         if rule != "reciprocal":
             straight = np.flatnonzero(through & hit)
-            straight = straight[gatherer.light_source[prim[straight]]]
+            straight = straight[scene.emitter[prim[straight]] >= 0]
+            straight = straight[scene.light_source_at(scene.emitter[prim[straight]], x_v[straight])]
             be[straight] *= g_v[straight]
         if hit.any():
             total[idx[hit]] += be[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
@@ -809,9 +814,9 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
         q = np.ones(idx.size) if first else np.minimum(w, 1.0)
         go = hit & ((b > 0) | (bf > 0)) & (u[:, 3] < q)
         (idx, beta, beta_f, beta_s, x, n, wi, side, prim, dist, batch, e_near, e_far, pdf_v, primary_v, travelled,
-         through, arrived, g_v) = (a[go] for a in (idx, b / q, bf / q, bs / q, x, n, wi, side, prim, dist, batch,
-                                                   e_near / q, e_far / q, pdf_v, primary_v, travelled, through, ~delta,
-                                                   g_v))
+         through, arrived, g_v, x_v) = (a[go] for a in (idx, b / q, bf / q, bs / q, x, n, wi, side, prim, dist,
+                                                        batch, e_near / q, e_far / q, pdf_v, primary_v, travelled,
+                                                        through, ~delta, g_v, x_v))
         tri = prim
         if not idx.size:
             break

@@ -194,7 +194,7 @@ def _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, front, 
         streams.counts = np.bincount(group[alive], minlength=len(streams.gens))
         mat = scene.material[tri]
         src, w, r2, cos_x, is_cos, g = _light_sample(sampler, streams, x, nx)
-        f = bsdf.evaluate(mat, nx, wo, w, rule=rule, direct=src["light_source"])
+        f = bsdf.evaluate(mat, nx, wo, w, rule=rule, direct=sampler.light_source_at(src, x))
         ok = (f > 0) & (g > 0) & (np.abs(cos_x) > 0)
         if ok.any():
             side = np.sign(cos_x[ok])[:, None]
