@@ -24,6 +24,7 @@ from lsadphoto.geometry import PinholeProjection
 from lsadphoto.solver import camera_to_world, read_radiance_scene, render, render_path_traced, simulate
 from lsadphoto.solver.formats.radiance import RTRACE_UNBIASED
 from lsadphoto.solver.grids import grid_illuminance, work_plane_grid
+from lsadphoto.solver.integrators.surface_cache import build_surface_cache, render_cached
 from lsadphoto.solver.materials import fresnel_estimate
 from lsadphoto.solver.sky import sky_sources
 
@@ -190,6 +191,11 @@ def test_rule_errors():
     assert store.provenance["fresnel_rule"] == "radiance"
     with pytest.raises(BadInputError, match="differs from the store's 'radiance'"):
         render(store, _projection(), fresnel_rule="reciprocal", **pose)
+    # a surface cache renders with the store of its own rule only
+    other = build_surface_cache(simulate(scene, samples=256), spacing=2.0, nodes=64)
+    assert other.provenance["fresnel_rule"] == "reciprocal"
+    with pytest.raises(BadInputError, match="surface cache was built under the Fresnel rule 'reciprocal'"):
+        render_cached(store, _projection(), cache=other, **pose)
 
 
 @pytest.mark.parametrize("rule", ["radiance", "reciprocal"])

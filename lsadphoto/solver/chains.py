@@ -113,7 +113,8 @@ class EmissionSampler:
 
         ``luminaire`` indexes area luminaires (kind 0), point luminaires (kind 1) or distant
         sources (:data:`KIND_DISTANT`); ``light_source`` says whether it can be a light source
-        of Radiance's direct calculation (:meth:`light_source_at` says where). ``coefficient`` is Φ_total/π for Lambertian emitters
+        of Radiance's direct calculation (:meth:`light_source_at` says where).
+        ``coefficient`` is Φ_total/π for Lambertian emitters
         and Φ_total/Φ_luminaire for point luminaires (see
         :class:`~lsadphoto.solver.store.LsadStore`). A distant sample is a direction ω
         towards its source (``direction``, drawn by
@@ -232,9 +233,9 @@ class EmissionSampler:
 def _chain_starts(engine, sampler, seed, block, n, batches):
     """The emission of the ``n`` chains of one block (global chain index block·CHAIN_BLOCK + i):
     its random stream, the source nodes (lists of arrays, as the node records, with ``direct``:
-    whether the luminaire is a light source of Radiance's direct calculation), each chain's
-    batch, first direction, weight [lm], ray origin and whether its source is such a light
-    source."""
+    whether the luminaire can be a light source of Radiance's direct calculation), each chain's
+    batch, first direction, weight [lm] and ray origin, and the emission samples
+    (:meth:`EmissionSampler.sample`)."""
     rng = stream(seed, "chains", block)
     src = sampler.sample(rng, n)
     batch = ((block * CHAIN_BLOCK + np.arange(n)) % batches).astype(np.int16)

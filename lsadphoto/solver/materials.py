@@ -103,8 +103,8 @@ GLASS_INDEX = 1.52
 #: which makes f reciprocal, so the light chains (which evaluate f with ω_i and ω_o
 #: exchanged) and the eye paths estimate one quantity; ``"radiance"`` applies it only to light
 #: arriving straight from a light source of Radiance's direct calculation (``light``,
-#: ``spotlight``, a ``glow`` of positive radius, a distant ``source`` of ``light``), as
-#: Radiance's ``dirnorm`` does, and not to any other light (interreflected light; ``glow`` of
+#: ``spotlight``, a ``glow`` of positive radius within that radius of its centre, a distant
+#: ``source`` of ``light``), as Radiance's ``dirnorm`` does, and not to any other light (interreflected light; ``glow`` of
 #: radius 0 and the sky's ``glow``, which Radiance reaches only by its ambient calculation).
 FRESNEL_RULES = ("reciprocal", "radiance")
 

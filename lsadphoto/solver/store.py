@@ -80,10 +80,10 @@ class LsadStore:
     front : ndarray of bool, shape (k,), or None
         Non-Lambertian scenes: whether the node was reached on its triangle's front side.
     direct : ndarray of bool, shape (k,), or None
-        Non-Lambertian scenes: at source nodes, whether the luminaire is a light source of
-        Radiance's direct calculation; at surface nodes, whether the light arriving there came
-        straight from one (through straight-through transmissions only). Used by the
-        ``"radiance"`` rule.
+        Non-Lambertian scenes: at source nodes, whether the luminaire can be a light source of
+        Radiance's direct calculation (an area luminaire within its ``light_source_radius``);
+        at surface nodes, whether the light arriving there came straight from one (through
+        straight-through transmissions only). Used by the ``"radiance"`` rule.
     fresnel_rule : str
         The smooth materials' rule for the factor 1 − F(μ_i) the chains were traced with
         (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`); views rendered from the store
