@@ -189,6 +189,10 @@ def test_rule_errors():
         render_path_traced(scene, _projection(), samples=16, fresnel_rule="ward", **pose)
     store = simulate(scene, samples=256, fresnel_rule="radiance")
     assert store.provenance["fresnel_rule"] == "radiance"
+    # a Lambertian scene's maps record the rule too (which plays no part there)
+    lambertian = read_radiance_scene(GLOW_SKY + FLOOR.replace(f"{S} 0\n", "0 0\n"))
+    lmap = render(simulate(lambertian, samples=256, fresnel_rule="radiance"), _projection(), **pose)
+    assert lmap.provenance["fresnel_rule"] == "radiance"
     with pytest.raises(BadInputError, match="differs from the store's 'radiance'"):
         render(store, _projection(), fresnel_rule="reciprocal", **pose)
     # a surface cache renders with the store of its own rule only

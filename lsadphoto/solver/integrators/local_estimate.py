@@ -372,7 +372,7 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
                "near_field": near_field, "near_distance_m": near_distance,
                "near_field_biased": near_field == "clamp",
                "nodes_per_pixel": "all" if nodes_per_pixel is None else int(nodes_per_pixel),
-               "seed": int(seed), "simulation_seed": int(store.seed)},
+               "seed": int(seed), "simulation_seed": int(store.seed), "fresnel_rule": store.fresnel_rule},
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
 
 
