@@ -28,6 +28,9 @@ Run (2-core machine)::
 
     python benchmarks/accuracy_materials.py --variant "glossy floor" --estimators local,cache
 
+``--fresnel-rule radiance`` renders under the smooth materials' Radiance rule
+(:data:`~lsadphoto.solver.materials.FRESNEL_RULES`; default ``reciprocal``).
+
 Writes a Markdown fragment with the command to ``--output``.
 """
 
@@ -54,6 +57,7 @@ from lsadphoto.solver.formats.radiance import RTRACE_UNBIASED
 from lsadphoto.solver.integrators.eye import primary_rays
 from lsadphoto.solver.integrators.local_estimate import render_local_estimate_materials
 from lsadphoto.solver.integrators.surface_cache import build_surface_cache, render_cached
+from lsadphoto.solver.materials import FRESNEL_RULES
 from lsadphoto.solver.scene import camera_to_world
 
 #: Radiance's options: pure Monte Carlo (RTRACE_UNBIASED: -aa 0 -as 0 -lw 1e-9), deep (-ab 12), fine source
@@ -152,6 +156,8 @@ def main(argv=None):
     parser.add_argument("--glossy-rays", type=int, default=16, help="glossy rays per eye vertex and group (cache)")
     parser.add_argument("--direct-samples", type=int, default=4, help="shadow rays per luminaire and pixel (cache)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--fresnel-rule", default="reciprocal", choices=FRESNEL_RULES,
+                        help="the smooth materials' rule for 1 − F(μ_i) (lsadphoto.solver.materials)")
     parser.add_argument("--reference-only", action="store_true")
     parser.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "lsadphoto_material_refs"))
     parser.add_argument("--output", default="/tmp/frag_accuracy_materials.md")
@@ -178,7 +184,7 @@ def main(argv=None):
                 if name == "local":
                     setting = (f"{args.chains} chains, {args.nodes_per_pixel} nodes/px, "
                                f"{args.rays_per_vertex} rays/vertex")
-                    store = simulate(scene, samples=args.chains, seed=1)
+                    store = simulate(scene, samples=args.chains, seed=1, fresnel_rule=args.fresnel_rule)
                     with Clock() as view:
                         lmap = render_local_estimate_materials(
                             store, proj, position=pos, rotation=rot, nodes_per_pixel=args.nodes_per_pixel,
@@ -188,7 +194,7 @@ def main(argv=None):
                     setting = (f"{args.chains} chains, spacing {args.cache_spacing:.3g} × diagonal, "
                                f"{args.cache_nodes} nodes/point, {args.glossy_rays} glossy rays/vertex/group, "
                                f"{args.direct_samples} shadow rays/luminaire/px")
-                    store = simulate(scene, samples=args.chains, seed=1)
+                    store = simulate(scene, samples=args.chains, seed=1, fresnel_rule=args.fresnel_rule)
                     with Clock() as build:
                         cache = build_surface_cache(store, spacing=args.cache_spacing * scene.size,
                                                     nodes=args.cache_nodes, seed=1, workers=args.workers)
@@ -200,11 +206,12 @@ def main(argv=None):
                 else:
                     setting = f"{args.paths} paths/px"
                     lmap = render_path_traced(scene, proj, position=pos, rotation=rot, samples=args.paths,
-                                              batches=16, seed=1, workers=args.workers)
+                                              batches=16, seed=1, workers=args.workers,
+                                              fresnel_rule=args.fresnel_rule)
             maps[name] = (np.asarray(lmap.luminance, float).ravel(), np.asarray(lmap.uncertainty, float).ravel())
             ours, sigma = maps[name][0][pick], maps[name][1][pick]
             s = summary(ours, sigma, ref, ref_se)
-            lines.append(f"| {variant} | {name} | {setting} | {clock.cpu:.0f} ({clock.wall:.0f}) | {s['field']:.4f} ± "
+            lines.append(f"| {variant} | {name}, {args.fresnel_rule} rule | {setting} | {clock.cpu:.0f} ({clock.wall:.0f}) | {s['field']:.4f} ± "
                          f"{s['field_se']:.4f} | {100 * s['mare']:.2f} % | {100 * s['mare_corrected']:.2f} % | {s['highlight']:.3f} | "
                          f"{100 * s['ref_rel']:.2f} % | {100 * s['self']:.2f} % | {s['median_z']:.2f} | "
                          f"{100 * s['z3']:.0f} % |")
@@ -214,7 +221,7 @@ def main(argv=None):
             (a, sa), (b, sb) = maps[first], maps[second]
             ok = np.isfinite(a) & np.isfinite(b) & (sa + sb > 0)
             z = (a[ok] - b[ok]) / np.sqrt(sa[ok] ** 2 + sb[ok] ** 2)
-            comparisons.append(f"{variant}: {first} / {second} field mean {a[ok].mean() / b[ok].mean():.4f} ± "
+            comparisons.append(f"{variant}, {args.fresnel_rule} rule: {first} / {second} field mean {a[ok].mean() / b[ok].mean():.4f} ± "
                                f"{math.sqrt((sa[ok] ** 2).sum() + (sb[ok] ** 2).sum()) / b[ok].sum():.4f}, "
                                f"mean z² {np.mean(z * z):.2f}, median |z| {np.median(np.abs(z)):.2f} over "
                                f"{int(ok.sum())} pixels.")

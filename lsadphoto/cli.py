@@ -723,7 +723,7 @@ def cmd_simulate(args):
     callback, close = progress_callback("simulating", enabled=False if args.quiet else None)
     try:
         store = simulate(scene, samples=args.samples, target_error=args.target_error, seed=args.seed,
-                         progress=callback, **_given(near_field=args.near_field))
+                         progress=callback, **_given(near_field=args.near_field, fresnel_rule=args.fresnel_rule))
     finally:
         close()
     if args.surface_cache:
@@ -740,6 +740,14 @@ def cmd_simulate(args):
                  f"; relative error of the {store.provenance['error_measured_on']} {achieved:.2%}")
         print(f"wrote {args.output}: {store.chains} light chains, {store.nodes} nodes{extra}")
     return 0
+
+
+def _add_fresnel_rule(parser, default):
+    parser.add_argument("--fresnel-rule", choices=_Choices("lsadphoto.solver.materials", "FRESNEL_RULES"),
+                        help="smooth plastic, metal and trans: 'reciprocal' weights all light on their diffuse "
+                             "part by 1 − F(μ_i) (a reciprocal BRDF); 'radiance' only the light straight from "
+                             "Radiance's light sources (light, spotlight, glow of radius > 0, the sun), as Radiance "
+                             f"renders the same file {default}")
 
 
 def _build_cache(store, args):
@@ -864,7 +872,7 @@ def cmd_render(args):
     try:
         lmap = render(store_or_scene, projection, position=position, rotation=rotation, estimator=args.estimator,
                       samples=args.samples, target_error=target, seed=args.seed, workers=os.cpu_count() or 1,
-                      progress=callback, **options)
+                      progress=callback, **options, **_given(fresnel_rule=args.fresnel_rule))
     finally:
         close()
     writers = {"exr": write_exr, "hdr": write_hdr}
@@ -1160,6 +1168,7 @@ def _build_parser():
     sim.add_argument("--seed", type=int, default=0)
     sim.add_argument("--near-field", choices=_Choices("lsadphoto.solver.integrators.local_estimate", "NEAR_FIELD_TREATMENTS"),
                      help="near-field treatment (default: the first; clamp is biased and reported as such)")
+    _add_fresnel_rule(sim, "(default reciprocal; recorded in the store, whose renders use it)")
     _add_cache_options(sim)
     sim.add_argument("--surface-cache", action="store_true",
                      help="also store the indirect illuminance on the surfaces (render --estimator cache)")
@@ -1189,6 +1198,7 @@ def _build_parser():
                           "--samples alone, else cache; local for glossy, specular or transmitting materials "
                           "— and says what it chose")
     ren.add_argument("--nodes-per-pixel", default="auto", help="nodes connected per pixel and batch: a number, 'all' or 'auto'")
+    _add_fresnel_rule(ren, "(default: a store's own, another is an error; reciprocal for a scene)")
     _add_cache_options(ren)
     ren.add_argument("--seed", type=int, default=0)
     ren.add_argument("-o", "--output", required=True, help="output OpenEXR map (.exr)")

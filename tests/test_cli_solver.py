@@ -267,3 +267,35 @@ def test_a_glossy_scene_simulates_once_and_renders_many_views(tmp_path):
         code, _, err = cli(*command, "--quiet", "-o", tmp_path / "bad.exr")
         assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
         assert not (tmp_path / "bad.exr").exists()
+
+
+def test_fresnel_rule_option(tmp_path):
+    # --fresnel-rule radiance: the store records it, the CLI's map equals render() of the scene
+    # in Python under the same rule (the CLI adds nothing); another rule for that store, or an
+    # unknown one, is a one-line error with exit 2.
+    from lsadphoto.io.hdr import parse_view, projection_from_view
+    from lsadphoto.solver import read_radiance_scene
+
+    rad, store = tmp_path / "smooth.rad", tmp_path / "smooth.npz"
+    rad.write_text(GLOSSY_RAD.replace(".05 .05\n", ".05 0\n"))   # a smooth floor: the rule matters
+    code, out, err = cli("simulate", rad, "--samples", "512", "--seed", "5", "--fresnel-rule", "radiance",
+                         "-o", store, "--quiet", "--json")
+    assert code == 0, err
+    assert json.loads(out)["provenance"]["fresnel_rule"] == "radiance"
+    assert load_store(store).fresnel_rule == "radiance"
+    view = "-vtv -vp 0 0 1.5 -vd 0 0 -1 -vu 0 1 0 -vh 60 -vv 60"
+    code, _, err = cli("render", store, f"--view={view}", "--size", "4x4", "--seed", "5", "--quiet",
+                       "-o", tmp_path / "m.exr")
+    assert code == 0, err
+    given = parse_view(view)
+    direct = render(read_radiance_scene(rad), projection_from_view(given, 4, 4), position=given["vp"],
+                    rotation=camera_to_world(given["vd"], given["vu"]), samples=512, seed=5, fresnel_rule="radiance")
+    np.testing.assert_array_equal(read_exr(tmp_path / "m.exr").luminance, direct.luminance)
+    code, _, err = cli("render", store, f"--view={view}", "--size", "4x4", "--fresnel-rule", "reciprocal",
+                       "--quiet", "-o", tmp_path / "bad.exr")
+    assert code == 2 and "differs from the store's 'radiance'" in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "bad.exr").exists()
+    # argparse's own message for an unknown choice (usage, then one error line naming the valid ones)
+    code, _, err = cli("simulate", rad, "--fresnel-rule", "ward", "-o", tmp_path / "bad.npz")
+    assert code == 2 and "invalid choice: 'ward' (choose from 'reciprocal', 'radiance')" in err.splitlines()[-1]
+    assert not (tmp_path / "bad.npz").exists()

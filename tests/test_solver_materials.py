@@ -241,13 +241,15 @@ def test_mirror_and_glass_deltas_match_rtrace(tmp_path):
 
 
 @pytest.mark.parametrize("material", ["plastic 0 0 5 0 0 0 0.05 0", "plastic 0 0 5 0 0 0 0.5 0",
-                                      "trans 0 0 7 0 0 0 0.05 0 0.5 0"])
+                                      "trans 0 0 7 0 0 0 0.05 0 0.5 0", "metal 0 0 5 0.5 0.5 0.5 0.9 0"])
 def test_fresnel_raised_mirror_reflectance_matches_rtrace(tmp_path, material):
-    # Smooth black plastic and trans (roughness 0, specularity ≥ 0.018) mirror a uniform glow
-    # sky of radiance 1: rtrace -ab 0 returns their mirror reflectance R(μ_o) at six angles. The
-    # constant of Radiance's Fresnel estimate decides it: with the older 0.00287989916
-    # (F(1) = 0) the plastic's R came out 0.00081 (s 0.05) and 0.00042 (s 0.5) below
-    # Radiance's at every angle (1.6 % of the reflection near the normal).
+    # Smooth black plastic and trans, and smooth grey metal (roughness 0, specularity ≥ 0.018)
+    # mirror a uniform glow sky of radiance 1 (no light source: rtrace -ab 0 gives no diffuse
+    # light): rtrace returns their mirror reflectance R(μ_o) at six angles. The constant of
+    # Radiance's Fresnel estimate decides it: with the older 0.00287989916 (F(1) = 0) the
+    # plastic's R came out 0.00081 (s 0.05) and 0.00042 (s 0.5) below Radiance's at every angle
+    # (1.6 % of the reflection near the normal). Metal's R is F + Y·s·(1 − F) (0.4510 … 0.7553
+    # here); the earlier F + Y·(s + F(1 − s))(1 − F) was up to 1.6 % higher at μ = 0.1.
     binpath = radiance_bin()
     rad = ("void glow sky_glow 0 0 4 1 1 1 0\nsky_glow source sky 0 0 4 0 0 1 180\n"
            f"void {material.split()[0]} mat {' '.join(material.split()[1:])}\n" + FLOOR)

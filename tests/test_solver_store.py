@@ -318,7 +318,7 @@ def test_store_format_versions(room, store, tmp_path):
     from lsadphoto.solver.formats.radiance import read_radiance_scene
     from lsadphoto.solver.store import STORE_FORMAT
 
-    assert STORE_FORMAT == "lsadphoto-lsad-store/4"
+    assert STORE_FORMAT == "lsadphoto-lsad-store/5"
     store.save(tmp_path / "new.npz")
     old = load_store(_rewritten(tmp_path / "new.npz", tmp_path / "old.npz",
                                 lambda a, m: m.update(format="lsadphoto-lsad-store/3")))
@@ -332,6 +332,11 @@ def test_store_format_versions(room, store, tmp_path):
     simulate(glossy, samples=256).save(tmp_path / "glossy.npz")
     with pytest.raises(UnsupportedFileError, match="LSAD store lacks 'incoming'"):
         load_store(_rewritten(tmp_path / "glossy.npz", tmp_path / "y.npz", lambda a, m: a.pop("incoming")))
+    # a /4 material store (the reciprocal rule, nodes without ``direct``) loads as before
+    old4 = load_store(_rewritten(tmp_path / "glossy.npz", tmp_path / "z.npz",
+                                 lambda a, m: (a.pop("direct"), m.pop("fresnel_rule"),
+                                               m.update(format="lsadphoto-lsad-store/4"))))
+    assert old4.fresnel_rule == "reciprocal" and old4.nodes == load_store(tmp_path / "glossy.npz").nodes
 
 
 def test_max_depth_truncates(room):

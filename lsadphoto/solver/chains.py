@@ -85,6 +85,11 @@ class EmissionSampler:
         dist_flux = np.array([scene.distant_flux(d) for d in self.distant], dtype=float)
         mass = np.concatenate([tri_mass, fluxes[self.n_area:], dist_flux])
         self._n_point = len(points)
+        # whether each choice can be a light source of Radiance's direct calculation (point
+        # luminaires are ``light``s or ``spotlight``s; area luminaires within their radius)
+        self._light_source = np.concatenate([
+            np.array([l.light_source_radius > 0 for l in area], bool)[self._tri_lum], np.ones(len(points), bool),
+            np.array([d.light_source for d in self.distant], bool)])
         self._cdf = np.cumsum(mass) / mass.sum()
         self._cdf[-1] = 1.0
         self._n_tri = len(self._tri)
@@ -107,7 +112,9 @@ class EmissionSampler:
         """``n`` emission points: dict of position, normal, luminaire, kind, coefficient.
 
         ``luminaire`` indexes area luminaires (kind 0), point luminaires (kind 1) or distant
-        sources (:data:`KIND_DISTANT`). ``coefficient`` is Φ_total/π for Lambertian emitters
+        sources (:data:`KIND_DISTANT`); ``light_source`` says whether it can be a light source
+        of Radiance's direct calculation (:meth:`light_source_at` says where).
+        ``coefficient`` is Φ_total/π for Lambertian emitters
         and Φ_total/Φ_luminaire for point luminaires (see
         :class:`~lsadphoto.solver.store.LsadStore`). A distant sample is a direction ω
         towards its source (``direction``, drawn by
@@ -144,7 +151,7 @@ class EmissionSampler:
             normal[pt] = frames[:, 2]
             coefficient[pt] = self._coef[k]
         out = {"position": position, "normal": normal, "kind": kind, "luminaire": lum_index,
-               "coefficient": coefficient, "triangle": triangle}
+               "coefficient": coefficient, "triangle": triangle, "light_source": self._light_source[which]}
         if self.distant:
             self._sample_distant(rng, which, out)
         return out
@@ -175,6 +182,17 @@ class EmissionSampler:
         out["kind"][rows] = KIND_DISTANT
         out["luminaire"][rows] = k
         out["coefficient"][rows] = self.total_flux / (math.pi * radius ** 2)
+
+    def light_source_at(self, src, points):
+        """Whether the emission samples ``src`` (of :meth:`sample`) are light sources of
+        Radiance's direct calculation at ``points`` (n, 3) [m] (bool, shape (n,)): area
+        luminaires within their light-source radius
+        (:meth:`~lsadphoto.solver.scene.Scene.light_source_at`), the others by their kind
+        (the ``"radiance"`` rule of :data:`~lsadphoto.solver.materials.FRESNEL_RULES`)."""
+        out = src["light_source"].copy()
+        area = np.flatnonzero(out & (src["kind"] == KIND_COSINE))
+        out[area] = self.scene.light_source_at(src["luminaire"][area], np.asarray(points)[area])
+        return out
 
     def point_intensity(self, luminaire, directions):
         """Intensity [cd] of point luminaires ``luminaire`` (indices, shape (n,)) towards
@@ -214,8 +232,10 @@ class EmissionSampler:
 
 def _chain_starts(engine, sampler, seed, block, n, batches):
     """The emission of the ``n`` chains of one block (global chain index block·CHAIN_BLOCK + i):
-    its random stream, the source nodes (lists of arrays, as the node records), each chain's
-    batch, first direction, weight [lm] and ray origin."""
+    its random stream, the source nodes (lists of arrays, as the node records, with ``direct``:
+    whether the luminaire can be a light source of Radiance's direct calculation), each chain's
+    batch, first direction, weight [lm] and ray origin, and the emission samples
+    (:meth:`EmissionSampler.sample`)."""
     rng = stream(seed, "chains", block)
     src = sampler.sample(rng, n)
     batch = ((block * CHAIN_BLOCK + np.arange(n)) % batches).astype(np.int16)
@@ -227,17 +247,18 @@ def _chain_starts(engine, sampler, seed, block, n, batches):
         "coefficient": [src["coefficient"][near]], "kind": [src["kind"][near]],
         "luminaire": [np.where(src["kind"] == KIND_POINT, src["luminaire"], -1)[near].astype(np.int32)],
         "batch": [batch[near]], "depth": [np.zeros(int(near.sum()), np.int16)],
-        "triangle": [src["triangle"][near]],
+        "triangle": [src["triangle"][near]], "direct": [src["light_source"][near]],
     }
     direction, factor = sampler.first_directions(rng, src)
     origin = src["position"] + engine.epsilon * np.where(
         (src["kind"] == KIND_COSINE)[:, None], src["normal"], 0.0)
-    return rng, out, batch, direction, sampler.total_flux * factor, origin
+    return rng, out, batch, direction, sampler.total_flux * factor, origin, src
 
 
 def _block_chains(scene, engine, sampler, seed, block, n, batches, max_depth, absorption):
     """Nodes of the ``n`` chains of one block (global chain index block·CHAIN_BLOCK + i)."""
-    rng, out, batch, direction, weight, origin = _chain_starts(engine, sampler, seed, block, n, batches)
+    rng, out, batch, direction, weight, origin, _ = _chain_starts(engine, sampler, seed, block, n, batches)
+    del out["direct"]  # Lambertian scenes have no Fresnel factor
     alive = np.arange(n)
     depth = 0
     limit = MAX_BOUNCES if max_depth is None else int(max_depth)
@@ -319,10 +340,13 @@ def trace_chains(scene, engine, *, seed, first_block, blocks, batches, max_depth
 MATERIAL_GROUP = 64
 
 
-def _material_block_group(scene, engine, sampler, seed, blocks, batches, limit):
+def _material_block_group(scene, engine, sampler, seed, blocks, batches, limit, rule):
     """Nodes of the chains of ``blocks`` (consecutive), in block order as if traced one block
     at a time: the blocks' chains share the arrays of each bounce, each block's random
-    numbers come from its own stream (:class:`~lsadphoto.solver._sampling.GroupStreams`)."""
+    numbers come from its own stream (:class:`~lsadphoto.solver._sampling.GroupStreams`).
+    ``rule``: :data:`~lsadphoto.solver.materials.FRESNEL_RULES`; a surface node's ``direct``
+    says whether its light came straight from a light source of Radiance's direct calculation
+    (through straight-through transmissions only, as Radiance's shadow rays)."""
     bsdf = scene.bsdf
     floor = WEIGHT_FLOOR * sampler.total_flux
     n = CHAIN_BLOCK
@@ -330,6 +354,10 @@ def _material_block_group(scene, engine, sampler, seed, blocks, batches, limit):
     streams = GroupStreams([s[0] for s in starts])
     out = {key: [np.concatenate([s[1][key][0] for s in starts])] for key in starts[0][1]}
     batch, direction, weight, origin = (np.concatenate([s[k] for s in starts]) for k in range(2, 6))
+    # whether each chain's light may still be straight from a Radiance light source, and its
+    # area luminaire (−1: none), which is one only within its radius
+    straight = np.concatenate([s[6]["light_source"] for s in starts])
+    source = np.concatenate([np.where(s[6]["kind"] == KIND_COSINE, s[6]["luminaire"], -1) for s in starts])
     group = np.repeat(np.arange(len(starts)), n)   # of each chain
     # the source nodes of each block (distant sources leave none)
     sources = np.repeat(np.arange(len(starts)), [len(s[1]["batch"][0]) for s in starts])
@@ -342,32 +370,38 @@ def _material_block_group(scene, engine, sampler, seed, blocks, batches, limit):
         streams.counts = np.bincount(group[alive], minlength=len(starts))
         u = streams.random((alive.size, 3))
         hit = prim >= 0
-        alive, origin, direction, weight, prim, dist, u = (
-            alive[hit], origin[hit], direction[hit], weight[hit], prim[hit], dist[hit], u[hit])
+        alive, origin, direction, weight, prim, dist, u, straight, source = (
+            alive[hit], origin[hit], direction[hit], weight[hit], prim[hit], dist[hit], u[hit], straight[hit],
+            source[hit])
         if not alive.size:
             break
         point = origin + dist[:, None] * direction
+        direct = straight.copy()
+        area = np.flatnonzero(straight & (source >= 0))
+        direct[area] = scene.light_source_at(source[area], point[area])
         nrm, front = scene.facing_normals(prim, direction)
         mat = scene.material[prim]
         p = bsdf.parts(mat, -np.einsum("ij,ij->i", direction, nrm), front)
         keep = (p["kd"] + p["td"] + p["rs"] + p["ts"]) > 0
         for key, value in (("position", point), ("normal", nrm), ("coefficient", weight),
                            ("incoming", -direction), ("front", front), ("triangle", prim),
-                           ("batch", batch[alive]), ("group", group[alive])):
+                           ("batch", batch[alive]), ("group", group[alive]), ("direct", direct)):
             out[key].append(value[keep])
         k = int(keep.sum())
         out["kind"].append(np.zeros(k, np.int8))
         out["luminaire"].append(np.full(k, -1, np.int32))
         out["depth"].append(np.full(k, depth, np.int16))
-        wi, w, _, _ = bsdf.sample(mat, nrm, -direction, u, front)
+        wi, w, delta, _ = bsdf.sample(mat, nrm, -direction, u, front, rule=rule, direct=direct, adjoint=True)
         weight = weight * w
         low = weight < floor
         q = np.where(low, weight / floor, 1.0)
         survive = (w > 0) & (u[:, 2] < q)
         weight = np.where(low, floor, weight)
         side = np.sign(np.einsum("ij,ij->i", wi, nrm))
-        alive, point, nrm, wi, weight, side = (alive[survive], point[survive], nrm[survive],
-                                               wi[survive], weight[survive], side[survive])
+        straight = straight & delta & (side < 0)
+        alive, point, nrm, wi, weight, side, straight, source = (
+            alive[survive], point[survive], nrm[survive], wi[survive], weight[survive], side[survive],
+            straight[survive], source[survive])
         direction = wi
         origin = point + engine.epsilon * side[:, None] * nrm
     nodes = {key: np.concatenate(v) for key, v in out.items()}
@@ -376,7 +410,7 @@ def _material_block_group(scene, engine, sampler, seed, blocks, batches, limit):
 
 
 def trace_material_chains(scene, engine, *, seed, first_block, blocks, batches, max_depth=None, sampler=None,
-                          progress=None):
+                          progress=None, fresnel_rule="reciprocal"):
     """An :class:`LsadStore` with the chains of blocks ``first_block … first_block+blocks−1``
     of a scene with non-Lambertian materials (``scene.bsdf``).
 
@@ -388,7 +422,10 @@ def trace_material_chains(scene, engine, *, seed, first_block, blocks, batches, 
     evaluates W·f(ω_in, ω_out)·|cos θ_out| towards any point. Hits on purely specular
     surfaces (mirror, glass) leave no node. Blocks are traced :data:`MATERIAL_GROUP` at a
     time, each from its own stream, so the nodes do not depend on how the blocks are split
-    between calls; ``progress(blocks_done)`` is called after each group.
+    between calls; ``progress(blocks_done)`` is called after each group. ``fresnel_rule``
+    (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`) decides the smooth materials' factor
+    1 − F of the arriving light at the nodes (recorded in the store, with each node's
+    ``direct``).
     """
     sampler = sampler or EmissionSampler(scene)
     limit = MAX_BOUNCES if max_depth is None else int(max_depth)
@@ -396,8 +433,9 @@ def trace_material_chains(scene, engine, *, seed, first_block, blocks, batches, 
     for lo in range(0, blocks, MATERIAL_GROUP):
         hi = min(lo + MATERIAL_GROUP, blocks)
         parts.append(_material_block_group(scene, engine, sampler, seed, range(first_block + lo, first_block + hi),
-                                           batches, limit))
+                                           batches, limit, fresnel_rule))
         if progress is not None:
             progress(hi)
     nodes = {key: np.concatenate([q[key] for q in parts]) for key in parts[0]}
-    return LsadStore(scene, **nodes, chains=blocks * CHAIN_BLOCK, batches=batches, seed=seed)
+    return LsadStore(scene, **nodes, chains=blocks * CHAIN_BLOCK, batches=batches, seed=seed,
+                     fresnel_rule=fresnel_rule)

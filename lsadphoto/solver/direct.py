@@ -80,7 +80,7 @@ from numba import njit
 
 from .._validation import check_positive_int
 from ._sampling import stream
-from .materials import diffuse_fresnel_factor, shadow_transmittance, shadows_transmit
+from .materials import diffuse_fresnel_factor, fresnel_weighted, shadow_transmittance, shadows_transmit
 from .photometry import pack_photometries, packed_intensity
 from .sky import distant_illuminance, distant_uniforms
 
@@ -590,7 +590,8 @@ def _plan(x, n, row, cand, n_cand, rest_w, rest_cum, picks, points, areas, n_are
 
 
 def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES, seed=0,
-                       block_ids=None, purpose_key=0, luminaires="auto", distant_samples=None, fresnel=None):
+                       block_ids=None, purpose_key=0, luminaires="auto", distant_samples=None, fresnel=None,
+                       fresnel_rule="reciprocal"):
     """Direct illuminance [lx] at surface points, and its sampling variance [lx²].
 
     Parameters
@@ -630,6 +631,10 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         of smooth plastic, metal and trans of specularity ≥ 0.018 scatters,
         :func:`~lsadphoto.solver.materials.diffuse_fresnel_factor`): each sample's term is
         weighted by 1 − F(cos θ_x) (module docstring).
+    fresnel_rule : {"reciprocal", "radiance"}
+        :data:`~lsadphoto.solver.materials.FRESNEL_RULES`: under ``"radiance"`` only the
+        luminaires that are light sources of Radiance's direct calculation are Fresnel-weighted
+        (not a ``glow`` of radius 0, nor a sky's glow).
 
     Returns
     -------
@@ -661,7 +666,7 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     if scene.distant_sources:  # the sun and the sky, next-event estimated (solver/sky.py)
         u = distant_uniforms(scene, seed, (0, purpose_key), blocks,
                              s if distant_samples is None else check_positive_int(distant_samples, "distant samples"))
-        E, var = distant_illuminance(scene, engine, x, n, u, fresnel=fresnel)
+        E, var = distant_illuminance(scene, engine, x, n, u, fresnel=fresnel, fresnel_rule=fresnel_rule)
     if P == 0 or n_lum == 0:
         return E, var
     origins = x + engine.epsilon * n
@@ -675,7 +680,8 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         _unoccluded_all(x, n, lights.points, lights.areas, lights.n_area, guide)
         point, lum = np.nonzero((guide > 0) | ~lights.exact[None, :])
         e, v = _estimates(scene, lights, engine, x, n, origins, point, lum, guide[point, lum],
-                          u[point, lum].reshape(-1, 3), np.full(len(point), s, dtype=np.int64), fresnel)
+                          u[point, lum].reshape(-1, 3), np.full(len(point), s, dtype=np.int64), fresnel,
+                          fresnel_rule)
         return E + np.bincount(point, e, P), var + np.bincount(point, v, P)
     # Importance sampling of luminaires (_plan): each point evaluates its whole luminaires
     # and its draws; a block's stream gives first its draws, then the evaluations' uniforms.
@@ -714,7 +720,7 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
         rows = np.repeat(u_start[sel] - (np.cumsum(need) - need), need) + np.arange(int(need.sum()))
         u[rows] = g.random((rows.size, 3))
     e, v = _estimates(scene, lights, engine, x, n, origins, point, lum, ev_guide[point, slot],
-                      u, count, fresnel)
+                      u, count, fresnel, fresnel_rule)
     E += np.bincount(point, weight * e, P)
     var += np.bincount(point[~drawn], v[~drawn], P)
     if draws > 1 and drawn.any():
@@ -735,13 +741,14 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
     return E, var
 
 
-def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count, fresnel=None):
+def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count, fresnel=None, rule="reciprocal"):
     """Direct illuminance [lx] of luminaire ``lum[e]`` at point ``point[e]`` and its
     sampling variance, for every pair e (``guide``: the unoccluded value, exact for area
     luminaires and points), from ``count[e]`` samples (uniforms: the rows of ``u`` (U, 3) in
     order, ``count[e]`` per pair): point luminaires in one compiled pass and one Embree call,
     area luminaires by :func:`_area_estimate` per luminaire (Fresnel-weighted at the points where
-    ``fresnel``)."""
+    ``fresnel``, under the ``"radiance"`` ``rule`` only for Radiance light sources; point
+    luminaires are ``light``s)."""
     e = np.zeros(len(point))
     v = np.zeros(len(point))
     u_start = np.cumsum(count) - count
@@ -756,7 +763,8 @@ def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count
         p = point[sel]
         u3 = u[u_start[sel, None] + np.arange(int(count[sel[0]]))]
         e[sel], v[sel] = _area_estimate(scene, samplers[li], x[p], n[p], origins[p], u3, engine,
-                                        unoccluded=guide[sel], fresnel=None if fresnel is None else fresnel[p])
+                                        unoccluded=guide[sel], fresnel=None if fresnel is None else fresnel_weighted(
+                                            fresnel[p], rule=rule, direct=scene.light_source_at(np.full(p.size, li), x[p])))
     return e, v
 
 
@@ -972,7 +980,7 @@ def _luminaire_table(scene):
 
 
 def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0, block_ids=None,
-                               purpose_key=0, fresnel=None):
+                               purpose_key=0, fresnel=None, fresnel_rule="reciprocal"):
     """Direct illuminance [lx] at points by one luminaire drawn from a :class:`LuminaireTable`.
 
     Each point draws one luminaire l with the probability p_l of its region's row of bounds
@@ -985,7 +993,7 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
 
     Parameters
     ----------
-    scene, engine, points, normals, fresnel
+    scene, engine, points, normals, fresnel, fresnel_rule
         As :func:`direct_illuminance`.
     table : LuminaireTable
     seed, block_ids, purpose_key
@@ -1004,7 +1012,7 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
     sky = 0.0
     if scene.distant_sources:  # the sun and the sky, one next-event sample each (solver/sky.py)
         sky = distant_illuminance(scene, engine, x, n, distant_uniforms(scene, seed, (2, purpose_key), blocks, 1),
-                                  fresnel=fresnel)[0]
+                                  fresnel=fresnel, fresnel_rule=fresnel_rule)[0]
     if P == 0 or table.count == 0:
         return E + sky
     u = np.empty((P, 4))
@@ -1034,5 +1042,6 @@ def sampled_direct_illuminance(scene, engine, points, normals, *, table, seed=0,
         if lit.size:
             E[m[lit]] = s.luminance * s.area * g[lit, 0] * shadow_transmittance(scene, engine, origins[m[lit]], targets[lit, 0])
             if fresnel is not None:
-                E[m[lit]] *= diffuse_fresnel_factor(cosine[lit, 0], fresnel[m[lit]])
+                E[m[lit]] *= diffuse_fresnel_factor(cosine[lit, 0], fresnel[m[lit]], rule=fresnel_rule,
+                                                    direct=scene.light_source_at(np.full(lit.size, li), x[m[lit]]))
     return E / prob + sky

@@ -16,9 +16,12 @@ the weights the reader and the photo pipeline use), Y(C) = 0.265074 R + 0.670115
   for plastic (an uncoloured highlight) or Y(C)·s for metal (coloured). For α = 0 (α² ≤ 10⁻⁶,
   Radiance's ``FTINY``) the specular part is a mirror reflection of reflectance ρ_s, and
   for s ≥ 0.018 (``FRESTHRESH``) Radiance's Fresnel estimate F(μ) = e^(−5.85 μ) − 0.00202943064
-  raises it to s + F(μ_o)(1 − s) (metal: F + Y(C)(s + F(1 − s))(1 − F)), while the diffuse
+  raises it to s + F(μ_o)(1 − s) (metal: F + Y(C)·s·(1 − F), ``normal.c``'s colour of the
+  mirror ray, which ``rtrace -ab 0`` reproduces at every angle), while the diffuse
   part becomes Y(C)(1 − s)(1 − F(μ_o))(1 − F(μ_i))/π — the factor (1 − F(μ_i)) is the one
-  Radiance's direct calculation (``dirnorm``) applies, which makes f reciprocal.
+  Radiance's direct calculation (``dirnorm``) applies, which makes f reciprocal. Radiance's
+  ambient calculation leaves it out; :data:`FRESNEL_RULES` chooses between the two
+  (:func:`diffuse_fresnel_factor`).
 * **trans** (C, s, α, τ, τ_s): reflection as plastic with diffuse Y(C)(1 − s')(1 − τ)/π
   (s' = s or its Fresnel value); transmission τ(1 − s'), of which the fraction τ_s is
   "specular" (straight through, coloured) and the rest diffuse, Y(C)τ(1 − s')(1 − τ_s)/π on
@@ -46,7 +49,10 @@ copy: Radiance widens the Gaussian lobe by the solid angle of each source sample
 (α² + ω/4π on flat surfaces, α² + ω/π for transmission), samples the lobe with the weight
 ρ_s instead of f·cos/p (one sample per ray, ``-ss 1``) and lets the ambient calculation use
 the diffuse reflectance without the (1 − F(μ_i)) factor. The solver evaluates the BSDF above
-exactly.
+exactly, by default with the factor for all light (the ``"reciprocal"`` rule of
+:data:`FRESNEL_RULES`); the ``"radiance"`` rule applies it only to light arriving straight from
+a light source of Radiance's direct calculation, so that a smooth material scatters what
+Radiance's does from the same scene file.
 
 References
 ----------
@@ -70,11 +76,13 @@ from ..errors import BadInputError
 from ._sampling import cosine_directions, orthonormal_basis
 
 __all__ = [
+    "FRESNEL_RULES",
     "KINDS",
     "Material",
     "MaterialTable",
     "diffuse_fresnel_factor",
     "fresnel_estimate",
+    "fresnel_weighted",
     "glass_transmissivity",
     "luminance_of",
 ]
@@ -89,6 +97,16 @@ _FTINY = 1e-6
 FRESNEL_THRESHOLD = 0.017999
 #: Radiance's default refractive index of glass.
 GLASS_INDEX = 1.52
+
+#: Rules for the factor 1 − F(μ_i) of the diffuse part of smooth plastic, metal and trans
+#: (:func:`diffuse_fresnel_factor`): ``"reciprocal"`` (the default) applies it to all light,
+#: which makes f reciprocal, so the light chains (which evaluate f with ω_i and ω_o
+#: exchanged) and the eye paths estimate one quantity; ``"radiance"`` applies it only to light
+#: arriving straight from a light source of Radiance's direct calculation (``light``,
+#: ``spotlight``, a ``glow`` of positive radius within that radius of its centre, a distant
+#: ``source`` of ``light``), as Radiance's ``dirnorm`` does, and not to any other light (interreflected light; ``glow`` of
+#: radius 0 and the sky's ``glow``, which Radiance reaches only by its ambient calculation).
+FRESNEL_RULES = ("reciprocal", "radiance")
 
 
 def luminance_of(rgb):
@@ -114,18 +132,37 @@ def fresnel_estimate(mu):
     return np.exp(-5.85 * np.asarray(mu, float)) - 0.00202943064
 
 
-def diffuse_fresnel_factor(mu, fresnel):
-    """g(μ_i) = 1 − F(|μ_i|) where ``fresnel`` (bool, per element), else 1 [–]: the factor of
-    the diffuse part of smooth plastic, metal and trans of specularity ≥ 0.018 at the cosine
-    μ_i of the incoming direction (Radiance's ``dirnorm`` in ``normal.c``; module docstring).
+def fresnel_weighted(fresnel, *, rule="reciprocal", direct=True):
+    """Where the diffuse part takes the factor 1 − F(μ_i) (bool, per element): the points of
+    smooth materials (``fresnel``, bool per element) under the ``"reciprocal"`` rule; under the
+    ``"radiance"`` rule only those where the light also arrives straight from a light source of
+    Radiance's direct calculation (``direct``, bool or bool per element) (:data:`FRESNEL_RULES`).
+
+    Examples
+    --------
+    >>> fresnel_weighted([True, True, False], rule="radiance", direct=[True, False, True]).tolist()
+    [True, False, False]
+    """
+    fresnel = np.asarray(fresnel, dtype=bool)
+    return fresnel if rule == "reciprocal" else fresnel & np.asarray(direct, dtype=bool)
+
+
+def diffuse_fresnel_factor(mu, fresnel, *, rule="reciprocal", direct=True):
+    """g(μ_i) = 1 − F(|μ_i|) where :func:`fresnel_weighted` (``fresnel``: bool per element,
+    the smooth materials; ``rule`` of :data:`FRESNEL_RULES`; ``direct``: whether the light comes
+    straight from a Radiance light source), else 1 [–]: the factor of the diffuse part of smooth
+    plastic, metal and trans of specularity ≥ 0.018 at the cosine μ_i of the incoming direction
+    (Radiance's ``dirnorm`` in ``normal.c``; module docstring).
 
     Examples
     --------
     >>> [round(float(v), 4) for v in diffuse_fresnel_factor([1.0, 0.1, 0.1], [True, True, False])]
     [0.9991, 0.4449, 1.0]
+    >>> [round(float(v), 4) for v in diffuse_fresnel_factor([0.1, 0.1], True, rule="radiance", direct=[True, False])]
+    [0.4449, 1.0]
     """
     mu = np.abs(np.asarray(mu, float))
-    return np.where(fresnel, 1 - fresnel_estimate(mu), 1.0)
+    return np.where(fresnel_weighted(fresnel, rule=rule, direct=direct), 1 - fresnel_estimate(mu), 1.0)
 
 
 def glass_transmissivity(transmittance):
@@ -295,7 +332,7 @@ class MaterialTable:
             tspec = trans * self.tau_s[mm]
             kd[nk] = y * (1 - trans - rspec)
             td[nk] = y * (trans - tspec)
-            spec = np.where(self.metal[mm], np.where(f > _FTINY, f + y * rspec * (1 - f), y * rspec), rspec)
+            spec = np.where(self.metal[mm], f + y * s * (1 - f), rspec)   # metal: F + Y·s·(1 − F)
             pure = self.pure[mm]
             rs[nk] = np.where(pure, 0.0, spec)
             R[nk] = np.where(pure, spec, 0.0)
@@ -331,14 +368,27 @@ class MaterialTable:
 
     # --- evaluation -----------------------------------------------------------------------
 
-    def evaluate(self, m, n, wo, wi, parts=None, split=False):
+    def evaluate(self, m, n, wo, wi, parts=None, split=False, *, rule="reciprocal", direct=True, adjoint=False):
         """Non-delta BSDF value f(ω_i, ω_o) [sr⁻¹] (diffuse and glossy components), or with
         ``split`` the pair (diffuse, glossy); ``parts``: :meth:`parts` at these points (μ_o
-        clipped to [10⁻³, 1]), if already known."""
+        clipped to [10⁻³, 1]), if already known.
+
+        ``rule`` (:data:`FRESNEL_RULES`) and ``direct`` (bool or bool per point: whether the
+        light arrives straight from a Radiance light source) decide the smooth materials'
+        factor 1 − F of the light's incoming side (:func:`diffuse_fresnel_factor`): ω_i, or
+        with ``adjoint`` ω_o (light chains, which arrive along ω_o and leave along ω_i; the
+        factor of the leaving side is always there, in kd(μ) ∝ 1 − F(μ)). Under the reciprocal
+        rule ``adjoint`` changes nothing."""
         mu_o = np.clip(_dot(n, wo), 1e-3, 1.0)
         mu_i = _dot(n, wi)
         p = self.parts(m, mu_o) if parts is None else parts
-        g = diffuse_fresnel_factor(mu_i, p["fresnel"])
+        if adjoint and rule != "reciprocal":
+            # kd(μ_o) holds 1 − F(μ_o), the arriving side's factor: kept only where the rule does
+            g = (diffuse_fresnel_factor(mu_i, p["fresnel"])
+                 * diffuse_fresnel_factor(mu_o, p["fresnel"], rule=rule, direct=direct)
+                 / diffuse_fresnel_factor(mu_o, p["fresnel"]))
+        else:
+            g = diffuse_fresnel_factor(mu_i, p["fresnel"], rule=rule, direct=direct)
         refl = mu_i > 0
         f = np.where(refl, p["kd"], p["td"]) * g / math.pi
         diffuse = f.copy() if split else None
@@ -394,11 +444,11 @@ class MaterialTable:
             out[t, 3] = np.where(ok, np.exp(-tan2 / a2[t]) / (math.pi * a2[t] * cbp ** 3), 0.0)
         return out
 
-    def sample(self, m, n, wo, u, front=None):
+    def sample(self, m, n, wo, u, front=None, *, rule="reciprocal", direct=True, adjoint=False):
         """Sample ω_i for points with materials ``m``, normals ``n``, directions ``wo``.
 
         ``u``: uniforms (k, 3) (the third is left to the caller); ``front`` as in
-        :meth:`parts`. One component is chosen with probability proportional to
+        :meth:`parts`; ``rule``, ``direct``, ``adjoint`` as in :meth:`evaluate`. One component is chosen with probability proportional to
         its coefficient (kd, td, rs, ts, R, T at μ_o); non-delta directions get the
         one-sample balance-heuristic weight f·|μ_i|/Σ_c P_c p_c(ω_i), deltas R/P_R or
         T/P_T. Returns ``(wi, weight, is_delta, albedo)``, ``albedo`` = Σ of the
@@ -442,7 +492,8 @@ class MaterialTable:
         if nd.any():
             idx = np.flatnonzero(nd)
             sub = {key: v[idx] for key, v in p.items()}
-            f = self.evaluate(m[idx], n[idx], wo[idx], wi[idx], parts=sub)
+            f = self.evaluate(m[idx], n[idx], wo[idx], wi[idx], parts=sub, rule=rule,
+                              direct=np.broadcast_to(direct, (k,))[idx], adjoint=adjoint)
             pdf = (self._pdfs(m[idx], n[idx], wo[idx], wi[idx], sub) * coef[idx, :4]).sum(axis=1) / total[idx]
             mu_i = np.abs(_dot(n[idx], wi[idx]))
             weight[idx] = np.where(pdf > 0, f * mu_i / np.maximum(pdf, 1e-300), 0.0)

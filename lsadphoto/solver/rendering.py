@@ -24,6 +24,7 @@ from .integrators.local_estimate import (AUTO_NODES_PER_PIXEL, RAYS_PER_VERTEX, 
                                          render_local_estimate_materials)
 from .integrators.path_tracer import render_path_traced
 from .integrators.surface_cache import CACHE_NODES, build_surface_cache, render_cached
+from .materials import FRESNEL_RULES
 from .scene import Scene
 from .simulation import DEFAULT_BATCHES, DEFAULT_CHAINS, ChainRun, check_simulation_options, simulate
 from .store import LsadStore
@@ -99,7 +100,7 @@ def choose_estimator(store_or_scene, *, samples=None, target_error=None):
 def render(store_or_scene, projection, *, position, rotation, estimator="local", samples=None,
            target_error=None, max_samples=MAX_RENDER_CHAINS, seed=0, near_field=None,
            near_distance=None, nodes_per_pixel="auto", cache_spacing=None, cache_nodes=None,
-           direct_samples=None, chunk_pixels=2048, workers=1, progress=None):
+           direct_samples=None, chunk_pixels=2048, workers=1, progress=None, fresnel_rule=None):
     """Luminance map of a view by the double local estimate or the surface cache [cd·m⁻²].
 
     Parameters
@@ -146,6 +147,11 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
         ("clamp" is an error for non-Lambertian materials).
     near_distance : float, optional
         ε [m]; default :data:`~lsadphoto.solver.integrators.local_estimate.RELATIVE_NEAR_DISTANCE` × scene size.
+    fresnel_rule : {"reciprocal", "radiance"}, optional
+        The smooth materials' rule for the factor 1 − F(μ_i)
+        (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`, ``fresnel_rule`` of
+        :func:`~lsadphoto.solver.simulate`): a store's own (another is an error), or for a
+        scene the one it is simulated with (default ``"reciprocal"``).
     cache_spacing, cache_nodes : float [m], int, optional
         Surface cache of ``"cache"`` when one is built (defaults of
         :func:`~lsadphoto.solver.integrators.surface_cache.build_surface_cache`); an error for
@@ -213,6 +219,14 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
     check_choice(estimator, "estimator", ESTIMATORS)
     if not isinstance(store_or_scene, (LsadStore, Scene)):
         raise BadInputError("render needs an LsadStore or a Scene")
+    if fresnel_rule is not None:
+        check_choice(fresnel_rule, "fresnel_rule", FRESNEL_RULES)
+    if isinstance(store_or_scene, LsadStore):
+        if fresnel_rule not in (None, store_or_scene.fresnel_rule):
+            raise BadInputError(f"fresnel_rule {fresnel_rule!r} differs from the store's "
+                                f"{store_or_scene.fresnel_rule!r} (its chains were traced with it: simulate again)")
+        fresnel_rule = store_or_scene.fresnel_rule
+    fresnel_rule = fresnel_rule or "reciprocal"
     choice = None
     if estimator == "auto":
         estimator, reason = choose_estimator(store_or_scene, samples=samples, target_error=target_error)
@@ -227,7 +241,7 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
                                   samples=samples, target_error=target_error, max_samples=max_samples,
                                   seed=seed, spacing=cache_spacing, nodes=cache_nodes,
                                   direct_samples=direct_samples, chunk_pixels=chunk_pixels,
-                                  workers=workers, progress=progress)
+                                  workers=workers, progress=progress, fresnel_rule=fresnel_rule)
     else:
         cache_only = [name for name, value in (("cache_spacing", cache_spacing), ("cache_nodes", cache_nodes),
                                                ("direct_samples", direct_samples)) if value is not None]
@@ -237,7 +251,7 @@ def render(store_or_scene, projection, *, position, rotation, estimator="local",
                              samples=samples, target_error=target_error, max_samples=max_samples,
                              seed=seed, near_field=near_field, near_distance=near_distance,
                              nodes_per_pixel=nodes_per_pixel, chunk_pixels=chunk_pixels,
-                             workers=workers, progress=progress)
+                             workers=workers, progress=progress, fresnel_rule=fresnel_rule)
     if choice is not None:
         lmap.provenance["estimator_choice"] = choice
     return lmap
@@ -257,7 +271,7 @@ def _render_local(store_or_scene, projection, *, samples, target_error, max_samp
         return render_local_estimate(store_or_scene, projection, progress=progress, **options)
     if target_error is None:
         store = simulate(store_or_scene, samples=samples, seed=seed,
-                         near_field=near_field or "unbiased")
+                         near_field=near_field or "unbiased", fresnel_rule=rest["fresnel_rule"])
         return render_local_estimate(store, projection, progress=progress, **options)
 
     def render_round(store, growth):
@@ -269,7 +283,8 @@ def _render_local(store_or_scene, projection, *, samples, target_error, max_samp
 
     return _render_to_target(store_or_scene, samples=samples, target_error=target_error,
                              max_samples=max_samples, seed=seed, near_field=near_field or "unbiased",
-                             first_chains=FIRST_RENDER_CHAINS, render_round=render_round)
+                             first_chains=FIRST_RENDER_CHAINS, render_round=render_round,
+                             fresnel_rule=rest["fresnel_rule"])
 
 
 def _refuse_chains_for_store(store, samples, target_error):
@@ -298,7 +313,7 @@ def _render_local_materials(store_or_scene, projection, *, samples, target_error
         _refuse_chains_for_store(store_or_scene, samples, target_error)
         return render_local_estimate_materials(store_or_scene, projection, nodes_per_pixel=first_k, **view)
     if target_error is None:
-        store = simulate(store_or_scene, samples=samples, seed=rest["seed"])
+        store = simulate(store_or_scene, samples=samples, seed=rest["seed"], fresnel_rule=rest["fresnel_rule"])
         return render_local_estimate_materials(store, projection, nodes_per_pixel=first_k, **view)
 
     def render_round(store, growth):
@@ -316,12 +331,13 @@ def _render_local_materials(store_or_scene, projection, *, samples, target_error
 
     return _render_to_target(store_or_scene, samples=samples, target_error=target_error,
                              max_samples=max_samples, seed=rest["seed"], near_field="unbiased",
-                             first_chains=FIRST_RENDER_CHAINS, render_round=render_round)
+                             first_chains=FIRST_RENDER_CHAINS, render_round=render_round,
+                             fresnel_rule=rest["fresnel_rule"])
 
 
 def _render_from_cache(store_or_scene, projection, *, position, rotation, samples, target_error,
                        max_samples, seed, spacing, nodes, direct_samples, chunk_pixels, workers,
-                       progress):
+                       progress, fresnel_rule):
     """The surface-cache estimator of :func:`render` (options as there)."""
     view = {"position": position, "rotation": rotation, "seed": seed, "chunk_pixels": chunk_pixels,
             "workers": workers, "progress": progress}
@@ -341,7 +357,7 @@ def _render_from_cache(store_or_scene, projection, *, position, rotation, sample
         return render_cached(store, projection, cache=cache or cache_of(store, first_nodes),
                              direct_samples=first_samples, **view)
     if target_error is None:
-        store = simulate(store_or_scene, samples=samples, seed=seed)
+        store = simulate(store_or_scene, samples=samples, seed=seed, fresnel_rule=fresnel_rule)
         return render_cached(store, projection, cache=cache_of(store, first_nodes),
                              direct_samples=first_samples, **view)
 
@@ -372,11 +388,11 @@ def _render_from_cache(store_or_scene, projection, *, position, rotation, sample
 
     return _render_to_target(store_or_scene, samples=samples, target_error=target_error,
                              max_samples=max_samples, seed=seed, near_field="unbiased",
-                             first_chains=DEFAULT_CHAINS, render_round=render_round)
+                             first_chains=DEFAULT_CHAINS, render_round=render_round, fresnel_rule=fresnel_rule)
 
 
 def _render_to_target(scene, *, samples, target_error, max_samples, seed, near_field, first_chains,
-                      render_round):
+                      render_round, fresnel_rule):
     """Rounds of simulate + render until the expected mean absolute per-pixel relative error
     (:data:`TARGET_MEASURE`) ≤ target.
 
@@ -391,9 +407,9 @@ def _render_to_target(scene, *, samples, target_error, max_samples, seed, near_f
     if int(max_samples) != max_samples or max_samples < 1:
         raise BadInputError(f"max_samples must be a positive integer, got {max_samples!r}")
     check_simulation_options(scene, near_field=near_field, absorption="weight",
-                             batches=DEFAULT_BATCHES, max_depth=None, samples=samples)
+                             batches=DEFAULT_BATCHES, max_depth=None, samples=samples, fresnel_rule=fresnel_rule)
     run = ChainRun(scene, seed=seed, max_depth=None, near_field=near_field,
-                   absorption="weight", batches=DEFAULT_BATCHES)
+                   absorption="weight", batches=DEFAULT_BATCHES, fresnel_rule=fresnel_rule)
     chains = first = min(int(samples or first_chains), int(max_samples))
     rounds = []
     while True:

@@ -258,11 +258,19 @@ def disc_polygon(centre, normal, radius, segments=64):
 
 @dataclass
 class AreaLuminaire:
-    """A Lambertian emitting surface: its triangles emit ``flux`` [lm] from their front side."""
+    """A Lambertian emitting surface: its triangles emit ``flux`` [lm] from their front side.
+
+    ``light_source_radius`` [m]: Radiance's direct calculation takes it as a light source at
+    the points within this distance of its centre (the area-weighted centroid of its
+    triangles) — ∞ for a ``light``, a ``glow``'s radius of influence (0: never, ``srcskip`` of
+    Radiance's ``source.c``); decides the factor 1 − F(μ_i) under the ``"radiance"`` rule
+    (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`, :meth:`Scene.light_source_at`).
+    """
 
     name: str
     flux: float
     triangles: np.ndarray  # indices into Scene.triangles
+    light_source_radius: float = math.inf
 
     def luminance(self, scene):
         """Uniform luminance of the emitting surface [cd·m⁻²]: Φ/(π·A)."""
@@ -381,12 +389,28 @@ class Scene:
         #: enters (:mod:`lsadphoto.solver.sky`).
         self.sphere = (0.5 * (lo + hi), 0.5 * self.size * (1 + 1e-3) + 1e-9)
         self.triangle_reflectance = self.reflectance[self.material]
+        # each area luminaire's centre [m] and squared light-source radius [m²] (light_source_at)
+        self._source_centre = np.array([
+            (self.areas[l.triangles, None] * self.triangles[l.triangles].mean(axis=1)).sum(axis=0)
+            / self.areas[l.triangles].sum() for l in self.area_luminaires]).reshape(-1, 3)
+        self._source_radius2 = np.array([l.light_source_radius for l in self.area_luminaires], float) ** 2
         self.bsdf = None
         if self.surface_materials is not None:
             if len(self.surface_materials) != len(self.reflectance):
                 raise BadInputError("surface_materials must give one material per reflectance")
             if not all(m.is_lambertian for m in self.surface_materials):
                 self.bsdf = MaterialTable(self.surface_materials)
+
+    def light_source_at(self, luminaire, points):
+        """Whether Radiance's direct calculation takes area luminaires ``luminaire`` (indices,
+        shape (k,)) as light sources at ``points`` (k, 3) [m]: within their
+        ``light_source_radius`` of their centres (bool, shape (k,))."""
+        luminaire = np.asarray(luminaire, dtype=np.int64)
+        if not luminaire.size:
+            return np.zeros(0, bool)
+        d = np.asarray(points, float).reshape(-1, 3) - self._source_centre[luminaire]
+        r2 = self._source_radius2[luminaire]
+        return (r2 > 0) & (np.einsum("ij,ij->i", d, d) <= r2)
 
     @property
     def lambertian(self):

@@ -29,6 +29,7 @@ from .integrators.local_estimate import (
     render_local_estimate,
     render_local_estimate_materials,
 )
+from .materials import FRESNEL_RULES
 from .scene import Scene
 
 __all__ = ["DEFAULT_BATCHES", "DEFAULT_CHAINS", "MAX_CHAINS", "ChainRun", "check_simulation_options", "simulate"]
@@ -84,8 +85,9 @@ class ChainRun:
     cost no more than the final run alone. Options as :func:`simulate`'s (checked there).
     """
 
-    def __init__(self, scene, *, seed, max_depth, near_field, absorption, batches, progress=None):
-        self.scene, self.seed, self.max_depth = scene, seed, max_depth
+    def __init__(self, scene, *, seed, max_depth, near_field, absorption, batches, progress=None,
+                 fresnel_rule="reciprocal"):
+        self.scene, self.seed, self.max_depth, self.fresnel_rule = scene, seed, max_depth, fresnel_rule
         self.near_field, self.absorption, self.batches = near_field, absorption, batches
         self.engine = engine_for(scene)
         self.sampler = EmissionSampler(scene)
@@ -116,7 +118,8 @@ class ChainRun:
             if self.scene.lambertian:
                 part = trace_chains(self.scene, self.engine, absorption=self.absorption, **common)
             else:
-                part = trace_material_chains(self.scene, self.engine, **common)
+                part = trace_material_chains(self.scene, self.engine, fresnel_rule=self.fresnel_rule, **common)
+            part.fresnel_rule = self.fresnel_rule
             if self.store is None:
                 self.store = part
             else:
@@ -132,17 +135,20 @@ class ChainRun:
             **build_provenance(arguments=arguments),
             "solver": "lsadphoto.solver", "version": __version__,
             "chains": int(store.chains), "batches": self.batches, "seed": int(self.seed),
-            "max_depth": self.max_depth, "absorption": self.absorption, "nodes": int(store.nodes),
+            "max_depth": self.max_depth, "absorption": self.absorption, "fresnel_rule": self.fresnel_rule,
+            "nodes": int(store.nodes),
             "total_flux_lm": float(self.scene.total_flux),
             "simulation_time_s": time.perf_counter() - self.started, **results,
         }
 
 
-def check_simulation_options(scene, *, near_field, absorption, batches, max_depth, samples):
+def check_simulation_options(scene, *, near_field, absorption, batches, max_depth, samples,
+                             fresnel_rule="reciprocal"):
     """One-line errors for the options of :func:`simulate` (and of renders that simulate)."""
     if not isinstance(scene, Scene):
         raise BadInputError("simulate needs a Scene (see load_scene)")
     check_choice(near_field, "near_field", NEAR_FIELD_TREATMENTS)
+    check_choice(fresnel_rule, "fresnel_rule", FRESNEL_RULES)
     check_choice(absorption, "absorption", ABSORPTION_MODES)
     if not scene.lambertian and (near_field != "unbiased" or absorption != "weight"):
         raise BadInputError("scenes with non-Lambertian materials simulate with near_field='unbiased' and "
@@ -157,7 +163,7 @@ def check_simulation_options(scene, *, near_field, absorption, batches, max_dept
 
 def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
              near_field="unbiased", absorption="weight", batches=DEFAULT_BATCHES,
-             max_samples=MAX_CHAINS, progress=None):
+             max_samples=MAX_CHAINS, progress=None, fresnel_rule="reciprocal"):
     """Trace light chains from the luminaires of ``scene``; return an :class:`LsadStore`.
 
     In a scene with glossy, specular or transmitting materials the chains sample the BSDFs
@@ -193,6 +199,14 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
         in the provenance, ``target_reached = False``).
     progress : callable, optional
         ``progress(done_fraction, eta_s)``.
+    fresnel_rule : {"reciprocal", "radiance"}
+        Where the diffuse part of smooth plastic, metal and trans (roughness 0, specularity
+        ≥ 0.018) takes the factor 1 − F(μ_i) of the arriving light
+        (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`): ``"reciprocal"`` (default), on all
+        light — a reciprocal BRDF, the physically consistent model; ``"radiance"``, only on
+        light straight from a light source of Radiance's direct calculation, as Radiance
+        renders the same scene file. Recorded in the store (and its provenance); renders from
+        the store use it. No effect on scenes without such materials.
 
     Returns
     -------
@@ -205,14 +219,14 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
     Budak, Zheltov & Kalakutsky (2012); Marchuk et al. (1980), ch. 2–3.
     """
     check_simulation_options(scene, near_field=near_field, absorption=absorption, batches=batches,
-                             max_depth=max_depth, samples=samples)
+                             max_depth=max_depth, samples=samples, fresnel_rule=fresnel_rule)
     batches = int(batches)
     if target_error is not None and not (MIN_TARGET_ERROR <= float(target_error) < 1):
         raise BadInputError(f"target_error must be a relative error from {MIN_TARGET_ERROR:g} to below 1, "
                             f"got {target_error!r}")
     first = samples if samples is not None else (16_384 if target_error is not None else DEFAULT_CHAINS)
     run = ChainRun(scene, seed=seed, max_depth=max_depth, near_field=near_field,
-                   absorption=absorption, batches=batches, progress=progress)
+                   absorption=absorption, batches=batches, progress=progress, fresnel_rule=fresnel_rule)
     max_chains = max(math.ceil(first / CHAIN_BLOCK), int(max_samples) // CHAIN_BLOCK) * CHAIN_BLOCK
     achieved, measured = None, None
     store = run.grow(first)
@@ -224,7 +238,7 @@ def simulate(scene, *, samples=None, target_error=None, seed=0, max_depth=None,
     store.provenance = run.provenance(
         {"samples": samples, "target_error": target_error, "seed": seed, "max_depth": max_depth,
          "near_field": near_field, "absorption": absorption, "batches": batches,
-         "max_samples": max_samples},
+         "max_samples": max_samples, "fresnel_rule": fresnel_rule},
         target_error=target_error, achieved_relative_error=achieved, error_measured_on=measured,
         target_reached=None if target_error is None else bool(achieved <= target_error))
     if target_error is not None and not achieved <= target_error:

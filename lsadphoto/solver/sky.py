@@ -162,6 +162,12 @@ class DistantSource:
         in Radiance).
     where : str
         Where it was defined (``file:line``), for messages.
+    light_source : bool
+        Whether Radiance's direct calculation takes it as a light source: a ``source`` of
+        ``light`` (the sun); a ``glow`` one (the sky, the ground) is skipped there and lights
+        only through the ambient calculation (``SSKIP`` in Radiance's ``source.c``). Decides the
+        factor 1 − F(μ_i) under the ``"radiance"`` rule
+        (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`).
     """
 
     name: str
@@ -171,6 +177,7 @@ class DistantSource:
     function: tuple = None
     transform: np.ndarray = None
     where: str = ""
+    light_source: bool = True
     _table: dict = field(default=None, repr=False)
 
     def __post_init__(self):
@@ -206,7 +213,7 @@ class DistantSource:
         """JSON-ready description (stores)."""
         f = self.function
         return {"name": self.name, "axis": self.axis.tolist(), "half_angle": self.half_angle,
-                "luminance": self.luminance, "where": self.where,
+                "luminance": self.luminance, "where": self.where, "light_source": self.light_source,
                 "function": None if f is None else [f[0], f[1], list(f[2])],
                 "transform": None if self.transform is None else np.asarray(self.transform).tolist()}
 
@@ -215,7 +222,8 @@ class DistantSource:
         f = d.get("function")
         return cls(d["name"], np.asarray(d["axis"]), d["half_angle"], d["luminance"],
                    None if f is None else (f[0], f[1], tuple(f[2])),
-                   None if d.get("transform") is None else np.asarray(d["transform"]), d.get("where", ""))
+                   None if d.get("transform") is None else np.asarray(d["transform"]), d.get("where", ""),
+                   bool(d.get("light_source", True)))
 
     def _shape(self, directions):
         f, cal, args = self.function
@@ -353,7 +361,7 @@ def _groups(samples):
     return STRATIFIED_GROUPS if samples >= 16 else 1
 
 
-def distant_illuminance(scene, engine, points, normals, u, *, fresnel=None):
+def distant_illuminance(scene, engine, points, normals, u, *, fresnel=None, fresnel_rule="reciprocal"):
     """Direct illuminance [lx] of the scene's distant sources at points, and its variance.
 
     ``u`` ``(P, sources, s, 2)`` uniforms (:func:`distant_uniforms`): s shadow rays per
@@ -364,7 +372,8 @@ def distant_illuminance(scene, engine, points, normals, u, *, fresnel=None):
     if they were independent, an upper bound for stratified samples (for s = 1 the square of
     the estimate, also an upper bound). ``fresnel`` (bool per point, optional): where true,
     the Fresnel-weighted illuminance E_F, each term times 1 − F(n·ω)
-    (:func:`~lsadphoto.solver.direct.direct_illuminance`).
+    (:func:`~lsadphoto.solver.direct.direct_illuminance`) — under ``fresnel_rule``
+    ``"radiance"`` only for the sources that are Radiance light sources (``light_source``).
     """
     x = np.asarray(points, float).reshape(-1, 3)
     n = np.asarray(normals, float).reshape(-1, 3)
@@ -380,7 +389,8 @@ def distant_illuminance(scene, engine, points, normals, u, *, fresnel=None):
     for k, src in enumerate(sources):
         d, w = src.sample(u[:, k].reshape(-1, 2))
         cos = np.einsum("ij,ij->i", d, normals_s)
-        g = w * cos if fresnel is None else w * cos * diffuse_fresnel_factor(cos, np.repeat(fresnel, s))
+        g = w * cos if fresnel is None else w * cos * diffuse_fresnel_factor(
+            cos, np.repeat(fresnel, s), rule=fresnel_rule, direct=src.light_source)
         lit = np.flatnonzero(g > 0)
         value = np.zeros(P * s)
         if lit.size and shadows_transmit(scene):
@@ -401,7 +411,7 @@ def distant_illuminance(scene, engine, points, normals, u, *, fresnel=None):
     return E, var
 
 
-def distant_reflection(scene, engine, points, normals, towards, materials, u):
+def distant_reflection(scene, engine, points, normals, towards, materials, u, *, fresnel_rule="reciprocal"):
     """Luminance [cd·m⁻²] that points with non-Lambertian materials reflect or transmit
     towards ``towards`` from the distant sources, by next-event estimation.
 
@@ -410,7 +420,9 @@ def distant_reflection(scene, engine, points, normals, towards, materials, u):
     either side of transmitting surfaces) and T the shadow transmittance (glass passes light
     straight through). The delta parts (mirror reflections) are left to sampled rays.
     Shape ``(2, P)``: the parts scattered by the diffuse and by the glossy component of f
-    (the double local estimate weights them differently).
+    (the double local estimate weights them differently). ``fresnel_rule``: the smooth
+    materials' factor 1 − F(μ_i) (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`), under
+    ``"radiance"`` for the sources that are Radiance light sources only.
     """
     x = np.asarray(points, float).reshape(-1, 3)
     P = len(x)
@@ -425,7 +437,7 @@ def distant_reflection(scene, engine, points, normals, towards, materials, u):
     for k, src in enumerate(scene.distant_sources):
         d, w = src.sample(u[:, k].reshape(-1, 2))
         cos = np.einsum("ij,ij->i", d, n)
-        f = np.stack(scene.bsdf.evaluate(mat, n, wo, d, split=True))
+        f = np.stack(scene.bsdf.evaluate(mat, n, wo, d, split=True, rule=fresnel_rule, direct=src.light_source))
         val = src.integral * w * np.abs(cos) * f
         ok = np.flatnonzero((val[0] > 0) | (val[1] > 0))
         if ok.size:
@@ -464,9 +476,10 @@ def sky_sources(name, model, zenith_luminance, *, sun_direction=None, ground_lum
         # the normalisation A4: the function's own value at the zenith, so that L(zenith) = A2
         args = (*args[:3], float(sky_luminance_shape("skybr", "skybright.cal", args, np.array([0.0, 0.0, 1.0]))
                                  / _horizon_blend(1.0, 1.0, 0.0) / zenith_luminance), *sun)
+    # gensky's sky and ground are glows: no light sources of Radiance's direct calculation
     sources = [DistantSource(f"{name}", np.array([0.0, 0.0, 1.0]), math.pi / 2, 1.0,
-                             ("skybr", "skybright.cal", args))]
+                             ("skybr", "skybright.cal", args), light_source=False)]
     if ground_luminance > 0:
         sources.append(DistantSource(f"{name} ground", np.array([0.0, 0.0, -1.0]), math.pi / 2,
-                                     float(ground_luminance)))
+                                     float(ground_luminance), light_source=False))
     return sources

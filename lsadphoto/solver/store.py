@@ -21,6 +21,7 @@ storage of the computed LSAD). Keller, A. (1997). Instant radiosity. *SIGGRAPH '
 """
 
 import json
+import math
 import zipfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -40,10 +41,12 @@ from .sky import DistantSource
 __all__ = ["READABLE_FORMATS", "STORE_FORMAT", "LsadStore", "load_store"]
 
 #: Identifier and version of the store file layout written: /4 adds the nodes' ``incoming``
-#: and ``front`` and the scene's ``surface_materials`` (scenes with non-Lambertian materials).
-STORE_FORMAT = "lsadphoto-lsad-store/4"
-#: Layouts :func:`load_store` reads: /3 (Lambertian scenes only) is /4 without those.
-READABLE_FORMATS = ("lsadphoto-lsad-store/3", STORE_FORMAT)
+#: and ``front`` and the scene's ``surface_materials`` (scenes with non-Lambertian materials),
+#: /5 the nodes' ``direct`` and the store's ``fresnel_rule``.
+STORE_FORMAT = "lsadphoto-lsad-store/5"
+#: Layouts :func:`load_store` reads: /3 (Lambertian scenes only) is /4 without those; /4 is /5
+#: of the reciprocal rule without ``direct`` (which that rule does not use).
+READABLE_FORMATS = ("lsadphoto-lsad-store/3", "lsadphoto-lsad-store/4", STORE_FORMAT)
 
 #: Node kinds: 0 = cosine lobe (Lambertian surface or emitter), 1 = intensity distribution
 #: of a point luminaire (index in ``luminaire``).
@@ -51,7 +54,7 @@ KIND_COSINE, KIND_POINT = 0, 1
 
 _NODE_FIELDS = ("position", "normal", "coefficient", "kind", "luminaire", "batch", "depth", "triangle")
 #: Further node fields of a store of a scene with non-Lambertian materials.
-_MATERIAL_FIELDS = ("incoming", "front")
+_MATERIAL_FIELDS = ("incoming", "front", "direct")
 
 
 @dataclass
@@ -76,6 +79,15 @@ class LsadStore:
         (zero at source nodes); None for Lambertian scenes.
     front : ndarray of bool, shape (k,), or None
         Non-Lambertian scenes: whether the node was reached on its triangle's front side.
+    direct : ndarray of bool, shape (k,), or None
+        Non-Lambertian scenes: at source nodes, whether the luminaire can be a light source of
+        Radiance's direct calculation (an area luminaire within its ``light_source_radius``);
+        at surface nodes, whether the light arriving there came straight from one (through
+        straight-through transmissions only). Used by the ``"radiance"`` rule.
+    fresnel_rule : str
+        The smooth materials' rule for the factor 1 − F(μ_i) the chains were traced with
+        (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`); views rendered from the store
+        use it.
     chains : int
         Number of light chains; each of the ``batches`` batches holds ``chains/batches``.
     surface_cache : SurfaceCache or None
@@ -100,6 +112,8 @@ class LsadStore:
     surface_cache: object = None
     incoming: np.ndarray = None
     front: np.ndarray = None
+    direct: np.ndarray = None
+    fresnel_rule: str = "reciprocal"
 
     def __post_init__(self):
         if (self.incoming is None) != self.scene.lambertian:
@@ -128,6 +142,8 @@ class LsadStore:
     def extend(self, other):
         """Append the nodes and chains of another store of the same scene (in place); a
         surface cache built from the old nodes is dropped."""
+        if other.fresnel_rule != self.fresnel_rule:
+            raise BadInputError(f"stores of Fresnel rules {self.fresnel_rule!r} and {other.fresnel_rule!r} do not mix")
         for name in _NODE_FIELDS + (_MATERIAL_FIELDS if self.materials else ()):
             setattr(self, name, np.concatenate([getattr(self, name), getattr(other, name)]))
         self.chains += other.chains
@@ -144,11 +160,14 @@ class LsadStore:
             "batches": int(self.batches),
             "seed": int(self.seed),
             "near_field": self.near_field,
+            "fresnel_rule": self.fresnel_rule,
             "provenance": self.provenance,
             "scene": {
                 "name": scene.name,
                 "material_names": list(scene.material_names),
-                "area_luminaires": [{"name": l.name, "flux": l.flux} for l in scene.area_luminaires],
+                "area_luminaires": [{"name": l.name, "flux": l.flux, "light_source_radius":
+                                     None if math.isinf(l.light_source_radius) else l.light_source_radius}
+                                    for l in scene.area_luminaires],
                 "point_luminaires": [
                     {"name": l.name, "position": l.position.tolist(), "frame": l.frame.tolist(),
                      "extent": list(l.extent), "multiplier": l.multiplier,
@@ -200,7 +219,8 @@ def load_store(path):
     try:
         s = meta["scene"]
         emitter = arrays["emitter"]
-        area = [AreaLuminaire(l["name"], l["flux"], np.flatnonzero(emitter == k))
+        area = [AreaLuminaire(l["name"], l["flux"], np.flatnonzero(emitter == k),
+                              math.inf if l.get("light_source_radius") is None else l["light_source_radius"])
                 for k, l in enumerate(s["area_luminaires"])]
         points = []
         for k, l in enumerate(s["point_luminaires"]):
@@ -216,6 +236,8 @@ def load_store(path):
                       distant_sources=[DistantSource.from_dict(d) for d in s.get("distant_sources", [])],
                       surface_materials=None if materials is None else [
                           Material(**{**m, "colour": tuple(m["colour"])}) for m in materials])
+        if not scene.lambertian and meta["format"] == "lsadphoto-lsad-store/4":  # reciprocal, no ``direct``
+            arrays["direct"] = np.zeros(len(arrays["coefficient"]), bool)
         nodes = {name: arrays[name] for name in _NODE_FIELDS + (() if scene.lambertian else _MATERIAL_FIELDS)}
         cache = None
         if "surface_cache" in meta:
@@ -229,4 +251,5 @@ def load_store(path):
         raise UnsupportedFileError(f"{path}: LSAD store lacks {exc.args[0]!r}") from None
     return LsadStore(scene, **nodes, chains=meta["chains"], batches=meta["batches"],
                      seed=meta["seed"], near_field=meta["near_field"],
+                     fresnel_rule=meta.get("fresnel_rule", "reciprocal"),
                      provenance=meta.get("provenance", {}), surface_cache=cache)

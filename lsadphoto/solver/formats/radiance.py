@@ -521,7 +521,8 @@ class _Reader:
             first = self.count
             self.add(tris, None, k)
             self.area_luminaires.append(AreaLuminaire(ident, math.pi * area * luminance,
-                                                      np.arange(first, first + len(tris))))
+                                                      np.arange(first, first + len(tris)),
+                                                      light_source_radius=_light_source_radius(material)))
             return
         if material.kind not in SURFACE_MATERIALS:
             raise BadInputError(f"{where}: {what}: {material.describe()} is not supported: "
@@ -560,7 +561,7 @@ class _Reader:
         if luminance <= 0:  # black: it emits nothing (as a black light surface)
             return
         self.distant_sources.append(DistantSource(ident, axis, math.radians(reals[3]) / 2, luminance,
-                                                  function, inverse, where))
+                                                  function, inverse, where, light_source=material.kind == "light"))
 
     def sky_function(self, pattern):
         """``(function, calfile, args)`` and the world-to-pattern rotation of a sky
@@ -1078,6 +1079,16 @@ def _angle_grid(top, step, node_sets, cuts):
     parts += [np.array([c - tiny, c + tiny]) for c in cuts]
     grid = np.unique(np.clip(np.concatenate(parts), 0.0, top).round(9))
     return grid
+
+
+def _light_source_radius(material):
+    """Distance [m] from its centre within which Radiance's direct calculation takes a surface
+    of ``light``/``glow`` material as a light source: ∞ for a ``light``, a ``glow``'s radius of
+    influence (``srcskip``), 0 for a ``glow`` of radius 0 (``marksources`` skips it: it lights
+    only through the ambient calculation)."""
+    if material.kind == "light":
+        return math.inf
+    return material.reals[3] if material.reals[3] > 1e-6 else 0.0
 
 
 def _check_glow_radius(material, where, what):

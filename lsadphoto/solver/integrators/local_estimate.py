@@ -53,7 +53,7 @@ from ..._validation import check_choice
 from ...errors import BadInputError
 from .._sampling import GroupStreams, stream
 from ..engine import engine_for
-from ..materials import KINDS, shadow_transmittance
+from ..materials import KINDS, diffuse_fresnel_factor, shadow_transmittance
 from ..sky import (GATHER_DISTANT_SAMPLES, background_luminance, distant_illuminance, distant_reflection,
                    distant_uniforms, stratified)
 from ..store import KIND_COSINE, LsadStore
@@ -372,7 +372,7 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
                "near_field": near_field, "near_distance_m": near_distance,
                "near_field_biased": near_field == "clamp",
                "nodes_per_pixel": "all" if nodes_per_pixel is None else int(nodes_per_pixel),
-               "seed": int(seed), "simulation_seed": int(store.seed)},
+               "seed": int(seed), "simulation_seed": int(store.seed), "fresnel_rule": store.fresnel_rule},
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
 
 
@@ -460,6 +460,8 @@ class _MaterialGatherer:
         self.mirrors = mirrors if mirrors.size <= MAX_VIRTUAL_MIRRORS else mirrors[:0]
         self.virtual = np.zeros(len(scene.triangles) + 1, bool)   # index −1: no triangle
         self.virtual[self.mirrors] = True
+        #: the smooth materials' rule for 1 − F(μ_i) (the store's)
+        self.rule = nodes.fresnel_rule
 
     def draws(self, k):
         """Draws per point and stratum of each batch when a point gathers ``k`` nodes: k split
@@ -496,7 +498,7 @@ class _MaterialGatherer:
         if self.scene.distant_sources:  # next-event estimated: distant sources leave no nodes
             rng.counts = np.bincount(batch, minlength=len(rng.gens))
             u = stratified(rng.random((P, len(self.scene.distant_sources), GATHER_DISTANT_SAMPLES, 2)))
-            sky = distant_reflection(self.scene, self.engine, x, n, wo, mat, u)
+            sky = distant_reflection(self.scene, self.engine, x, n, wo, mat, u, fresnel_rule=self.rule)
         B = len(self.strata)
         draws = self.draws(self.k if primary else self.k_secondary)
         counts = np.bincount(batch, minlength=B)
@@ -534,10 +536,17 @@ class _MaterialGatherer:
         w = v / np.sqrt(np.maximum(r2, 1e-300))[:, None]
         np_ = n[owner]
         cos_p = np.einsum("ij,ij->i", w, np_)
-        f_d, f_g = bsdf.evaluate(mat[owner], np_, wo[owner], w, split=True,
-                                 parts={key: v[owner] for key, v in parts.items()})
         kind = nd.kind[pick]
         surface = nd.depth[pick] > 0
+        # the light of source nodes arrives straight from their luminaire (a Radiance light
+        # source there, or not), that of surface nodes not
+        direct = True
+        if self.rule != "reciprocal":
+            direct = nd.direct[pick] & ~surface
+            area = np.flatnonzero(direct & (kind == KIND_COSINE))
+            direct[area] = self.scene.light_source_at(self.scene.emitter[nd.triangle[pick[area]]], x[owner[area]])
+        f_d, f_g = bsdf.evaluate(mat[owner], np_, wo[owner], w, split=True,
+                                 parts={key: v[owner] for key, v in parts.items()}, rule=self.rule, direct=direct)
         cos_n = -np.einsum("ij,ij->i", w, ny)
         f_pg = np.where(kind == KIND_COSINE, 0.0, f_g)
         emitter = np.flatnonzero((kind == KIND_COSINE) & ~surface & (f_g > 0))
@@ -553,7 +562,8 @@ class _MaterialGatherer:
             m_n = self.scene.material[nd.triangle[pick[s]]]
             rows = self.node_row[pick[s]]
             f_n, _ = bsdf.evaluate(m_n, ny[s], nd.incoming[pick[s]], -w[s], split=True,
-                                   parts={key: v[rows] for key, v in self.node_parts.items()})
+                                   parts={key: v[rows] for key, v in self.node_parts.items()},
+                                   rule=self.rule, direct=nd.direct[pick[s]], adjoint=True)
             intensity[s] = nd.coefficient[pick[s]] * f_n * np.abs(cos_n[s])
         point = np.flatnonzero(kind != KIND_COSINE)
         if point.size:
@@ -617,8 +627,10 @@ class _MaterialGatherer:
                                        np.ones(live.size, bool))[0]
         geometry = reflectance * np.abs(cos_p) * intensity / (length * length)
         geometry *= self.engine.visible(q + eps * nm, y[live] + eps * nd.normal[k] * is_cos[:, None])
+        # light by a mirror is not straight from the source (as the path tracer counts it)
         f_d, f_g = scene.bsdf.evaluate(mat[o], np_, wo[o], w, split=True,
-                                       parts={key: value[o] for key, value in parts.items()})
+                                       parts={key: value[o] for key, value in parts.items()},
+                                       rule=self.rule, direct=False)
         out[:, live] = np.stack([f_d * geometry, f_g * geometry])
         return out
 
@@ -709,8 +721,15 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     reaches through it); a straight-through transmission keeps both. Russian roulette
     min(1, w) after the first ray. Each hit adds β·(diffuse share of its connections) +
     β_f·(glossy share).
+
+    Under the ``"radiance"`` rule (the store's, :data:`~lsadphoto.solver.materials.FRESNEL_RULES`)
+    the rays carry the smooth materials' diffuse part without 1 − F(μ_i), and emission of a
+    Radiance light source reached from a non-delta vertex (through straight-through
+    transmissions only; within the source's radius of that vertex, ``x_v``) takes that vertex's
+    factor 1 − F(μ_i), ``g_v``.
     """
     bsdf = scene.bsdf
+    rule = gatherer.rule
     eps = engine.epsilon
     total = np.zeros(len(x))
     idx = np.arange(len(x))
@@ -727,15 +746,16 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
     # weight of the distant sources' radiance, which the connections' next-event estimate
     # covers except after delta reflections (and straight transmissions after those)
     beta_s = np.zeros(len(x))
+    g_v, x_v = np.ones(len(x)), x.copy()
     first = True
     while idx.size:
         u = _uniforms(rng, batch, 4)
-        wi, w, delta, _ = bsdf.sample(mat, n, wo, u[:, :3], front)
+        wi, w, delta, _ = bsdf.sample(mat, n, wo, u[:, :3], front, rule=rule, direct=False)
         keep = (w > 0) & ~(delta & first)
         (idx, beta, beta_f, beta_s, x, n, wi, w, delta, wo, mat, u, batch, e_near, e_far, pdf_v, primary_v,
-         travelled, through, tri, arrived) = (a[keep] for a in (idx, beta, beta_f, beta_s, x, n, wi, w, delta, wo,
-                                                                mat, u, batch, e_near, e_far, pdf_v, primary_v,
-                                                                travelled, through, tri, arrived))
+         travelled, through, tri, arrived, g_v, x_v) = (a[keep] for a in (
+             idx, beta, beta_f, beta_s, x, n, wi, w, delta, wo, mat, u, batch, e_near, e_far, pdf_v, primary_v,
+             travelled, through, tri, arrived, g_v, x_v))
         front = np.asarray(front)[keep]
         if not idx.size:
             break
@@ -752,9 +772,12 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
         travelled = travelled + np.where(np.isfinite(dist), dist, 0.0)
         nd = np.flatnonzero(~delta)
         if nd.size:
-            f_d, f_g = bsdf.evaluate(mat[nd], n[nd], wo[nd], wi[nd], split=True)
+            f_d, f_g = bsdf.evaluate(mat[nd], n[nd], wo[nd], wi[nd], split=True, rule=rule, direct=False)
             pdf = bsdf.pdf(mat[nd], n[nd], wo[nd], wi[nd], front[nd])
             mu = np.abs(np.einsum("ij,ij->i", n[nd], wi[nd]))
+            if rule != "reciprocal":
+                g_v[nd] = diffuse_fresnel_factor(mu, bsdf.fresnel[mat[nd]], rule=rule, direct=True)
+                x_v[nd] = x[nd]
             near = dist[nd] < near_distance
             scale = np.where(pdf > 0, mu / np.maximum(pdf, 1e-300), 0.0)
             b[nd] = (beta[nd] * f_d * near + beta_f[nd] * f_g) * scale
@@ -777,6 +800,11 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
         # emission one mirror reflection away from a non-delta vertex: that vertex's virtual sources
         be[reflected & arrived & gatherer.virtual[tri]] = 0.0
         hit = prim >= 0
+        if rule != "reciprocal":
+            straight = np.flatnonzero(through & hit)
+            straight = straight[scene.emitter[prim[straight]] >= 0]
+            straight = straight[scene.light_source_at(scene.emitter[prim[straight]], x_v[straight])]
+            be[straight] *= g_v[straight]
         if hit.any():
             total[idx[hit]] += be[hit] * emitted_luminance(scene, prim[hit], -wi[hit])
         bs = np.where(delta, np.where(reflected, beta_f, beta_s), 0.0) * w
@@ -786,8 +814,9 @@ def _scattered(scene, engine, gatherer, rng, x, n, front, wo, mat, batch, near_d
         q = np.ones(idx.size) if first else np.minimum(w, 1.0)
         go = hit & ((b > 0) | (bf > 0)) & (u[:, 3] < q)
         (idx, beta, beta_f, beta_s, x, n, wi, side, prim, dist, batch, e_near, e_far, pdf_v, primary_v, travelled,
-         through, arrived) = (a[go] for a in (idx, b / q, bf / q, bs / q, x, n, wi, side, prim, dist, batch,
-                                              e_near / q, e_far / q, pdf_v, primary_v, travelled, through, ~delta))
+         through, arrived, g_v, x_v) = (a[go] for a in (idx, b / q, bf / q, bs / q, x, n, wi, side, prim, dist,
+                                                        batch, e_near / q, e_far / q, pdf_v, primary_v, travelled,
+                                                        through, ~delta, g_v, x_v))
         tri = prim
         if not idx.size:
             break
@@ -875,7 +904,7 @@ def render_local_estimate_materials(store, projection, *, position, rotation, se
         projection, valid, lum_b, model=scene, estimator="double local estimate (materials)",
         openings=openings,
         extra={"samples": int(store.chains), "chains": int(store.chains),
-               "nodes": int(store.nodes), "near_field": "unbiased",
+               "nodes": int(store.nodes), "near_field": "unbiased", "fresnel_rule": store.fresnel_rule,
                "near_distance_m": near_distance, "near_field_biased": False,
                "nodes_per_pixel": int(nodes_per_pixel), "rays_per_vertex": int(rays_per_vertex),
                "seed": int(seed), "simulation_seed": int(store.seed)},

@@ -15,11 +15,12 @@ import time
 
 import numpy as np
 
+from ..._validation import check_choice
 from ...errors import BadInputError
 from .._sampling import GroupStreams, cosine_directions, stream
 from ..chains import KIND_DISTANT, EmissionSampler
 from ..engine import engine_for
-from ..materials import shadow_transmittance
+from ..materials import FRESNEL_RULES, shadow_transmittance
 from ..scene import Scene
 from ..sky import background_luminance
 from ..store import KIND_COSINE, KIND_POINT
@@ -31,7 +32,7 @@ __all__ = ["render_path_traced"]
 
 
 def render_path_traced(scene, projection, *, position, rotation, samples=64, seed=0, batches=16,
-                       max_depth=None, chunk_pixels=1024, workers=1, progress=None):
+                       max_depth=None, chunk_pixels=1024, workers=1, progress=None, fresnel_rule="reciprocal"):
     """Luminance map by path tracing from the eye with next-event estimation [cd·m⁻²].
 
     A conventional, independent estimator for cross-checks of :func:`render`: from the
@@ -45,7 +46,10 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
 
     Parameters are those of :func:`~lsadphoto.solver.render` (``scene`` instead of a store), plus
     ``samples`` (paths per pixel, a multiple of ``batches``), ``batches`` (≥ 2) and
-    ``max_depth`` (bounce limit, biased; default unlimited). Returns a
+    ``max_depth`` (bounce limit, biased; default unlimited) and ``fresnel_rule``
+    (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`: under ``"radiance"`` the next-event
+    estimates of Radiance's light sources take the smooth materials' factor 1 − F(μ_i), the
+    continuation rays do not). Returns a
     :class:`~lsadphoto.luminance_map.LuminanceMap` [cd·m⁻²] with per-pixel standard errors.
 
     References
@@ -57,6 +61,7 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
     if int(workers) != workers or workers < 1:
         raise BadInputError(f"workers must be a positive integer, got {workers!r}")
     workers = int(workers)
+    check_choice(fresnel_rule, "fresnel_rule", FRESNEL_RULES)
     position, rotation = check_pose(position, rotation)
     samples = int(samples)
     batches = int(batches)
@@ -90,7 +95,7 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
         x, nx, tri = x0[pix], n0[pix], t[pix]
         if scene.bsdf is not None:
             _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, c.front[pix], tri,
-                             -d[h][pix], limit)
+                             -d[h][pix], limit, fresnel_rule)
             return h, emitted[:, None] + acc.reshape(batches, h.size, per_batch).mean(axis=2).T
         depth = 0
         while alive.size and depth < limit:
@@ -129,7 +134,7 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
         openings=openings,
         extra={"samples": samples, "samples_per_pixel": samples, "seed": int(seed),
                "near_field": "none (path tracing)", "near_field_biased": False,
-               "max_depth": max_depth},
+               "max_depth": max_depth, "fresnel_rule": fresnel_rule},
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
 
 
@@ -162,7 +167,7 @@ def _light_sample(sampler, streams, x, nx):
     return src, w, r2, cos_x, is_cos, g
 
 
-def _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, front, tri, wo, limit):
+def _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, front, tri, wo, limit, rule):
     """Add to ``acc`` the luminance of paths from points ``x`` (normals ``nx`` facing ``wo``,
     on the triangles' front side where ``front``, triangles ``tri``) in a scene with
     non-Lambertian materials (``scene.bsdf``).
@@ -174,7 +179,10 @@ def _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, front, 
     with q = min(1, albedo) and weight w/q. Emission found by a continuation ray counts only
     on paths that NEE cannot reach: after a delta reflection (mirror, glass, smooth plastic),
     possibly followed by straight-through transmissions; the eye counts as such a vertex (a
-    luminaire seen through glass is seen).
+    luminaire seen through glass is seen). ``rule``: the smooth materials' factor 1 − F(μ_i)
+    (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`) — under ``"radiance"`` on the next-event
+    estimates of Radiance's light sources only, not on the continuation rays (whose emission
+    counts only after deltas, where the diffuse factor plays no part).
     """
     bsdf = scene.bsdf
     eps = engine.epsilon
@@ -186,7 +194,7 @@ def _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, front, 
         streams.counts = np.bincount(group[alive], minlength=len(streams.gens))
         mat = scene.material[tri]
         src, w, r2, cos_x, is_cos, g = _light_sample(sampler, streams, x, nx)
-        f = bsdf.evaluate(mat, nx, wo, w)
+        f = bsdf.evaluate(mat, nx, wo, w, rule=rule, direct=sampler.light_source_at(src, x))
         ok = (f > 0) & (g > 0) & (np.abs(cos_x) > 0)
         if ok.any():
             side = np.sign(cos_x[ok])[:, None]
@@ -195,7 +203,7 @@ def _trace_materials(scene, engine, sampler, streams, group, acc, x, nx, front, 
             acc[alive[ok]] += (beta[ok] * f[ok] * src["coefficient"][ok] * g[ok] * np.abs(cos_x[ok])
                                / r2[ok] * vis)
         u = streams.random((alive.size, 3))
-        wi, weight, is_delta, albedo = bsdf.sample(mat, nx, wo, u, front)
+        wi, weight, is_delta, albedo = bsdf.sample(mat, nx, wo, u, front, rule=rule, direct=False)
         q = np.minimum(albedo, 1.0)
         go = (u[:, 2] < q) & (weight > 0)
         depth += 1

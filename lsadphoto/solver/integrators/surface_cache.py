@@ -58,7 +58,10 @@ their diffuse part (:mod:`~lsadphoto.solver.materials`), which then scatters the
 *Fresnel-weighted* irradiance E_F = ∫(1 − F(μ_i))·L·μ_i dω, not E: their cache points hold
 E_F,ind (each far connection weighted by 1 − F(cos θ_x), each cosine-sampled ray's π by
 1 − F(μ_i) of its direction; patches never mix the two quantities), and their vertices take
-E_F,dir from the direct part (``fresnel=`` of :func:`direct_illuminance`).
+E_F,dir from the direct part (``fresnel=`` of :func:`direct_illuminance`). Under the
+``"radiance"`` rule of the store (:data:`~lsadphoto.solver.materials.FRESNEL_RULES`) the
+factor applies to light straight from Radiance's light sources only: every cache point holds
+the plain E_ind, and only those luminaires' direct light is Fresnel-weighted.
 docs/user-guide-solver.md §2a gives the rules and where the estimate is not unbiased.
 
 References
@@ -84,7 +87,7 @@ from ..cache_grid import PATCH_KERNEL, SurfaceCache, grid_index, patch_neighbour
 from ..direct import (ALL_LUMINAIRES_UP_TO, DIRECT_SAMPLES, LuminaireTable, direct_illuminance,
                       sampled_direct_illuminance)
 from ..engine import engine_for
-from ..materials import diffuse_fresnel_factor, shadow_transmittance
+from ..materials import diffuse_fresnel_factor, fresnel_weighted, shadow_transmittance
 from ..sky import DISTANT_RAYS_PER_DIRECT_SAMPLE, background_luminance, distant_reflection, stratified
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance, luminance_map_from_batches,
@@ -603,8 +606,10 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         reflecting = (kd + td)[scene.material] > 0
     level, offset, points, normals, point_tri = _cache_points(scene, spacing, inset, reflecting)
     # The sides of smooth plastic, metal and trans (Radiance's Fresnel factor on their diffuse
-    # part) cache the Fresnel-weighted E_ind (_MaterialIndirectEstimator.estimate).
-    weighted_tri = np.zeros(len(scene.triangles), bool) if scene.lambertian else scene.bsdf.fresnel[scene.material]
+    # part) cache the Fresnel-weighted E_ind (_MaterialIndirectEstimator.estimate), under the
+    # reciprocal rule: the Radiance rule leaves indirect light unweighted.
+    weighted_tri = (np.zeros(len(scene.triangles), bool) if scene.lambertian else
+                    fresnel_weighted(scene.bsdf.fresnel[scene.material], rule=store.fresnel_rule, direct=False))
     weighted = weighted_tri[point_tri]
     # The small triangles' sides share patch points (cache_grid.patch_sides), never across
     # weightings.
@@ -721,6 +726,7 @@ def build_surface_cache(store, *, spacing=None, nodes=CACHE_NODES, near_distance
         "seed": int(seed), "grid_points": grid_points, "patch_points": int(first_points - grid_points),
         "refined_cells": int(keys.size), "split_patches": int(split_patches),
         "leaf_patches": int(keep.size), "points": len(values), "fresnel_weighted_points": int(weighted.sum()),
+        "fresnel_rule": store.fresnel_rule,
         "refine_contrast": float(contrast),
         "build_time_s": time.perf_counter() - t0},
                         patch=patch, patch_row=p_row[keep], patch_normal=p_normal[keep],
@@ -807,6 +813,10 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     luminaires = "auto" if luminaire_draws is None else check_positive_int(luminaire_draws, "luminaire draws")
     if cache is None:
         cache = store.surface_cache or build_surface_cache(store, workers=workers)
+    if not scene.lambertian and cache.provenance.get("fresnel_rule", "reciprocal") != store.fresnel_rule:
+        raise BadInputError(f"the surface cache was built under the Fresnel rule "
+                            f"{cache.provenance.get('fresnel_rule', 'reciprocal')!r}, the store's is "
+                            f"{store.fresnel_rule!r}: build it from this store")
     position, rotation = check_pose(position, rotation)
     check_positive_int(workers, "workers")
     engine = engine_for(scene)
@@ -864,6 +874,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                "cache_spacing_m": float(cache.spacing),
                "cache_points": int(cache.size),
                "cache_nodes_per_point": cache.provenance.get("nodes_per_point"),
+               "fresnel_rule": store.fresnel_rule,
                **({} if est is None else {"glossy_rays": int(glossy_rays)}),
                "uncertainty": "noise and estimated interpolation bias in quadrature"},
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
@@ -918,6 +929,7 @@ class _MaterialIndirectEstimator(_NodeHull):
 
         scene = store.scene
         self.store, self.scene, self.engine = store, scene, engine
+        self.rule = store.fresnel_rule   # the smooth materials' 1 − F(μ_i) (FRESNEL_RULES)
         self.near_distance, self.eps2 = near_distance, near_distance ** 2
         self.direct_samples, self.seed, self.key = direct_samples, seed, key
         self.luminaires = luminaires
@@ -990,7 +1002,7 @@ class _MaterialIndirectEstimator(_NodeHull):
             if fresnel is not None:
                 h *= diffuse_fresnel_factor(cos_x, fresnel[owner])
         else:
-            h = bsdf.evaluate(mat[owner], nx, wo[owner], w) * np.abs(cos_x)
+            h = bsdf.evaluate(mat[owner], nx, wo[owner], w, rule=self.rule, direct=False) * np.abs(cos_x)
         far = r2 >= self.eps2
         live = np.flatnonzero(far & (h > 0))
         val = np.zeros(len(pick))
@@ -999,7 +1011,8 @@ class _MaterialIndirectEstimator(_NodeHull):
         p = pick[live]
         rows = self.node_row[p]
         f_y = bsdf.evaluate(self.scene.material[st.triangle[p]], ny[live], st.incoming[p], -w[live],
-                            parts={key: value[rows] for key, value in self.node_parts.items()})
+                            parts={key: value[rows] for key, value in self.node_parts.items()},
+                            rule=self.rule, direct=st.direct[p], adjoint=True)
         val[live] = f_y * np.abs(cos_y[live]) * h[live] / r2[live]
         ok = live[val[live] > 0]
         if ok.size:
@@ -1122,10 +1135,12 @@ class _MaterialIndirectEstimator(_NodeHull):
             if self.luminaire_table is None:
                 e, v = direct_illuminance(self.scene, self.engine, y[m], sign * ny[m],
                                           samples=self.direct_samples, distant_samples=distant_samples,
-                                          luminaires=self.luminaires, fresnel=fresnel[m], **sub)
+                                          luminaires=self.luminaires, fresnel=fresnel[m], fresnel_rule=self.rule,
+                                          **sub)
             else:
                 e, v = sampled_direct_illuminance(self.scene, self.engine, y[m], sign * ny[m],
-                                                  table=self.luminaire_table, fresnel=fresnel[m], **sub), 0.0
+                                                  table=self.luminaire_table, fresnel=fresnel[m],
+                                                  fresnel_rule=self.rule, **sub), 0.0
             out[m] += coef[m] / math.pi * e
             var[m] += (coef[m] / math.pi) ** 2 * v
         return out, var
@@ -1211,11 +1226,12 @@ class _MaterialIndirectEstimator(_NodeHull):
                 total[row[nd]] += w[nd] * value
             # the continuation: y's whole BSDF where its non-delta light counted, its deltas elsewhere
             u = _uniforms_by(self.seed, group, blocks, 4, _TAG_RAYS, self.key, level)
-            wi, weight, delta, _ = bsdf.sample(mat, ny, wo, u[:, :3], front)
+            wi, weight, delta, _ = bsdf.sample(mat, ny, wo, u[:, :3], front, rule=self.rule, direct=False)
             glossy_share = np.zeros(row.size)
             full = np.flatnonzero(counted & ~delta & (weight > 0))
             if full.size:
-                f_d, f_g = bsdf.evaluate(mat[full], ny[full], wo[full], wi[full], split=True)
+                f_d, f_g = bsdf.evaluate(mat[full], ny[full], wo[full], wi[full], split=True, rule=self.rule,
+                                         direct=False)
                 glossy_share[full] = f_g / np.maximum(f_d + f_g, 1e-300)
             only = np.flatnonzero(~counted)
             if only.size:
