@@ -139,6 +139,19 @@ EMITTER_DRAWS = 16
 DISTANT_GLOSSY_SAMPLES = 4
 #: Vertices a sampled path visits at most (Russian roulette ends nearly all before).
 MAX_PATH_VERTICES = 32
+#: Cosine-sampled near-field paths per group of :func:`render_cached`'s own estimate of E_ind at
+#: a pixel whose free distance is shorter than its interpolation's support (the columns' feet
+#: behind the station hall's benches, docs/accuracy.md session 12: at 8192 node draws their
+#: relative standard error was 11 % with 4 paths, 4.1 % with 64, for the same CPU time — the
+#: near field is nearly all of E_ind there, so more node draws do not help, and the paths'
+#: node draws per hit fall as their number grows).
+PIXEL_NEAR_RAYS = 64
+#: A pixel's E_ind is interpolated only where the interpolation's support distance is at most
+#: this fraction of the pixel's free distance (Ward et al. 1988's accuracy parameter a, with
+#: which a cached value counts within a·R of its point; :func:`render_cached`'s Notes). On the
+#: station hall with 1: the floor under a bench 0.12 m inside its edge (one corner outside
+#: kept) still came out 1.1–2× too bright, the columns at free distances of 1–2 supports +6 %.
+PIXEL_VALIDITY = 0.5
 
 _NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
 
@@ -288,7 +301,9 @@ class _IndirectEstimator(_NodeHull):
         self.draws = max(1, int(nodes) // self.groups)
         self.chains_per_group = store.chains / self.groups
         self.near_rays = int(near_rays)
-        self.near_draws = max(1, self.draws // 8)
+        # node draws at each near hit: draws/8 with NEAR_RAYS paths, fewer with more paths (the
+        # near paths' total stays the same; their noise is the paths' directions')
+        self.near_draws = max(1, self.draws * NEAR_RAYS // (8 * self.near_rays))
         self.luminaire_table = self._luminaire_table(near_distance)
 
     def far(self, x, n, group, blocks, level, draws=None):
@@ -798,7 +813,23 @@ def render_cached(store, projection, *, position, rotation, cache=None,
         estimated interpolation bias (:meth:`SurfaceCache.interpolate_with_bias`, per group:
         b² is its squared mean less that mean's variance) — and provenance, which keeps the
         parts apart (``pixel_relative_noise_*``, ``pixel_relative_bias_*``, and
-        ``field_mean_relative_bias_estimate``, signed).
+        ``field_mean_relative_bias_estimate``, signed), and counts the pixels whose E_ind was
+        estimated at the pixel (``pixels_estimated_without_cache``).
+
+    Notes
+    -----
+    Where a surface stands in front of a pixel's point not far beyond the cache points that
+    interpolate it — the interpolation's support distance (the weights' mean distance to
+    those points, :meth:`SurfaceCache.interpolate_with_bias`) exceeds :data:`PIXEL_VALIDITY`
+    times the point's free distance along its normal — E_ind changes between the pixel and the
+    points over distances the cache does not sample, and neither the interpolation nor its
+    bias estimate, which sees the values only at the points, can follow it (the foot of a
+    column behind a bench: E_ind halves below the points). Such a pixel takes E_ind from the
+    cache's own unbiased estimator at its point instead (:func:`indirect_illuminance`, the
+    cache's node draws, :data:`PIXEL_NEAR_RAYS` near-field paths per group, no bias): the
+    validity test of Ward et al. (1988), with the point's free distance along its normal for
+    their harmonic mean distance, as :attr:`SurfaceCache.clearance` does for the cache points.
+    Lambertian scenes only.
     """
     if not isinstance(store, LsadStore):
         raise BadInputError("render_cached needs an LsadStore (simulate the scene first)")
@@ -818,10 +849,17 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     direct_var = np.zeros(valid.size)
     bias, bias_var = np.zeros(valid.size), np.zeros(valid.size)
     chunk = chunk_size(chunk_pixels)
+    nodes = cache.provenance.get("nodes_per_point", CACHE_NODES)
+    near_distance = cache.provenance.get("near_distance_m", RELATIVE_CACHE_NEAR_DISTANCE * scene.size)
     est = None if scene.lambertian else _MaterialIndirectEstimator(
-        store, engine, nodes=cache.provenance.get("nodes_per_point", CACHE_NODES),
-        near_distance=cache.provenance.get("near_distance_m", RELATIVE_CACHE_NEAR_DISTANCE * scene.size),
+        store, engine, nodes=nodes, near_distance=near_distance,
         direct_samples=direct_samples, luminaires=luminaires, seed=seed, key=1, connections=False)
+    # E_ind at the pixels the cache does not resolve (Notes)
+    at_pixel = None if not scene.lambertian else _IndirectEstimator(
+        store, engine, nodes=nodes, near_distance=near_distance,
+        direct_samples=cache.provenance.get("direct_samples", DIRECT_SAMPLES), seed=seed, key=2,
+        near_rays=PIXEL_NEAR_RAYS)
+    own = np.zeros(valid.size, dtype=bool)
 
     def work(start):
         c = chunk_hits(scene, position, hit, prim, dist, d, start, chunk)
@@ -839,7 +877,14 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                                             block_ids=c.block[refl], luminaires=luminaires,
                                             distant_samples=DISTANT_RAYS_PER_DIRECT_SAMPLE * direct_samples)
             side = np.where(c.front[refl], 0, 1)
-            e_ind, b = cache.interpolate_with_bias(scene, c.triangle[refl], x, side)
+            e_ind, b, support = cache.interpolate_with_bias(scene, c.triangle[refl], x, side, support=True)
+            free = engine.closest_hit(x + engine.epsilon * c.normal[refl], c.normal[refl])[1]
+            unresolved = np.flatnonzero(PIXEL_VALIDITY * free < support)
+            if unresolved.size:
+                e_ind[unresolved] = at_pixel.estimate(x[unresolved], c.normal[refl][unresolved],
+                                                      c.block[refl][unresolved])
+                b[unresolved] = 0.0
+                own[c.index[refl][unresolved]] = True
             k = (c.reflectance[refl] / math.pi)[:, None]
             out[refl] += k * (e_dir[:, None] + e_ind)
             direct_var[c.index[refl]] = k[:, 0] ** 2 * var
@@ -864,6 +909,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                "cache_spacing_m": float(cache.spacing),
                "cache_points": int(cache.size),
                "cache_nodes_per_point": cache.provenance.get("nodes_per_point"),
+               **({} if est is not None else {"pixels_estimated_without_cache": int(own.sum())}),
                **({} if est is None else {"glossy_rays": int(glossy_rays)}),
                "uncertainty": "noise and estimated interpolation bias in quadrature"},
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
