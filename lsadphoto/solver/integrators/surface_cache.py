@@ -944,7 +944,7 @@ def _pixel_records(est, x, n, free, side, block, *, workers):
     :data:`PIXEL_RECORD` × 2^⌊log₂ t⌋ (the same power of two of their free distance t) take
     ``est``'s estimate at the first of them, drawn from that pixel's block's streams (so the
     map depends neither on chunks nor on threads); and the number of records."""
-    scale = np.exp2(np.floor(np.log2(free)))
+    scale = np.exp2(np.floor(np.log2(np.maximum(free, est.engine.epsilon))))  # 0 where surfaces touch
     cube = np.floor(x / (PIXEL_RECORD * scale)[:, None]).astype(np.int64)
     key = np.column_stack([side, np.log2(scale).astype(np.int64), cube])
     _, first, record = np.unique(key, axis=0, return_index=True, return_inverse=True)
