@@ -305,9 +305,9 @@ class _IndirectEstimator(_NodeHull):
         self.draws = max(1, int(nodes) // self.groups)
         self.chains_per_group = store.chains / self.groups
         self.near_rays = int(near_rays)
-        # node draws at each near hit: draws/8 with NEAR_RAYS paths, fewer with more paths (the
-        # near paths' total stays the same; their noise is the paths' directions')
-        self.near_draws = max(1, self.draws * NEAR_RAYS // (8 * self.near_rays))
+        # node draws at each near hit: draws/8 with 4 paths, fewer with more paths (the near
+        # paths' total stays draws/2; their noise is the paths' directions')
+        self.near_draws = max(1, self.draws // (2 * self.near_rays))
         self.luminaire_table = self._luminaire_table(near_distance)
 
     def far(self, x, n, group, blocks, level, draws=None):
