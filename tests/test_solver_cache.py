@@ -603,7 +603,7 @@ def test_floor_under_a_low_bench_takes_its_indirect_light_at_the_pixel():
     # (render_cached's Notes) the pixel's E_ind is the cache's estimator at its point. The
     # reference is independent of the cache: the per-pixel double local estimate of another
     # store (256 nodes per pixel: 11–16 % relative standard error per pixel here, all of it
-    # from the indirect light). Measured over six seeds: mean ratio 0.97–1.11 (the two stores'
+    # from the indirect light). Measured over six seeds: mean ratio 0.96–1.11 (the two stores'
     # noise is common to all pixels, so the mean over pixels keeps much of a pixel's 11 %),
     # median |z| 0.73–0.82, 100 % within 3σ; asserted within 15 % (the before was +80 % or
     # more), median |z| < 1.5 (0.67 for pure noise) and 95 % within 3σ. The pixels' own
