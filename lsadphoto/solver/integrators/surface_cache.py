@@ -140,8 +140,8 @@ DISTANT_GLOSSY_SAMPLES = 4
 #: Vertices a sampled path visits at most (Russian roulette ends nearly all before).
 MAX_PATH_VERTICES = 32
 #: Cosine-sampled near-field paths per group of :func:`render_cached`'s own estimate of E_ind at
-#: a pixel whose free distance is shorter than its interpolation's support (the columns' feet
-#: behind the station hall's benches, docs/accuracy.md session 12: at 8192 node draws their
+#: a pixel that the cache does not resolve (its Notes; the columns' feet behind the station
+#: hall's benches, docs/accuracy.md session 12: at 8192 node draws their
 #: relative standard error was 11 % with 4 paths, 4.1 % with 64, for the same CPU time — the
 #: near field is nearly all of E_ind there, so more node draws do not help, and the paths'
 #: node draws per hit fall as their number grows).
