@@ -237,6 +237,10 @@ def main(argv=None):
     parser.add_argument("--estimators", default="cache,points,local",
                         help="comma-separated: cache, points (needs cache), local")
     parser.add_argument("--output", default="/tmp/frag_accuracy_rtrace.md")
+    parser.add_argument("--per-pixel", default=None,
+                        help="also write the compared pixels to this .npz: flat pixel index, reference and its "
+                             "standard error, rtrace's hit point, and per estimator (keys '<name>_luminance', "
+                             "'<name>_uncertainty') ours at those pixels")
     parser.add_argument("--reference-cache", default=os.path.join(tempfile.gettempdir(), "lsadphoto_rtrace_refs"),
                         help="folder that keeps the rtrace references between runs ('' : none)")
     args = parser.parse_args(argv)
@@ -277,6 +281,7 @@ def main(argv=None):
     same_hit = np.linalg.norm(ours_hits[pick] - ref_hits, axis=1) <= 0.01
     rows = []
     keep = None
+    per_pixel = {}
     workers = os.cpu_count() or 1
     estimators = args.estimators.split(",")
     if "cache" in estimators:
@@ -299,6 +304,7 @@ def main(argv=None):
         keep = np.isfinite(lmap.luminance.ravel()[pick]) & (ref < args.max_luminance) & (
             lmap.luminance.ravel()[pick] < args.max_luminance) & same_hit
         rows.append(("ours, surface cache", setting, lmap, clock.cpu))
+        per_pixel["cache"] = lmap
         if "points" in estimators:
             if args.target_error is not None:  # the last round's store: the same streams, one run
                 store = simulate(scene, samples=lmap.provenance["rounds"][-1]["chains"], seed=1)
@@ -308,6 +314,7 @@ def main(argv=None):
                                        luminaires=knobs["luminaire_draws"])
             rows.append(("ours, cache's estimator at the hits (no interpolation)",
                          f"the same store, {pick.size} points", at_points, clock.cpu))
+            per_pixel["points"] = at_points
     if "local" in estimators:
         with Clock() as clock:
             store = simulate(scene, samples=args.local_chains, seed=2)
@@ -316,6 +323,7 @@ def main(argv=None):
             keep = np.isfinite(lmap.luminance.ravel()[pick]) & (ref < args.max_luminance) & same_hit
         rows.append(("ours, double local estimate", f"{args.local_chains} chains, nodes per pixel auto",
                      lmap, clock.cpu))
+        per_pixel["local"] = lmap
     _, _, version = _radiance()
     lines = [f"Command: `{shlex.join([os.path.basename(sys.executable), *sys.argv])}`  ",
              f"Machine: {platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}, "
@@ -335,6 +343,10 @@ def main(argv=None):
     text = "\n".join(lines) + "\n"
     print(text)
     Path(args.output).write_text(text, encoding="utf-8")
+    if args.per_pixel:
+        np.savez(args.per_pixel, pixel=pick[keep], reference=ref[keep], reference_sigma=ref_sigma[keep],
+                 hit=ref_hits[keep], **{f"{name}_{part}": getattr(m, part).ravel()[pick][keep]
+                                        for name, m in per_pixel.items() for part in ("luminance", "uncertainty")})
 
 
 if __name__ == "__main__":

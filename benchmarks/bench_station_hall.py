@@ -98,6 +98,9 @@ def _to_target(a, scene, triangles, out):
           f"{'reached' if p['target_reached'] else 'NOT reached'} | {knobs} | {wall:.0f} / {cpu:.0f} | {mem:.1f} | "
           f"{100 * p['pixel_relative_error_median']:.2g} % / {100 * p['pixel_relative_error_p95']:.2g} % | "
           f"{'–' if expected is None else f'{100 * expected:.2g} %'} |")
+    if "pixels_estimated_without_cache" in p:  # the cache's unresolved pixels (docs/accuracy.md, session 12)
+        print(f"\nPixels that took E_ind at their own point: {p['pixels_estimated_without_cache']} "
+              f"({p['pixel_records']} records).")
 
 
 if __name__ == "__main__":

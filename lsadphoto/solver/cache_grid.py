@@ -240,9 +240,11 @@ def _patch_weight(x, n, i, point, normal, clearance, j, r2):
 
 @njit(**_NUMBA)
 def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, values, with_bias, out,
-                  bias):
+                  bias, support):
     """out[i] = the kernel average of ``values`` over the patches near point i (see
-    :meth:`SurfaceCache.interpolate`), its own patch's value where none qualifies; and, with
+    :meth:`SurfaceCache.interpolate`), its own patch's value where none qualifies;
+    support[i] = the weights' mean distance [m] from point i to those patch points (to its
+    own patch's point where none qualifies); and, with
     ``with_bias``, bias[i] = that average's first-order bias per group: g·ū, ū the weights'
     centroid of the patch points' offsets u_j = q_j − x projected on the tangent plane, g the
     gradient of a weighted least-squares plane through their values (g = (C + λI)⁻¹ Σ w_j
@@ -274,6 +276,7 @@ def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, val
         t2z = n[i, 0] * t1y - n[i, 1] * t1x
         count = 0
         total = 0.0
+        reach = 0.0
         for g in range(G):
             out[i, g] = 0.0
             bias[i, g] = 0.0
@@ -283,6 +286,7 @@ def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, val
             if w <= 0.0:
                 continue
             total += w
+            reach += w * math.sqrt(dx * dx + dy * dy + dz * dz)
             for g in range(G):
                 out[i, g] += w * values[j, g]
             if with_bias:
@@ -294,9 +298,12 @@ def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, val
         if total > 0:
             for g in range(G):
                 out[i, g] /= total
+            support[i] = reach / total
         else:
             for g in range(G):
                 out[i, g] = values[c, g]
+            support[i] = math.sqrt((point[c, 0] - x[i, 0]) ** 2 + (point[c, 1] - x[i, 1]) ** 2
+                                   + (point[c, 2] - x[i, 2]) ** 2)
         if not with_bias or count < 2 or total <= 0:
             continue
         m0 = 0.0
@@ -465,17 +472,21 @@ class SurfaceCache:
         """
         return self._interpolate(scene, prim, x, side, False)[0]
 
-    def interpolate_with_bias(self, scene, prim, x, side):
+    def interpolate_with_bias(self, scene, prim, x, side, *, support=False):
         """:meth:`interpolate` and its estimated bias [lx] per group, each shape (n, groups),
         in one pass: the estimate minus the true E_ind, to leading order (grid triangles:
         :meth:`_grid_bias`; the patches of small triangles: the kernel average's first-order
-        bias, :func:`_patch_kernel`)."""
-        return self._interpolate(scene, prim, x, side, True)
+        bias, :func:`_patch_kernel`). With ``support``, also the interpolation's support
+        distance [m], shape (n,): the weights' mean distance from each point to the cache
+        points that interpolate it (the bias estimate sees E_ind only at that distance)."""
+        value, bias, distance = self._interpolate(scene, prim, x, side, True)
+        return (value, bias, distance) if support else (value, bias)
 
     def _interpolate(self, scene, prim, x, side, with_bias):
-        """E_ind per group, shape (n, groups), and with ``with_bias`` its bias (else None):
-        the grid's interpolation where ``prim`` has a grid (level ≥ 1), the patches' kernel
-        average on small triangles (level 0)."""
+        """E_ind per group, shape (n, groups), with ``with_bias`` its bias (else None), and
+        the support distance [m], shape (n,) (:meth:`interpolate_with_bias`): the grid's
+        interpolation where ``prim`` has a grid (level ≥ 1), the patches' kernel average on
+        small triangles (level 0)."""
         prim = np.asarray(prim)
         side = np.broadcast_to(np.asarray(side), prim.shape)
         m = self.level[prim]
@@ -483,20 +494,24 @@ class SurfaceCache:
             raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
         value = np.zeros((len(prim), self.values.shape[1]))
         bias = np.zeros_like(value) if with_bias else None
+        distance = np.zeros(len(prim))
         grid = np.flatnonzero(m >= 1)
         if grid.size:
             index, weight, cells = self._cells(scene, prim[grid], x[grid], side[grid])
             normal = np.where((side[grid] == 0)[:, None], 1.0, -1.0) * scene.normals[prim[grid]]
             weight = self._seen(scene, x[grid], normal, index, weight)
             value[grid] = np.einsum("nk,nkg->ng", weight, self.values[index])
+            distance[grid] = np.einsum("nk,nk->n", weight,
+                                       np.linalg.norm(self.positions[index] - x[grid][:, None], axis=2))
             if with_bias:
                 bias[grid] = self._grid_bias(weight, cells)
         small = np.flatnonzero(m == 0)
         if small.size:
-            value[small], b = self._on_patches(scene, prim[small], x[small], side[small], with_bias)
+            value[small], b, distance[small] = self._on_patches(scene, prim[small], x[small], side[small],
+                                                                with_bias)
             if with_bias:
                 bias[small] = b
-        return value, bias
+        return value, bias, distance
 
     def _seen(self, scene, x, normal, index, weight):
         """The corner weights (n, 3) of points ``x`` (unit normals ``normal`` of their side)
@@ -555,7 +570,8 @@ class SurfaceCache:
 
     def _on_patches(self, scene, prim, x, side, with_bias):
         """:func:`_patch_kernel` at points ``x`` on small triangles ``prim``, side 0 (front)
-        or 1: the kernel average and its bias (zeros without ``with_bias``), each (n, groups)."""
+        or 1: the kernel average and its bias (zeros without ``with_bias``), each (n, groups),
+        and the support distance [m], (n,)."""
         own = self.patch[prim, side]
         if np.any(own < 0):
             raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
@@ -563,10 +579,11 @@ class SurfaceCache:
         n = np.ascontiguousarray(sign * scene.normals[prim], dtype=np.float64)
         value = np.empty((len(prim), self.values.shape[1]))
         bias = np.empty_like(value)
+        support = np.empty(len(prim))
         _patch_kernel(np.ascontiguousarray(x, dtype=np.float64), n, own,
                       np.ascontiguousarray(self.positions[self.patch_row]),
                       np.ascontiguousarray(self.patch_normal),
                       np.ascontiguousarray(self.clearance[self.patch_row]), self.patch_radius,
                       self.patch_start, self.patch_index,
-                      np.ascontiguousarray(self.values[self.patch_row]), with_bias, value, bias)
-        return value, bias
+                      np.ascontiguousarray(self.values[self.patch_row]), with_bias, value, bias, support)
+        return value, bias, support

@@ -142,6 +142,23 @@ EMITTER_DRAWS = 16
 DISTANT_GLOSSY_SAMPLES = 4
 #: Vertices a sampled path visits at most (Russian roulette ends nearly all before).
 MAX_PATH_VERTICES = 32
+#: Cosine-sampled near-field paths per group of :func:`render_cached`'s own estimate of E_ind at
+#: a pixel that the cache does not resolve (its Notes; the columns' feet behind the station
+#: hall's benches, docs/accuracy.md session 12: at 8192 node draws their
+#: relative standard error was 11 % with 4 paths, 4.1 % with 64, for the same CPU time — the
+#: near field is nearly all of E_ind there, so more node draws do not help, and the paths'
+#: node draws per hit fall as their number grows).
+PIXEL_NEAR_RAYS = 64
+#: A pixel's E_ind is interpolated only where the interpolation's support distance is at most
+#: this fraction of the pixel's free distance (Ward et al. 1988's accuracy parameter a, with
+#: which a cached value counts within a·R of its point; :func:`render_cached`'s Notes). On the
+#: station hall with 1: the floor under a bench 0.12 m inside its edge (one corner outside
+#: kept) still came out 1.1–2× too bright, the columns at free distances of 1–2 supports +6 %.
+PIXEL_VALIDITY = 0.5
+#: Pixels of one triangle side whose own estimates of E_ind share one record: those in one
+#: cube of edge ``PIXEL_RECORD`` × 2^⌊log₂ t⌋, t the free distance [m] (between t/8 and t/4: a
+#: record serves points within 0.43·t of it, inside the validity radius above).
+PIXEL_RECORD = 0.25
 
 _NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
 
@@ -291,7 +308,9 @@ class _IndirectEstimator(_NodeHull):
         self.draws = max(1, int(nodes) // self.groups)
         self.chains_per_group = store.chains / self.groups
         self.near_rays = int(near_rays)
-        self.near_draws = max(1, self.draws // 8)
+        # node draws at each near hit: draws/8 with 4 paths, fewer with more paths (the near
+        # paths' total stays draws/2; their noise is the paths' directions')
+        self.near_draws = max(1, self.draws // (2 * self.near_rays))
         self.luminaire_table = self._luminaire_table(near_distance)
 
     def far(self, x, n, group, blocks, level, draws=None):
@@ -804,7 +823,25 @@ def render_cached(store, projection, *, position, rotation, cache=None,
         estimated interpolation bias (:meth:`SurfaceCache.interpolate_with_bias`, per group:
         b² is its squared mean less that mean's variance) — and provenance, which keeps the
         parts apart (``pixel_relative_noise_*``, ``pixel_relative_bias_*``, and
-        ``field_mean_relative_bias_estimate``, signed).
+        ``field_mean_relative_bias_estimate``, signed), and counts the pixels whose E_ind was
+        estimated without the cache (``pixels_estimated_without_cache``) and the records they
+        share (``pixel_records``; Notes).
+
+    Notes
+    -----
+    Where a surface stands in front of a pixel's point not far beyond the cache points that
+    interpolate it — the interpolation's support distance (the weights' mean distance to
+    those points, :meth:`SurfaceCache.interpolate_with_bias`) exceeds :data:`PIXEL_VALIDITY`
+    times the point's free distance along its normal — E_ind changes between the pixel and the
+    points over distances the cache does not sample, and neither the interpolation nor its
+    bias estimate, which sees the values only at the points, can follow it (the foot of a
+    column behind a bench: E_ind halves below the points). Such a pixel takes E_ind from the
+    cache's own unbiased estimator at its point instead (:func:`indirect_illuminance`, the
+    cache's node draws, :data:`PIXEL_NEAR_RAYS` near-field paths per group, no bias): the
+    validity test of Ward et al. (1988), with the point's free distance along its normal for
+    their harmonic mean distance, as :attr:`SurfaceCache.clearance` does for the cache points.
+    Neighbouring such pixels share one estimate, a *record* (:func:`_pixel_records`), so that
+    their cost follows the area they cover, not the view's resolution. Lambertian scenes only.
     """
     if not isinstance(store, LsadStore):
         raise BadInputError("render_cached needs an LsadStore (simulate the scene first)")
@@ -828,10 +865,22 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     direct_var = np.zeros(valid.size)
     bias, bias_var = np.zeros(valid.size), np.zeros(valid.size)
     chunk = chunk_size(chunk_pixels)
+    nodes = cache.provenance.get("nodes_per_point", CACHE_NODES)
+    near_distance = cache.provenance.get("near_distance_m", RELATIVE_CACHE_NEAR_DISTANCE * scene.size)
     est = None if scene.lambertian else _MaterialIndirectEstimator(
-        store, engine, nodes=cache.provenance.get("nodes_per_point", CACHE_NODES),
-        near_distance=cache.provenance.get("near_distance_m", RELATIVE_CACHE_NEAR_DISTANCE * scene.size),
+        store, engine, nodes=nodes, near_distance=near_distance,
         direct_samples=direct_samples, luminaires=luminaires, seed=seed, key=1, connections=False)
+    # E_ind at the pixels the cache does not resolve (Notes)
+    at_pixel = None if not scene.lambertian else _IndirectEstimator(
+        store, engine, nodes=nodes, near_distance=near_distance,
+        direct_samples=cache.provenance.get("direct_samples", DIRECT_SAMPLES), seed=seed, key=2,
+        near_rays=PIXEL_NEAR_RAYS)
+    # the pixels that take E_ind from records (Notes): their point, normal, free distance [m],
+    # stream block, triangle side and ρ/π
+    own = np.zeros(valid.size, dtype=bool)
+    own_point, own_normal = np.zeros((valid.size, 3)), np.zeros((valid.size, 3))
+    own_free, own_block, own_side, own_k = (np.zeros(valid.size), np.zeros(valid.size, np.int64),
+                                            np.zeros(valid.size, np.int64), np.zeros(valid.size))
 
     def work(start):
         c = chunk_hits(scene, position, hit, prim, dist, d, start, chunk)
@@ -849,8 +898,19 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                                             block_ids=c.block[refl], luminaires=luminaires,
                                             distant_samples=DISTANT_RAYS_PER_DIRECT_SAMPLE * direct_samples)
             side = np.where(c.front[refl], 0, 1)
-            e_ind, b = cache.interpolate_with_bias(scene, c.triangle[refl], x, side)
+            e_ind, b, support = cache.interpolate_with_bias(scene, c.triangle[refl], x, side, support=True)
+            free = engine.closest_hit(x + engine.epsilon * c.normal[refl], c.normal[refl])[1]
             k = (c.reflectance[refl] / math.pi)[:, None]
+            unresolved = np.flatnonzero(PIXEL_VALIDITY * free < support)
+            if unresolved.size:  # their E_ind comes after all chunks, from records
+                e_ind[unresolved] = 0.0
+                b[unresolved] = 0.0
+                rows = c.index[refl][unresolved]
+                own[rows] = True
+                own_point[rows], own_normal[rows] = x[unresolved], c.normal[refl][unresolved]
+                own_free[rows], own_block[rows] = free[unresolved], c.block[refl][unresolved]
+                own_side[rows] = 2 * c.triangle[refl][unresolved] + side[unresolved]
+                own_k[rows] = k[unresolved, 0]
             out[refl] += k * (e_dir[:, None] + e_ind)
             direct_var[c.index[refl]] = k[:, 0] ** 2 * var
             # the interpolation's bias per group: its mean, and the variance of that mean
@@ -860,6 +920,12 @@ def render_cached(store, projection, *, position, rotation, cache=None,
         return c.index, out
 
     run_chunks(work, range(0, hit.size, chunk), lum_b, int(workers), progress, t0, hit.size)
+    rows = np.flatnonzero(own)
+    records = 0
+    if rows.size:
+        e_ind, records = _pixel_records(at_pixel, own_point[rows], own_normal[rows], own_free[rows],
+                                        own_side[rows], own_block[rows], workers=int(workers))
+        lum_b[rows] += own_k[rows, None] * e_ind
     openings = luminous_openings(scene, position, d, dist)
     warn_odd_view(scene, engine, prim, dist, np.where(np.isfinite(openings)[:, None], 1.0, lum_b),
                   position)
@@ -875,9 +941,38 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                "cache_points": int(cache.size),
                "cache_nodes_per_point": cache.provenance.get("nodes_per_point"),
                "fresnel_rule": store.fresnel_rule,
+               **({} if est is not None else {"pixels_estimated_without_cache": int(rows.size),
+                                              "pixel_records": int(records)}),
                **({} if est is None else {"glossy_rays": int(glossy_rays)}),
                "uncertainty": "noise and estimated interpolation bias in quadrature"},
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
+
+
+def _pixel_records(est, x, n, free, side, block, *, workers):
+    """E_ind [lx] per group, shape (P, groups), at pixel points ``x`` (normals ``n``, free
+    distances ``free`` [m], triangle sides ``side``, stream blocks ``block``; in the view's
+    pixel order) from records: the pixels of one side in one cube of edge
+    :data:`PIXEL_RECORD` × 2^⌊log₂ t⌋ (the same power of two of their free distance t) take
+    ``est``'s estimate at the first of them, drawn from that pixel's block's streams (so the
+    map depends neither on chunks nor on threads); and the number of records."""
+    scale = np.exp2(np.floor(np.log2(np.maximum(free, est.engine.epsilon))))  # 0 where surfaces touch
+    cube = np.floor(x / (PIXEL_RECORD * scale)[:, None]).astype(np.int64)
+    key = np.column_stack([side, np.log2(scale).astype(np.int64), cube])
+    _, first, record = np.unique(key, axis=0, return_index=True, return_inverse=True)
+    order = np.argsort(first)  # the records in the order of their first pixel
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    first, record = first[order], rank[record.ravel()]
+    values = np.zeros((first.size, est.groups))
+    starts = np.flatnonzero(np.r_[True, np.diff(block[first]) != 0])
+    ends = dict(zip(starts.tolist(), np.r_[starts[1:], first.size].tolist()))
+
+    def work(start):
+        rows = first[start:ends[start]]
+        return np.arange(start, ends[start]), est.estimate(x[rows], n[rows], block[rows])
+
+    run_chunks(work, starts.tolist(), values, workers, None, time.perf_counter(), first.size)
+    return values[record], first.size
 
 
 # --- scenes with glossy, specular and transmitting materials ---------------------------------
