@@ -7,9 +7,15 @@ file goes to both programs (our :func:`~lsadphoto.solver.read_radiance_scene`, R
 ``oconv``). The reference is pure Monte Carlo ``rtrace -aa 0`` (no irradiance cache, so no
 interpolation bias) with many ambient samples through the rays of our own pinhole view's
 pixel centres, on a random subset of the pixels, **run twice** with the rays in opposite
-order (independent noise, PITFALLS.md): the mean of the two runs is the reference, half
-their difference its standard error. References are kept in ``--cache`` (keyed by scene,
-view, pixels and options), so a rerun of the solver side does not repeat them.
+order (independent noise, PITFALLS.md), each ray traced ``--repeats`` times in a run (rtrace's
+ambient samples follow a sequence indexed by the primary ray, so every trace has its own):
+the mean of the 2 × repeats traces is the reference, their standard deviation over
+√(2 × repeats) its standard error, with 2 × repeats − 1 degrees of freedom. (Half the two
+runs' difference, the estimate before session 12, has one: |z| against it is heavy-tailed —
+an estimator with an honest σ of a third of the reference's shows only 90 % of its pixels
+within 3σ — and its mean is 0.80 of the standard error, which the MARE's correction then
+took a second time.) References are kept in ``--cache`` (keyed by scene, view, pixels and
+options), so a rerun of the solver side does not repeat them.
 
 For each estimator (``local``: the double local estimate with materials,
 :func:`~lsadphoto.solver.integrators.local_estimate.render_local_estimate_materials`, which
@@ -89,12 +95,13 @@ def view_of(variant, size):
 def reference(variant, size, pixels, options, cache, repeats=1):
     """Flat pixel indices, reference [cd·m⁻²], its standard error, rtrace CPU [s] (0 if cached).
 
-    Each of the two runs traces every ray ``repeats`` times and takes the mean."""
+    Each of the two runs traces every ray ``repeats`` times; the standard error comes from the
+    spread of all 2 × ``repeats`` traces of a ray."""
     rad, scene, proj, pos, rot = view_of(variant, size)
     valid, _, _, d = primary_rays(scene, engine_for(scene), proj, pos, rot)
     pick = np.sort(valid[np.random.default_rng(0).choice(len(valid), min(pixels, len(valid)), replace=False)])
     key = hashlib.sha256(repr((rad, size, pixels, options, pick.tolist())
-                              + ((repeats,) if repeats > 1 else ())).encode()).hexdigest()[:16]
+                              + ((repeats, "traces") if repeats > 1 else ())).encode()).hexdigest()[:16]
     path = Path(cache) / f"materials_{key}.npz"
     if path.exists():
         z = np.load(path)
@@ -115,8 +122,9 @@ def reference(variant, size, pixels, options, cache, repeats=1):
                                      cwd=folder, env=env, check=True).stdout
                 rgb = np.frombuffer(out, np.float32).reshape(-1, 3).astype(float)
                 lum = (179.0 * rgb @ RADIANCE_RGB_LUMINANCE_WEIGHTS)[order]
-                runs.append(lum.reshape(-1, repeats).mean(axis=1))
-    ref, ref_se = (runs[0] + runs[1]) / 2, np.abs(runs[0] - runs[1]) / 2
+                runs.append(lum.reshape(-1, repeats))
+    traces = np.concatenate(runs, axis=1)
+    ref, ref_se = traces.mean(axis=1), traces.std(axis=1, ddof=1) / math.sqrt(traces.shape[1])
     Path(cache).mkdir(parents=True, exist_ok=True)
     np.savez(path, ref=ref, ref_se=ref_se)
     return pick, ref, ref_se, clock.cpu
