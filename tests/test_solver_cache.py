@@ -532,6 +532,15 @@ def test_patch_interpolation_keeps_parallel_sheets_apart():
     assert np.all(cache.interpolate(scene, t, x, np.ones(400, int)) == 0.0)
 
 
+def _canonical_room_with(surface):
+    """The canonical room (its TOML with an 8 × 8 px view) with one more surface (a TOML surface table)."""
+    import tomllib
+
+    data = tomllib.loads(canonical_room_toml(size=8))
+    data["surfaces"].append(surface)
+    return scene_from_dict(data)
+
+
 def test_wall_points_behind_a_panel_do_not_darken_the_wall_beside_it():
     # The canonical room with a grey 1.4 × 1.2 m panel 1 cm in front of the wall x = 6: the
     # wall's cache points in the gap are dark, and interpolated into the visible wall they
@@ -543,14 +552,10 @@ def test_wall_points_behind_a_panel_do_not_darken_the_wall_beside_it():
     # Measured with the rule: mean ratio 0.989, median |z| 0.91, 89 % within 3σ; asserted
     # within 3 % (the rule removes 6 of the 7 %), median |z| < 1.5 (0.67 for pure noise; the
     # margin for the constant extrapolation from the corners left) and 80 % within 3σ.
-    import tomllib
-
     from lsadphoto.geometry.pinhole import PinholeProjection
 
-    data = tomllib.loads(canonical_room_toml(size=8))
-    data["surfaces"].append({"type": "polygon", "material": "wall", "vertices": [
+    room = _canonical_room_with({"type": "polygon", "material": "wall", "vertices": [
         [5.99, 1.3, 0.8], [5.99, 2.7, 0.8], [5.99, 2.7, 2.0], [5.99, 1.3, 2.0]]})
-    room = scene_from_dict(data)
     store = simulate(room, samples=2 ** 15, seed=11)
     store.surface_cache = build_surface_cache(store, nodes=512, seed=12)
     size = 64
@@ -588,12 +593,8 @@ def test_floor_points_inside_a_box_standing_on_the_floor_do_not_darken_the_floor
     # them came out darker (down to 0.52, mean 0.948); the rule's fallback (a cell whose
     # corners with a positive weight are all hidden keeps its plain interpolation) may leave
     # a few.
-    import tomllib
-
-    data = tomllib.loads(canonical_room_toml(size=8))
-    data["surfaces"].append({"type": "box", "min": [2.8, 1.8, 0.0], "max": [3.2, 2.2, 1.0],
-                             "facing": "outward", "material": "wall"})
-    room = scene_from_dict(data)
+    room = _canonical_room_with({"type": "box", "min": [2.8, 1.8, 0.0], "max": [3.2, 2.2, 1.0],
+                                 "facing": "outward", "material": "wall"})
     store = simulate(room, samples=2 ** 12, seed=11)
     cache = build_surface_cache(store, nodes=16, seed=12)
     floor = np.flatnonzero(np.all(np.abs(room.triangles[:, :, 2]) < 1e-9, axis=1) & (room.normals[:, 2] > 0.5))
@@ -633,14 +634,10 @@ def test_floor_under_a_low_bench_takes_its_indirect_light_at_the_pixel():
     # more), median |z| < 1.5 (0.67 for pure noise) and 95 % within 3σ. The pixels' own
     # estimates draw from their pixel blocks' streams: the map does not depend on chunks or
     # threads.
-    import tomllib
-
     from lsadphoto.geometry.pinhole import PinholeProjection
 
-    data = tomllib.loads(canonical_room_toml(size=8))
-    data["surfaces"].append({"type": "box", "min": [2.4, 1.2, 0.25], "max": [3.6, 2.8, 0.3],
-                             "facing": "outward", "material": "wall"})
-    room = scene_from_dict(data)
+    room = _canonical_room_with({"type": "box", "min": [2.4, 1.2, 0.25], "max": [3.6, 2.8, 0.3],
+                                 "facing": "outward", "material": "wall"})
     store = simulate(room, samples=2 ** 14, seed=11)
     store.surface_cache = build_surface_cache(store, spacing=1.0, refine=1, nodes=512, seed=12)
     size = 48
