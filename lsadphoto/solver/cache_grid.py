@@ -492,7 +492,8 @@ class SurfaceCache:
     def interpolate_with_bias(self, scene, prim, x, side, *, support=False):
         """:meth:`interpolate` and its estimated bias [lx] per group, each shape (n, groups),
         in one pass: the estimate minus the true E_ind, to leading order (grid triangles:
-        :meth:`_grid_bias`; the patches of small triangles: the kernel average's first-order
+        :meth:`_grid_bias`, and in refined cells near the refinement test the difference from
+        the coarse interpolation, :meth:`_borderline_bias`; the patches of small triangles: the kernel average's first-order
         bias, :func:`_patch_kernel`). With ``support``, also the interpolation's support
         distance [m], shape (n,): the weights' mean distance from each point to the cache
         points that interpolate it (the bias estimate sees E_ind only at that distance)."""
@@ -518,15 +519,15 @@ class SurfaceCache:
             normal = np.where((side[grid] == 0)[:, None], 1.0, -1.0) * scene.normals[prim[grid]]
             weight = self._seen(scene, x[grid], normal, index, weight)
             value[grid] = np.einsum("nk,nkg->ng", weight, self.values[index])
-            if with_bias and self.refined_key.size:
-                bias[grid] = self._borderline_bias(scene, prim[grid], x[grid], side[grid], normal, index,
-                                                   value[grid])
             distance[grid] = np.einsum("nk,nk->n", weight,
                                        np.linalg.norm(self.positions[index] - x[grid][:, None], axis=2))
             if with_bias:
                 b = self._grid_bias(weight, cells)
-                sign = np.where(b.mean(axis=1) < 0, -1.0, 1.0)[:, None]
-                bias[grid] = b + sign * np.abs(bias[grid])
+                if self.refined_key.size:  # added to the magnitude of the groups' mean
+                    sign = np.where(b.mean(axis=1) < 0, -1.0, 1.0)[:, None]
+                    b = b + sign * self._borderline_bias(scene, prim[grid], x[grid], side[grid], normal, index,
+                                                         value[grid])
+                bias[grid] = b
         small = np.flatnonzero(m == 0)
         if small.size:
             value[small], b, distance[small] = self._on_patches(scene, prim[small], x[small], side[small],
