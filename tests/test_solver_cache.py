@@ -322,6 +322,43 @@ def test_reported_uncertainty_matches_the_spread_over_independent_seeds():
         assert np.mean(np.abs(z) <= K_SIGMA) >= 0.98
 
 
+def test_refined_cells_near_the_refinement_test_report_the_coarse_interpolation_difference():
+    # Issue 13 (session 12): the build refines a cell when its corner values pass a contrast
+    # test that follows their noise, so an independent cache leaves a cell near the test's
+    # threshold unrefined and interpolates it on the coarse grid, which all its groups share.
+    # Such a refined cell reports |fine − coarse interpolation| in its bias. Here the cache's
+    # map through render(..., estimator="cache") against the map of the same cache with its
+    # refined cells removed (the coarse interpolation an independent cache could have made;
+    # same store and render seed, so only the refined pixels differ): the difference lies
+    # within 3σ of the refined map for 99.0, 99.7 and 100 % of the 289–396 changed pixels
+    # (three seeds; before, 93.1 % for the first; the cells that pass the test by 3 standard
+    # errors or more keep their finer estimate's bias only, hence not 100 %): asserted 97 %.
+    from lsadphoto.geometry.pinhole import PinholeProjection
+
+    scene = scene_from_dict({
+        "materials": {"grey": {"reflectance": 0.5}},
+        "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [2, 1.5, 1], "facing": "inward", "material": "grey"},
+                     {"type": "box", "min": [0.9, 0.3, 0], "max": [1.3, 1.2, 0.4], "facing": "outward",
+                      "material": "grey"}],
+        "luminaires": [{"type": "point", "position": [0.5, 0.5, 0.9], "flux": 1000}],
+    })
+    size = 32
+    focal = size / (2 * math.tan(math.radians(45)))
+    proj = PinholeProjection(fx=focal, fy=focal, cx=(size - 1) / 2, cy=(size - 1) / 2, width=size, height=size)
+    pose = {"position": np.array([1.95, 0.1, 0.8]), "rotation": camera_to_world([-1, 0.8, -0.5])}
+    store = simulate(scene, samples=8192, seed=1)
+    store.surface_cache = build_surface_cache(store, spacing=0.3, nodes=256, seed=2)
+    assert store.surface_cache.refined_key.size > 0
+    fine = render(store, proj, estimator="cache", seed=3, **pose)
+    store.surface_cache = dataclasses.replace(store.surface_cache, refined_key=np.zeros(0, np.int64),
+                                              refined_offset=np.zeros(0, np.int64))
+    coarse = render(store, proj, estimator="cache", seed=3, **pose)
+    difference = np.abs(fine.luminance - coarse.luminance)
+    changed = np.isfinite(difference) & (difference > 0)
+    assert changed.sum() > 100
+    assert np.mean(difference[changed] <= K_SIGMA * fine.uncertainty[changed]) >= 0.97
+
+
 def _assert_agrees_with_the_local_estimate(cached, room):
     """The cached map against the double local estimate of ``room``'s first view (its own
     store): field means within 3 combined standard errors and 1 %, median |z| < 1.5 over the

@@ -43,13 +43,17 @@ from ..errors import BadInputError
 from .engine import engine_for
 from .materials import shadow_transmittance
 
-__all__ = ["PATCH_KERNEL", "Patches", "SurfaceCache", "grid_index", "patch_neighbours", "patch_sides"]
+__all__ = ["PATCH_KERNEL", "Patches", "SurfaceCache", "cells_over_contrast", "grid_index", "patch_neighbours",
+           "patch_sides"]
 
 #: Kernel radius of the patch interpolation, in patch sizes (the grid's cube edge).
 PATCH_KERNEL = 1.5
 #: Normal agreement below which a patch point does not count (cos 60°), and the largest
 #: |sine| of the angle between a patch point's offset and the tangent plane (30°).
 _PATCH_COS, _PATCH_PLANE = 0.5, 0.5
+#: Standard errors by which a refined cell's corner values may miss the refinement test for
+#: an independent cache to leave the cell unrefined (:meth:`SurfaceCache.interpolate_with_bias`).
+BORDERLINE_SLACK = 3.0
 #: Offset slices per patch size along the normal.
 _PATCH_SLICES = 8
 
@@ -80,6 +84,19 @@ def _cell(m, b1, b2):
     w1 = np.where(upper, 1.0 - ft, fs)
     w2 = np.where(upper, 1.0 - fs, ft)
     return k0, k1, k2, w1, w2, 2 * grid_index(m, i, j) + upper, (i, j, upper)
+
+
+def cells_over_contrast(mean, se, contrast, *, slack=0.0):
+    """Cells whose corner values (group means ``mean`` and their standard errors ``se``
+    [lx], each (n, 3)) differ by more than ``contrast`` × the largest and by more than 3
+    standard errors of the difference, each test tightened by ``slack`` of those standard
+    errors (0: the refinement test of
+    :func:`~lsadphoto.solver.integrators.surface_cache.build_surface_cache`). Boolean, (n,)."""
+    hi, lo = mean.argmax(axis=1), mean.argmin(axis=1)
+    rows = np.arange(len(mean))
+    spread = mean[rows, hi] - mean[rows, lo]
+    noise = np.hypot(se[rows, hi], se[rows, lo])
+    return (spread - slack * noise > contrast * mean[rows, hi]) & (spread > (3.0 + slack) * noise)
 
 
 def _second_difference(values, m, base, i, j, along):
@@ -417,11 +434,11 @@ class SurfaceCache:
         """Number of cache points."""
         return len(self.values)
 
-    def _cells(self, scene, prim, x, side):
+    def _cells(self, scene, prim, x, side, *, refined=True):
         """Indices of the three grid points around points ``x`` on grid triangles ``prim``
         (level ≥ 1; side 0 front, 1 back) and their linear-interpolation weights, each (n, 3),
         and the cells as (level, first vertex, i, j, upper) of the grid they lie in (the
-        triangle's, or a refined cell's level-``refine`` grid)."""
+        triangle's, or with ``refined`` a refined cell's level-``refine`` grid)."""
         b1, b2 = _barycentric(scene.triangles[prim], x)
         m = self.level[prim]
         base = self.offset[prim, side]
@@ -430,7 +447,7 @@ class SurfaceCache:
         k0, k1, k2, w1, w2, key, (i, j, upper) = _cell(m, b1, b2)
         index = np.stack([base + k0, base + k1, base + k2], axis=1)
         weight = np.stack([1.0 - w1 - w2, w1, w2], axis=1)
-        if self.refined_key.size:
+        if refined and self.refined_key.size:
             global_key = 2 * base + key  # base + index(i, j) doubled, plus upper
             pos = np.minimum(np.searchsorted(self.refined_key, global_key), self.refined_key.size - 1)
             fine = self.refined_key[pos] == global_key
@@ -475,7 +492,8 @@ class SurfaceCache:
     def interpolate_with_bias(self, scene, prim, x, side, *, support=False):
         """:meth:`interpolate` and its estimated bias [lx] per group, each shape (n, groups),
         in one pass: the estimate minus the true E_ind, to leading order (grid triangles:
-        :meth:`_grid_bias`; the patches of small triangles: the kernel average's first-order
+        :meth:`_grid_bias`, and in refined cells near the refinement test the difference from
+        the coarse interpolation, :meth:`_borderline_bias`; the patches of small triangles: the kernel average's first-order
         bias, :func:`_patch_kernel`). With ``support``, also the interpolation's support
         distance [m], shape (n,): the weights' mean distance from each point to the cache
         points that interpolate it (the bias estimate sees E_ind only at that distance)."""
@@ -504,7 +522,12 @@ class SurfaceCache:
             distance[grid] = np.einsum("nk,nk->n", weight,
                                        np.linalg.norm(self.positions[index] - x[grid][:, None], axis=2))
             if with_bias:
-                bias[grid] = self._grid_bias(weight, cells)
+                b = self._grid_bias(weight, cells)
+                if self.refined_key.size:  # added to the magnitude of the groups' mean
+                    sign = np.where(b.mean(axis=1) < 0, -1.0, 1.0)[:, None]
+                    b = b + sign * self._borderline_bias(scene, prim[grid], x[grid], side[grid], normal, index,
+                                                         value[grid])
+                bias[grid] = b
         small = np.flatnonzero(m == 0)
         if small.size:
             value[small], b, distance[small] = self._on_patches(scene, prim[small], x[small], side[small],
@@ -566,6 +589,30 @@ class SurfaceCache:
         q12 = _second_difference(v, m, base, i, j, 2)
         out[ok] = 0.5 * (w[:, :1] * w[:, 1:2] * q01 + w[:, :1] * w[:, 2:] * q02
                          + w[:, 1:2] * w[:, 2:] * q12)
+        return out
+
+    def _borderline_bias(self, scene, prim, x, side, normal, index, value):
+        """|fine − coarse| [lx] per group, shape (n, groups), at points ``x`` whose
+        interpolation ``value`` (corner indices ``index``) is a refined cell's whose corner
+        values on the triangle's own grid pass the refinement test by less than
+        :data:`BORDERLINE_SLACK` standard errors (:func:`cells_over_contrast`); 0 elsewhere.
+        The build's refinement follows the noise of those corner values, so an independent
+        cache leaves such a cell unrefined as often as not and interpolates it on the coarse
+        grid, which all its groups share: the difference between the two interpolations is
+        an error that one cache's groups do not see (docs/accuracy.md, session 12)."""
+        out = np.zeros_like(value)
+        own, own_weight, _ = self._cells(scene, prim, x, side, refined=False)
+        fine = np.flatnonzero(np.any(own != index, axis=1))
+        contrast = self.provenance.get("refine_contrast")
+        if not fine.size or contrast is None:
+            return out
+        corner = self.values[own[fine]]
+        G = self.values.shape[1]
+        clear = cells_over_contrast(corner.mean(axis=2), corner.std(axis=2, ddof=1) / math.sqrt(G), contrast,
+                                    slack=BORDERLINE_SLACK)
+        near = fine[~clear]
+        w = self._seen(scene, x[near], normal[near], own[near], own_weight[near])
+        out[near] = np.abs(value[near] - np.einsum("nk,nkg->ng", w, self.values[own[near]]))
         return out
 
     def _on_patches(self, scene, prim, x, side, with_bias):

@@ -83,7 +83,7 @@ from numba import njit
 from ..._validation import check_positive_int
 from ...errors import BadInputError
 from .._sampling import cosine_directions, stream
-from ..cache_grid import PATCH_KERNEL, SurfaceCache, grid_index, patch_neighbours, patch_sides
+from ..cache_grid import PATCH_KERNEL, SurfaceCache, cells_over_contrast, grid_index, patch_neighbours, patch_sides
 from ..direct import (ALL_LUMINAIRES_UP_TO, DIRECT_SAMPLES, LuminaireTable, direct_illuminance,
                       sampled_direct_illuminance)
 from ..engine import engine_for
@@ -522,7 +522,8 @@ def _patches_to_split(values, point, normal, radius, start, index, contrast):
 
 def _cells_to_refine(level, offset, values, contrast):
     """Keys and corner indices (k, 3) of the cells whose corner values differ by more than
-    ``contrast`` × the largest and by more than 3 standard errors of the difference."""
+    ``contrast`` × the largest and by more than 3 standard errors of the difference
+    (:func:`~lsadphoto.solver.cache_grid.cells_over_contrast`)."""
     G = values.shape[1]
     mean = values.mean(axis=1)
     se = values.std(axis=1, ddof=1) / math.sqrt(G)
@@ -541,12 +542,7 @@ def _cells_to_refine(level, offset, values, contrast):
             base = offset[t, side]
             for upper, c0, c1, c2, corner_ij in cells:
                 c = base + np.stack([c0, c1, c2], axis=1)
-                mu = mean[c]
-                hi, lo = mu.argmax(axis=1), mu.argmin(axis=1)
-                rows = np.arange(len(c))
-                spread = mu[rows, hi] - mu[rows, lo]
-                noise = np.hypot(se[c[rows, hi]], se[c[rows, lo]])
-                flag = (spread > contrast * mu[rows, hi]) & (spread > 3.0 * noise)
+                flag = cells_over_contrast(mean[c], se[c], contrast)
                 keys.append(2 * (base + corner_ij[flag]) + upper[flag])
                 corners.append(c[flag])
     if not keys:
