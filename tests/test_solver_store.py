@@ -17,7 +17,7 @@ from lsadphoto.solver.chains import trace_chains
 from lsadphoto.solver.direct import LUMINAIRE_DRAWS
 from lsadphoto.solver.engine import engine_for
 from lsadphoto.solver.examples import canonical_room
-from lsadphoto.solver.rendering import TARGET_MEASURE
+from lsadphoto.solver.rendering import MAX_LUMINAIRE_DRAWS, TARGET_MEASURE
 
 NODE_FIELDS = ("position", "normal", "coefficient", "kind", "luminaire", "batch", "depth", "triangle")
 
@@ -184,14 +184,17 @@ def test_a_per_pixel_target_bounds_the_mean_absolute_error_against_a_reference(r
 @pytest.mark.slow
 def test_surface_cache_render_to_a_per_pixel_target(room):
     # The cache's rounds grow chains, node draws, shadow rays and luminaire draws by one factor
-    # (the room's 4 luminaires: every one whole, "auto", then any K ≥ 4), so the reported
-    # per-pixel error (the map's own: the honesty of these errors is tested above and in
-    # test_solver_cache.py) falls round by round until it reaches the target.
+    # (the room's 4 luminaires: every one whole, "auto", then any K ≥ 4, up to
+    # MAX_LUMINAIRE_DRAWS), so the reported per-pixel error (the map's own: the honesty of these
+    # errors is tested above and in test_solver_cache.py) falls round by round until it
+    # reaches the target.
     proj, pose = view_args(room)
     # (0.4 %, the target here before session 11, when it bounded the median σ/L, is not reached
     # by the mean absolute error: the interpolation bias's tail near the panels, which more
     # chains do not lower, holds it at 0.41 % — twice the median — and the rounds stop with a
-    # SolverWarning. 0.8 % is reached in two rounds: 1024 → 13 568 chains.)
+    # SolverWarning. 0.8 % is reached in three rounds: 1024 → 13 824 → 27 648 chains, the last
+    # with the draws at their cap; two rounds sufficed before session 12's bias term for refined
+    # cells near the refinement test, which put the second round's measure at 0.96 %.)
     lmap = render(room, proj, **pose, estimator="cache", samples=1024, cache_nodes=256,
                   direct_samples=1, target_error=0.008)
     p = lmap.provenance
@@ -203,7 +206,8 @@ def test_surface_cache_render_to_a_per_pixel_target(room):
         growth = b["chains"] / a["chains"]
         assert 2 <= growth <= 16
         assert b["cache_nodes"] == pytest.approx(a["cache_nodes"] * growth, rel=0.01)
-        assert b["luminaire_draws"] == pytest.approx(LUMINAIRE_DRAWS * b["chains"] / rounds[0]["chains"], abs=1)
+        assert b["luminaire_draws"] == pytest.approx(
+            min(MAX_LUMINAIRE_DRAWS, LUMINAIRE_DRAWS * b["chains"] / rounds[0]["chains"]), abs=1)
         assert b[TARGET_MEASURE] < a[TARGET_MEASURE]
     with pytest.raises(BadInputError, match="apply to the double local estimate"):
         render(room, proj, **pose, estimator="cache", nodes_per_pixel=4)
