@@ -18,15 +18,16 @@ of the frame for a 180° circular fisheye in a 3:2 image.
 Numerics: IEEE float64 throughout, no ``fastmath`` (no reassociation, no contraction into
 fused multiply–adds), the same operations in the same order as the numpy reference
 methods — for the ideal fisheye the maps equal :meth:`IdealFisheyeProjection.directions`
-and :meth:`~IdealFisheyeProjection.solid_angles` bit for bit (tested). Three libm functions
-are replaced by branch-free Cephes approximations so that loops run on SIMD lanes: tan in
-the OpenCV (Kannala–Brandt) directions (:func:`tan_half_range`), atan2 in σ, τ and Iwata's
+and :meth:`~IdealFisheyeProjection.solid_angles` bit for bit (tested), but for the
+equidistant kind's tan. Three libm functions are replaced by branch-free Cephes
+approximations so that loops run on SIMD lanes: tan in the OpenCV (Kannala–Brandt) and the
+ideal equidistant directions (:func:`tan_half_range`), atan2 in σ, τ and Iwata's
 β (:func:`atan2_nonnegative`) and exp in the position index (:func:`exp_bounded`), each
 within a few ulp of libm (tested), far inside the tolerances to which the maps are tested
 (1e-11 for OpenCV directions, 1e-14 rad for σ, τ, relative 1e-12 for the position index).
 ``error_model="numpy"`` makes x/0 give ±inf or NaN as in numpy instead of raising, which
-also lets the compiler vectorise the loops. What does not vectorise on AVX2 — libm calls
-(the ideal fisheye's tan), table look-ups (gathers), float-to-integer conversions — is kept
+also lets the compiler vectorise the loops. What does not vectorise on AVX2 — libm calls,
+table look-ups (gathers), float-to-integer conversions — is kept
 in loops of its own; vectorised loops index arrays from 0 (slices of the span), so that the
 compiler knows the index is not negative. Small helpers are inlined at the numba level only
 where a vectorised loop needs them (compile time: about 15 s for these kernels on first use
@@ -319,29 +320,14 @@ def _kb_row(p, table, row, col_offset, ox, oy, oz):
 @njit(**_OPTIONS)
 def _ideal_row(p, row, col_offset, ox, oy, oz, corner):
     """Ideal-fisheye directions of the points (row, j + col_offset) into ``ox, oy, oz``:
-    IdealFisheyeProjection._unclipped_components (the same operations, so equal bit for bit),
-    split into loops so that all but the libm tan run on SIMD lanes — tan's argument, tan
-    (equidistant only), the components — and, for pixel centres, the image-circle test
-    (NaN outside; centre rule: corners are not clipped)."""
+    IdealFisheyeProjection._unclipped_components (the same operations; for the equidistant
+    kind tan(θ/2) is :func:`tan_half_range`, within 2 ulp of the C library's, so that the
+    whole loop runs on SIMD lanes: directions within a few ulp of the model's, the other
+    kinds equal bit for bit), and, for pixel centres, the image-circle test (NaN outside;
+    centre rule: corners are not clipped)."""
     cx, cy, kind, coefficient, limit = p[0], p[1], int(p[2]), p[3], p[4]
     y = row - cy
     n = ox.size
-    if kind == 0:  # equidistant: t = tan(θ/2), the argument parked in ox
-        for j in range(n):
-            x = (j + col_offset) - cx
-            ox[j] = min(math.sqrt(x * x + y * y) * coefficient, math.pi) * 0.5
-        # The point mirrored about the centre column, k = m − j, has the same x² where 2·cx
-        # is a whole number of columns from the row's start (a centred image): where its
-        # argument is the same (compared, so exact whatever cx), its tan is copied rather
-        # than computed again (a pure function of the argument: the same value).
-        m = 2.0 * (cx - col_offset)
-        mirror = int(m) if m == math.floor(m) and abs(m) < 4.0 * n + 4.0 else -1
-        for j in range(n):
-            k = mirror - j
-            if 0 <= k < j and ox[k] == ox[j]:
-                oz[j] = oz[k]
-            else:
-                oz[j] = math.tan(ox[j])
     for j in range(n):
         x = (j + col_offset) - cx
         r = math.sqrt(x * x + y * y)
@@ -352,8 +338,9 @@ def _ideal_row(p, row, col_offset, ox, oy, oz, corner):
         elif kind == 2:  # orthographic
             s = min(r * coefficient, 1.0)
             c = math.sqrt(1.0 - s * s)
-        else:
-            t = oz[j] if kind == 0 else r * coefficient
+        else:  # equidistant: t = tan(θ/2); stereographic: t = r·coefficient
+            t = tan_half_range(min(r * coefficient, math.pi) * 0.5) if kind == 0 \
+                else r * coefficient
             t2 = t * t
             s = 2.0 * t / (1.0 + t2)
             c = (1.0 - t2) / (1.0 + t2)

@@ -28,8 +28,9 @@ How the maps are computed (FORMULAS.md §2.4.2):
   :meth:`PixelGeometry.directions_at`), and ``directions`` makes the whole map only when it
   is read. There, :func:`visual_field` called before the geometry is cached (as
   :func:`~lsadphoto.metrics.score.score_map` does) computes both in one pass, each centre
-  direction once. The ideal fisheye's maps equal its methods bit for bit (where numpy's
-  tan is libm's). Other models evaluate
+  direction once. The ideal fisheye's maps equal its methods bit for bit, except the
+  equidistant kind's, within a few ulp (its tan(θ/2) is a branch-free Cephes tan within 2
+  ulp of the C library's, which runs on SIMD lanes). Other models evaluate
   their own (numpy) ``directions`` in blocks of rows on threads, with the compiled
   solid-angle kernel.
 * The kernels are compiled on first use and cached on disk (numba ``cache=True``): the
@@ -396,7 +397,8 @@ def pixel_geometry(projection):
     PixelGeometry
         Read-only maps; ``directions`` equal ``projection.directions`` at the pixel centres
         and ``solid_angle`` the geodesic quad of the corner directions (for the ideal
-        fisheye bit for bit ``projection.solid_angles``; for the other models equal to it
+        fisheye ``projection.solid_angles`` bit for bit (equidistant: to a few ulp, its
+        tan); for the other models equal to it
         to rounding, relative 10⁻¹²). A pixel is valid where its centre direction and all
         four corner directions exist and its solid angle is positive.
 
