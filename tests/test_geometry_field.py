@@ -356,3 +356,53 @@ def test_mirrored_rows_equal_their_direct_computation(monkeypatch, one_pass, met
     for got, expected in zip((field.sigma, field.tau, field.position_index, field.cos_sigma), maps,
                              strict=True):
         assert np.array_equal(got[:, c:].view(np.uint64), expected.view(np.uint64))
+
+
+MIRRORED_CAMERAS = {  # 2·cy a whole number: rows computed with their mirror images
+    "centred, odd rows": IdealFisheyeProjection("equidistant", 100.0, 74.0, 72.0, 185.0, 201, 149),
+    "centred, even rows": IdealFisheyeProjection("equisolid", 100.5, 74.5, 76.0, 180.0, 202, 150),
+    # cy above the middle: the rows below 2·cy are computed on their own.
+    "high centre": IdealFisheyeProjection("orthographic", 100.3, 50.5, 60.0, 180.0, 203, 149),
+    # cy below the middle: mirror images below the picture are not written.
+    "low centre": IdealFisheyeProjection("stereographic", 90.0, 110.0, 70.0, 200.0, 181, 149),
+    "opencv": OpenCVFisheyeProjection(60.0, 60.0, 101.7, 74.0, (0.05, -0.01, 0.003, -0.0005),
+                                      203, 149),
+}
+
+
+@pytest.mark.parametrize("name", MIRRORED_CAMERAS)
+@pytest.mark.parametrize("field", [False, True])
+def test_mirrored_rows_equal_rows_computed_one_by_one(monkeypatch, name, field):
+    """Where 2·cy is a whole number, the geometry pass computes each row above the centre
+    with its mirror image below (the directions with y negated). Reference: the same kernel
+    with no mirror, every row computed from its own coordinates; equal bit for bit, maps
+    with and without the stored directions, with and without the visual field."""
+    from lsadphoto.geometry import _kernels
+
+    cam = MIRRORED_CAMERAS[name]
+    rows, cols = cam.shape
+    assert field_module._mirror_rows(cam.cy, rows)[0] == round(2 * cam.cy)
+    frame = ObserverFrame((0.1, -0.2, 0.97), (0.0, -1.0, 0.0))
+    if field:  # one pass: geometry and visual field (no stored direction map)
+        monkeypatch.setattr(field_module, "DIRECTION_MAP_MAX_PIXELS", 0)
+        got, (position, cos_sigma) = field_module._compute_pixel_geometry(
+            cam, (frame.axes(), "evalglare"))
+    else:
+        got = pixel_geometry(cam)
+    model, p, table = field_module._fisheye_kernel_parameters(cam)
+    maps = [np.empty((rows, cols, 3) if not field else (1, 1, 3)), np.empty((rows, cols)),
+            np.empty((rows, cols), dtype=bool)]
+    field_maps = [np.empty((rows, cols)), np.empty((rows, cols))] if field else \
+        [np.empty((1, 1)), np.empty((1, 1))]
+    constants = field_module._field_constants(frame.axes(), "evalglare") if field else \
+        (np.zeros(3), np.zeros(3), np.zeros(3), 0, 0.0)
+    _kernels.fisheye_geometry(model, p, table, 7, 0, rows, -1, not field, *maps, field,
+                              *constants, *field_maps)
+    pairs = [(got.solid_angle, maps[1]), (got.valid, maps[2])]
+    if field:
+        pairs += [(position, field_maps[0]), (cos_sigma, field_maps[1])]
+    else:
+        pairs.append((got.directions, maps[0]))
+    for value, expected in pairs:
+        assert value.view(np.uint8).tobytes() == expected.view(np.uint8).tobytes()
+    assert got.valid.sum() > 0.3 * rows * cols

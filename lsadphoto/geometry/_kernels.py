@@ -531,15 +531,79 @@ def _field_outputs(i, j0, j1, rows_out, fill):
     return rows_out[i, j0:j1]
 
 
+@njit(inline="always", **_OPTIONS)
+def _row_solid_angles(w, ok, cx, cy, cz, x0, y0, z0, x1, y1, z1, n):
+    """Solid angle and validity of the ``n`` pixels of a row's span from their corner rows
+    above (``x0, y0, z0``) and below (``x1, y1, z1``), n + 1 corners each, and their centre
+    directions: the quad (above j, above j + 1, below j + 1, below j)."""
+    # Solid angles by the series on SIMD lanes (−1 where it does not apply)...
+    for j in range(n):
+        w[j] = _quad_series(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
+                            x1[j + 1], y1[j + 1], z1[j + 1], x1[j], y1[j], z1[j])
+    # ... the rest (NaN corners, large pixels) by the full formula...
+    for j in range(n):
+        if not w[j] >= 0:
+            w[j] = _quad(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
+                         x1[j + 1], y1[j + 1], z1[j + 1], x1[j], y1[j], z1[j])
+    # ... and validity, branch-free.
+    for j in range(n):
+        omega = w[j]
+        good = ((omega > 0) & (abs(omega) < np.inf) & (abs(cx[j]) < np.inf)
+                & (abs(cy[j]) < np.inf) & (abs(cz[j]) < np.inf))
+        w[j] = omega if good else 0.0
+        ok[j] = good
+
+
+@njit(inline="always", **_OPTIONS)
+def _write_row(r, j0, j1, cx, cy, cz, store_directions, directions, solid_angle, valid, field,
+               v, u, h, method, cap, position_index, cos_sigma, x0, y0, z0, x1, y1, z1):
+    """Row ``r`` of the maps from its span's centre directions and its corner rows above
+    (``x0, y0, z0``) and below (``x1, y1, z1``); pixels outside the span [j0, j1) invalid
+    without computing anything."""
+    cols = valid.shape[1]
+    w = solid_angle[r]
+    ok = valid[r]
+    if store_directions:
+        directions[r, :j0] = np.nan
+        directions[r, j1:] = np.nan
+    w[:j0] = 0.0
+    w[j1:] = 0.0
+    ok[:j0] = False
+    ok[j1:] = False
+    # The span as arrays of its own: loops over range(n) index from 0, which the compiler
+    # knows to be non-negative (no wraparound select) and vectorises.
+    n = j1 - j0
+    _row_solid_angles(w[j0:j1], ok[j0:j1], cx, cy, cz, x0, y0, z0, x1, y1, z1, n)
+    if store_directions:
+        d = directions[r, j0:j1]
+        for j in range(n):
+            good = ok[j0 + j]
+            d[j, 0] = cx[j] if good else np.nan
+            d[j, 1] = cy[j] if good else np.nan
+            d[j, 2] = cz[j] if good else np.nan
+    if field:  # the visual field over the row's valid span, as visual_field_maps
+        a, b = _valid_span(ok, cols)
+        m = b - a
+        d = _masked_interleaved(cx[a - j0:b - j0], cy[a - j0:b - j0], cz[a - j0:b - j0],
+                                ok[a:b], m)
+        p_row = _field_outputs(r, a, b, position_index, np.nan)
+        c_row = _field_outputs(r, a, b, cos_sigma, 0.0)
+        _field_row(d, ok[a:b], m, v, u, h, method, cap, True, np.empty(m), np.empty(m),
+                   p_row, c_row)
+
+
 @njit(parallel=True, **_OPTIONS,
-      aot=("void(int64, float64[::1], float64[::1], int64, int64, boolean, float64[:, :, ::1], "
-           "float64[:, ::1], boolean[:, ::1], boolean, float64[::1], float64[::1], "
-           "float64[::1], int64, float64, float64[:, ::1], float64[:, ::1])"))
-def fisheye_geometry(model, p, table, band_rows, row0, store_directions, directions, solid_angle,
-                     valid, field, v, u, h, method, cap, position_index, cos_sigma):
-    """Fill ``directions`` (rows, cols, 3), ``solid_angle`` and ``valid`` (rows, cols): the
-    image rows ``row0`` … ``row0 + rows − 1`` (a block of rows of the image, so that threads
-    can share an image out: :func:`lsadphoto._compiled.run_blocks`; 0 for the whole image).
+      aot=("void(int64, float64[::1], float64[::1], int64, int64, int64, int64, boolean, "
+           "float64[:, :, ::1], float64[:, ::1], boolean[:, ::1], boolean, float64[::1], "
+           "float64[::1], float64[::1], int64, float64, float64[:, ::1], float64[:, ::1])"))
+def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, store_directions,
+                     directions, solid_angle, valid, field, v, u, h, method, cap,
+                     position_index, cos_sigma):
+    """Fill the image rows ``row0`` … ``row1 − 1`` of ``directions`` (rows, cols, 3),
+    ``solid_angle`` and ``valid`` (rows, cols) — where ``mirror`` ≥ 0, also each such row's
+    mirror image ``mirror − r`` about the centre row where it lies below it in the image —
+    so that threads can share an image out in blocks of rows
+    (:func:`lsadphoto._compiled.run_blocks`).
 
     ``model`` is :data:`IDEAL_FISHEYE` (``p`` = cx, cy, kind code, radial coefficient,
     R·(1 + 1e-12)) or :data:`OPENCV_FISHEYE` (``p`` = cx, cy, fx, fy, k1…k4, θmax, ρmax, table
@@ -556,82 +620,64 @@ def fisheye_geometry(model, p, table, band_rows, row0, store_directions, directi
     Where ``field``, the visual field's position index and cos σ (:func:`visual_field_maps`'s
     arguments ``v, u, h, method, cap``) are computed in the same pass from the same centre
     directions, equal bit for bit to that kernel's.
+
+    ``mirror`` = 2·cy where the model's directions mirror exactly about the row cy, else −1:
+    the fisheye models with 2·cy a whole number (:func:`~lsadphoto.geometry.field.
+    _compute_pixel_geometry`), where the row offsets of a row and of its mirror image,
+    y = g − cy and (2·cy − g) − cy, are exact opposites, and every direction is computed
+    from x, y through x² + y² and a final product by y. The mirror row's centre and corner
+    directions are then this row's with y negated (its corners above are this row's below,
+    its span this row's), and are handed to the same per-row code as if computed: the maps
+    equal those of rows computed one by one, bit for bit (tested), with half the directions
+    computed.
     """
     rows, cols = valid.shape
-    n_bands = (rows + band_rows - 1) // band_rows
+    n_bands = (row1 - row0 + band_rows - 1) // band_rows
     for band in prange(n_bands):
-        r0 = band * band_rows
-        r1 = min(r0 + band_rows, rows)
+        r0 = row0 + band * band_rows
+        r1 = min(r0 + band_rows, row1)
         corners = np.empty((2, 3, cols + 1))
         # Centre directions are computed into contiguous rows: written straight into the
         # interleaved ``directions`` row (stride 3) the loops of _kb_row do not vectorise.
         centres = np.empty((3, cols))
+        flipped = np.empty((3, cols + 1))  # y of a mirrored row's centres and corners
         top = 0
         # Each row of corners is computed over the union of the spans of the two pixel rows
-        # that share it (one more corner than pixels).
-        # Image row g = row0 + r of the output row r (integers: exact as floats).
-        above = _centre_span(model, p, float(row0 + r0) - 1.0, cols)
-        below = _centre_span(model, p, float(row0 + r0), cols)
-        _corner_row(model, p, table, float(row0 + r0) - 0.5, min(above[0], below[0]),
+        # that share it (one more corner than pixels). Rows are integers: exact as floats.
+        above = _centre_span(model, p, float(r0) - 1.0, cols)
+        below = _centre_span(model, p, float(r0), cols)
+        _corner_row(model, p, table, float(r0) - 0.5, min(above[0], below[0]),
                     max(above[1], below[1]) + 1, corners[0])
         for r in range(r0, r1):
-            g = float(row0 + r)
+            g = float(r)
             j0, j1 = below
             below = _centre_span(model, p, g + 1.0, cols)
             bottom = 1 - top
             _corner_row(model, p, table, g + 0.5, min(j0, below[0]), max(j1, below[1]) + 1,
                         corners[bottom])
-            w = solid_angle[r]
-            ok = valid[r]
-            # Outside the span: invalid, without computing anything.
-            if store_directions:
-                directions[r, :j0] = np.nan
-                directions[r, j1:] = np.nan
-            w[:j0] = 0.0
-            w[j1:] = 0.0
-            ok[:j0] = False
-            ok[j1:] = False
-            # The span as arrays of its own: loops over range(n) index from 0, which the
-            # compiler knows to be non-negative (no wraparound select) and vectorises.
             n = j1 - j0
-            w, ok = w[j0:j1], ok[j0:j1]
-            x0, y0, z0 = corners[top, 0, j0:j1 + 1], corners[top, 1, j0:j1 + 1], corners[top, 2, j0:j1 + 1]
+            x0, y0, z0 = corners[top, 0, j0:j1 + 1], corners[top, 1, j0:j1 + 1], \
+                corners[top, 2, j0:j1 + 1]
             x1, y1, z1 = corners[bottom, 0, j0:j1 + 1], corners[bottom, 1, j0:j1 + 1], \
                 corners[bottom, 2, j0:j1 + 1]
             cx, cy, cz = centres[0, :n], centres[1, :n], centres[2, :n]
             _centre_row(model, p, table, g, float(j0), cx, cy, cz)
-            # Solid angles by the series on SIMD lanes (−1 where it does not apply)...
-            for j in range(n):
-                w[j] = _quad_series(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
-                                    x1[j + 1], y1[j + 1], z1[j + 1], x1[j], y1[j], z1[j])
-            # ... the rest (NaN corners, large pixels) by the full formula...
-            for j in range(n):
-                if not w[j] >= 0:
-                    w[j] = _quad(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
-                                 x1[j + 1], y1[j + 1], z1[j + 1], x1[j], y1[j], z1[j])
-            # ... and validity, branch-free.
-            for j in range(n):
-                omega = w[j]
-                good = ((omega > 0) & (abs(omega) < np.inf) & (abs(cx[j]) < np.inf)
-                        & (abs(cy[j]) < np.inf) & (abs(cz[j]) < np.inf))
-                w[j] = omega if good else 0.0
-                ok[j] = good
-            if store_directions:
-                d = directions[r, j0:j1]
+            _write_row(r, j0, j1, cx, cy, cz, store_directions, directions, solid_angle, valid,
+                       field, v, u, h, method, cap, position_index, cos_sigma,
+                       x0, y0, z0, x1, y1, z1)
+            image = mirror - r
+            if mirror >= 0 and r < image < rows:
+                # The mirror image: centres and corners with y negated, its upper corners
+                # the mirror of this row's lower ones and its lower ones of the upper.
+                my, upper_y, lower_y = flipped[0, :n], flipped[1, :n + 1], flipped[2, :n + 1]
                 for j in range(n):
-                    good = ok[j]
-                    d[j, 0] = cx[j] if good else np.nan
-                    d[j, 1] = cy[j] if good else np.nan
-                    d[j, 2] = cz[j] if good else np.nan
-            if field:  # the visual field over the row's valid span, as visual_field_maps
-                a, b = _valid_span(valid[r], cols)
-                m = b - a
-                d = _masked_interleaved(cx[a - j0:b - j0], cy[a - j0:b - j0], cz[a - j0:b - j0],
-                                        valid[r, a:b], m)
-                p_row = _field_outputs(r, a, b, position_index, np.nan)
-                c_row = _field_outputs(r, a, b, cos_sigma, 0.0)
-                _field_row(d, valid[r, a:b], m, v, u, h, method, cap, True, np.empty(m),
-                           np.empty(m), p_row, c_row)
+                    my[j] = -cy[j]
+                for j in range(n + 1):
+                    upper_y[j] = -y1[j]
+                    lower_y[j] = -y0[j]
+                _write_row(image, j0, j1, cx, my, cz, store_directions, directions,
+                           solid_angle, valid, field, v, u, h, method, cap, position_index,
+                           cos_sigma, x1, upper_y, z1, x0, lower_y, z0)
             top = bottom
 
 
