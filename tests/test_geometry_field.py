@@ -249,10 +249,19 @@ def test_branch_free_atan2_against_libm():
     assert np.isnan(out[:2]).all() and out[2] == 0.0  # NaN propagates; atan2(0, 0) = 0
 
 
+FRAMES = {  # rolled: rows crossing the line of sight's horizon; along the axis: none do
+    "rolled": ObserverFrame.levelled(roll_deg=4.0, pitch_deg=-8.0),
+    "axis": ObserverFrame(),
+}
+
+
 @pytest.mark.parametrize("method", ["evalglare", "Guth", "Kim2011"])
-def test_visual_field_against_observer_and_position_index(method):
+@pytest.mark.parametrize("frame_name", FRAMES)
+def test_visual_field_against_observer_and_position_index(method, frame_name):
+    # The kernel computes the formulas a row needs (Guth's above the line of sight, Iwata's
+    # below it, both in rows that cross it): each frame's rows against the references.
     cam = IdealFisheyeProjection("equidistant", 101.3, 72.6, 70.0, 200.0, 203, 149)  # reaches σ = 100°
-    frame = ObserverFrame.levelled(roll_deg=4.0, pitch_deg=-8.0)
+    frame = FRAMES[frame_name]
     field = visual_field(cam, frame, position_index_method=method)
     geometry = pixel_geometry(cam)
     ok = geometry.valid
@@ -269,7 +278,8 @@ def test_visual_field_against_observer_and_position_index(method):
     assert np.all(field.cos_sigma[~ok] == 0)
     assert (field.cos_sigma[ok] < 0).any()  # the 200° circle reaches behind the observer
     assert visual_field(cam, frame, position_index_method=method) is field
-    assert visual_field(cam, ObserverFrame(), position_index_method=method) is not field
+    other = FRAMES["axis" if frame_name == "rolled" else "rolled"]
+    assert visual_field(cam, other, position_index_method=method) is not field
     assert not field.position_index.flags.writeable
 
 

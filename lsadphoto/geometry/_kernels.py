@@ -451,30 +451,51 @@ def _mirrored(d, ok, n, v, u, h):
 
 
 @njit(inline="always", **_OPTIONS)
-def _field_row(d, ok, n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row):
-    """σ, τ, cos σ (0 where not ``ok``) and, where ``field``, the position index of the ``n``
-    interleaved directions ``d`` of one row's span (see :func:`visual_field_maps`). Where the
-    span is its own mirror image (:func:`_mirrored`), the first half is computed and copied
-    to the second: the same values, half the arc tangents and exponentials."""
+def _field_row(d, ok, n, v, u, h, method, cap, angles, field, s_row, t_row, p_row, c_row):
+    """τ, cos σ (0 where not ``ok``), σ where ``angles`` or where the position index needs
+    it, and, where ``field``, the position index of the ``n`` interleaved directions ``d``
+    of one row's span (see :func:`visual_field_maps`). Where the span is its own mirror
+    image (:func:`_mirrored`), the first half is computed and copied to the second: the same
+    values, half the arc tangents and exponentials. The "evalglare" position index takes
+    Guth's formula (σ, τ) above the line of sight and Iwata's (β) below it (τ > π/2): each
+    formula's arc tangent and exponentials are computed for the row only where one of its
+    pixels takes it (a row of a fisheye seen along its axis lies wholly above or below) —
+    the same values as computing both for every pixel and selecting."""
     half_pi = 0.5 * math.pi
     v0, v1, v2, u0, u1, u2, h0, h1, h2 = v[0], v[1], v[2], u[0], u[1], u[2], h[0], h[1], h[2]
     iwata = method == 0
     total = n
     if _mirrored(d, ok, n, v, u, h):
         n = (n + 1) // 2
+    below = 0
     for j in range(n):
         dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
         forward = dx * v0 + dy * v1 + dz * v2
         up = dx * u0 + dy * u1 + dz * u2
         side = dx * h0 + dy * h1 + dz * h2
         lateral = math.sqrt(up * up + side * side)
-        s_row[j] = atan2_nonnegative(lateral, forward)
         t = atan2_nonnegative(abs(side), up)
         # On the line of sight τ is undefined: 0 where the lateral part is at rounding
         # level (as field._angles did).
-        t_row[j] = 0.0 if lateral < 1e-15 else t
+        t = 0.0 if lateral < 1e-15 else t
+        t_row[j] = t
         c_row[j] = forward if ok[j] else 0.0
-        if iwata:
+        below += 1 if t > half_pi else 0
+    guth = field and (not iwata or below < n)  # σ for Guth's and Kim's formulas
+    beta = field and iwata and below > 0
+    if angles or guth:
+        for j in range(n):
+            dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
+            forward = dx * v0 + dy * v1 + dz * v2
+            up = dx * u0 + dy * u1 + dz * u2
+            side = dx * h0 + dy * h1 + dz * h2
+            s_row[j] = atan2_nonnegative(math.sqrt(up * up + side * side), forward)
+    if beta:  # Iwata's β, kept in the output row
+        for j in range(n):
+            dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
+            forward = dx * v0 + dy * v1 + dz * v2
+            up = dx * u0 + dy * u1 + dz * u2
+            side = dx * h0 + dy * h1 + dz * h2
             p_row[j] = atan2_nonnegative(math.sqrt(side * side + 1.3225 * (up * up)), forward)
     if field:
         if method == 2:  # Kim2011
@@ -484,10 +505,15 @@ def _field_row(d, ok, n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row
                 centre = -9e-6 * t ** 3 + 0.0014 * t ** 2 + 0.0866 * t + 21.633
                 width = -9e-6 * t ** 3 + 0.0013 * t ** 2 + 0.0853 * t + 8.772
                 p_row[j] = exp_bounded((s - centre) / width)
+        elif not guth:  # evalglare, every pixel below the line of sight: Iwata
+            for j in range(n):
+                b = p_row[j] * _DEGREES
+                value = exp_bounded(6.49e-3 * b + 21e-5 * b * b)
+                p_row[j] = cap if value > cap else value  # noqa: FURB136 (NaN stays NaN, as np.minimum)
         else:
             for j in range(n):
                 exponent = _guth_exponent(s_row[j] * _DEGREES, t_row[j] * _DEGREES)
-                if iwata:  # evalglare: Iwata below the line of sight
+                if beta:  # evalglare: Iwata below the line of sight
                     b = p_row[j] * _DEGREES
                     exponent = 6.49e-3 * b + 21e-5 * b * b if t_row[j] > half_pi else exponent
                 value = exp_bounded(exponent)
@@ -495,7 +521,7 @@ def _field_row(d, ok, n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row
     for j in range(n, total):  # the mirrored half, where there is one
         k = total - 1 - j
         s_row[j], t_row[j], c_row[j] = s_row[k], t_row[k], c_row[k]
-        if field or iwata:
+        if field:
             p_row[j] = p_row[k]
 
 
@@ -588,8 +614,8 @@ def _write_row(r, j0, j1, cx, cy, cz, store_directions, directions, solid_angle,
                                 ok[a:b], m)
         p_row = _field_outputs(r, a, b, position_index, np.nan)
         c_row = _field_outputs(r, a, b, cos_sigma, 0.0)
-        _field_row(d, ok[a:b], m, v, u, h, method, cap, True, np.empty(m), np.empty(m),
-                   p_row, c_row)
+        _field_row(d, ok[a:b], m, v, u, h, method, cap, False, True, np.empty(m),
+                   np.empty(m), p_row, c_row)
 
 
 @njit(parallel=True, **_OPTIONS,
@@ -795,4 +821,5 @@ def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, 
             c_row = _field_outputs(i, j0, j1, cos_sigma, 0.0)
         else:
             p_row, c_row = np.empty(n), np.empty(n)
-        _field_row(d, ok[j0:j1], n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row)
+        _field_row(d, ok[j0:j1], n, v, u, h, method, cap, angles, field, s_row, t_row, p_row,
+                   c_row)
