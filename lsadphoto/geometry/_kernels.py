@@ -792,8 +792,9 @@ def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, 
     :mod:`~lsadphoto.geometry.position_index` (Iwata's β from the components, as
     position_index_from_components). Per row, between its first and last valid pixel, the
     angles are computed on SIMD lanes (:func:`atan2_nonnegative`; the "evalglare" method
-    also Iwata's β, kept in the output row), then the position index (:func:`exp_bounded`:
-    also on SIMD lanes, the Guth/Iwata choice by a select); invalid pixels (NaN directions)
+    also Iwata's β, kept in the output row, in rows with a pixel below the line of sight),
+    then the position index (:func:`exp_bounded`: also on SIMD lanes, the Guth/Iwata choice
+    by a select where a row holds both, :func:`_field_row`); invalid pixels (NaN directions)
     get NaN σ, τ and position index and 0 cos σ — outside that span directly.
     """
     rows, cols = valid.shape
