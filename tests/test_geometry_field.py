@@ -56,9 +56,10 @@ def test_ideal_fisheye_maps_equal_the_projection_methods_exactly(kind, circle):
     geometry = pixel_geometry(cam)
     rows, cols = cam.pixel_grid()
     # Same elementwise arithmetic on the same inputs (corner offsets (c ± ½) − cx are exact
-    # in both paths and both use quad_solid_angle_components). The compiled kernel calls the C
-    # library's tan and atan2, numpy its own SIMD versions where the CPU has them (AVX-512:
-    # measured 1 ulp apart), so the equidistant maps agree to a few ulp and the others bit for
+    # in both paths and both use quad_solid_angle_components). The compiled kernel takes the
+    # equidistant tan(θ/2) from its branch-free Cephes tan (within 2 ulp of the C library's),
+    # numpy from its own tan (SIMD versions where the CPU has them: AVX-512 measured 1 ulp
+    # from libm), so the equidistant maps agree to a few ulp and the others bit for
     # bit: directions (unit vectors) within 4 eps, solid angles, differences of corner
     # terms, within 128 eps relative (measured at most 53).
     eps = np.finfo(np.float64).eps
@@ -101,11 +102,14 @@ def test_other_models_match_the_projection_methods(name):
 
 
 @pytest.mark.parametrize("cx", [20.0, 20.5, 19.75, 20.3])
-def test_equidistant_directions_equal_one_tan_per_pixel(cx):
-    # The kernel copies tan(θ/2) from the pixel mirrored about the centre column where the
-    # argument is the same (2·cx a whole number of columns: cx = 20.0, 20.5; not 19.75, 20.3).
-    # Reference: the kernel's operations written out per pixel in Python, math.tan (the C
-    # library's, as the kernel calls) for every pixel; equal bit for bit.
+def test_equidistant_directions_within_ulps_of_libm_tan(cx):
+    # The kernel takes tan(θ/2) from the branch-free Cephes tan (tan_half_range, within 2 ulp
+    # of math.tan, tested below), so that its rows run on SIMD lanes. Reference: the model's
+    # operations written out per pixel in Python with math.tan (the C library's). A tan 2 ulp
+    # off moves s = 2t/(1 + t²) and c = (1 − t²)/(1 + t²) by at most 2 ulp of t times
+    # |ds/dt|·t, |dc/dt|·t ≤ 1, plus their own roundings: unit-vector components within
+    # 4 eps (measured at most 1.5 eps).
+    eps = np.finfo(np.float64).eps
     cam = IdealFisheyeProjection("equidistant", cx, 18.5, 20.0, 180.0, 41, 38)
     _, p, _ = field_module._fisheye_kernel_parameters(cam)
     coefficient = p[3]
@@ -121,7 +125,9 @@ def test_equidistant_directions_equal_one_tan_per_pixel(cx):
             t = math.tan(min(radius * coefficient, math.pi) * 0.5)
             t2 = t * t
             q = 2.0 * t / (1.0 + t2) / radius if radius > 0 else 0.0
-            assert tuple(geometry.directions[r, c]) == (q * x, q * y, (1.0 - t2) / (1.0 + t2))
+            np.testing.assert_allclose(geometry.directions[r, c],
+                                       (q * x, q * y, (1.0 - t2) / (1.0 + t2)), rtol=0,
+                                       atol=4 * eps)
             checked += 1
     assert checked > 1000
 
@@ -243,10 +249,19 @@ def test_branch_free_atan2_against_libm():
     assert np.isnan(out[:2]).all() and out[2] == 0.0  # NaN propagates; atan2(0, 0) = 0
 
 
+FRAMES = {  # rolled: rows crossing the line of sight's horizon; along the axis: none do
+    "rolled": ObserverFrame.levelled(roll_deg=4.0, pitch_deg=-8.0),
+    "axis": ObserverFrame(),
+}
+
+
 @pytest.mark.parametrize("method", ["evalglare", "Guth", "Kim2011"])
-def test_visual_field_against_observer_and_position_index(method):
+@pytest.mark.parametrize("frame_name", FRAMES)
+def test_visual_field_against_observer_and_position_index(method, frame_name):
+    # The kernel computes the formulas a row needs (Guth's above the line of sight, Iwata's
+    # below it, both in rows that cross it): each frame's rows against the references.
     cam = IdealFisheyeProjection("equidistant", 101.3, 72.6, 70.0, 200.0, 203, 149)  # reaches σ = 100°
-    frame = ObserverFrame.levelled(roll_deg=4.0, pitch_deg=-8.0)
+    frame = FRAMES[frame_name]
     field = visual_field(cam, frame, position_index_method=method)
     geometry = pixel_geometry(cam)
     ok = geometry.valid
@@ -263,7 +278,8 @@ def test_visual_field_against_observer_and_position_index(method):
     assert np.all(field.cos_sigma[~ok] == 0)
     assert (field.cos_sigma[ok] < 0).any()  # the 200° circle reaches behind the observer
     assert visual_field(cam, frame, position_index_method=method) is field
-    assert visual_field(cam, ObserverFrame(), position_index_method=method) is not field
+    other = FRAMES["axis" if frame_name == "rolled" else "rolled"]
+    assert visual_field(cam, other, position_index_method=method) is not field
     assert not field.position_index.flags.writeable
 
 
@@ -350,3 +366,53 @@ def test_mirrored_rows_equal_their_direct_computation(monkeypatch, one_pass, met
     for got, expected in zip((field.sigma, field.tau, field.position_index, field.cos_sigma), maps,
                              strict=True):
         assert np.array_equal(got[:, c:].view(np.uint64), expected.view(np.uint64))
+
+
+MIRRORED_CAMERAS = {  # 2·cy a whole number: rows computed with their mirror images
+    "centred, odd rows": IdealFisheyeProjection("equidistant", 100.0, 74.0, 72.0, 185.0, 201, 149),
+    "centred, even rows": IdealFisheyeProjection("equisolid", 100.5, 74.5, 76.0, 180.0, 202, 150),
+    # cy above the middle: the rows below 2·cy are computed on their own.
+    "high centre": IdealFisheyeProjection("orthographic", 100.3, 50.5, 60.0, 180.0, 203, 149),
+    # cy below the middle: mirror images below the picture are not written.
+    "low centre": IdealFisheyeProjection("stereographic", 90.0, 110.0, 70.0, 200.0, 181, 149),
+    "opencv": OpenCVFisheyeProjection(60.0, 60.0, 101.7, 74.0, (0.05, -0.01, 0.003, -0.0005),
+                                      203, 149),
+}
+
+
+@pytest.mark.parametrize("name", MIRRORED_CAMERAS)
+@pytest.mark.parametrize("field", [False, True])
+def test_mirrored_rows_equal_rows_computed_one_by_one(monkeypatch, name, field):
+    """Where 2·cy is a whole number, the geometry pass computes each row above the centre
+    with its mirror image below (the directions with y negated). Reference: the same kernel
+    with no mirror, every row computed from its own coordinates; equal bit for bit, maps
+    with and without the stored directions, with and without the visual field."""
+    from lsadphoto.geometry import _kernels
+
+    cam = MIRRORED_CAMERAS[name]
+    rows, cols = cam.shape
+    assert field_module._mirror_rows(cam.cy, rows)[0] == round(2 * cam.cy)
+    frame = ObserverFrame((0.1, -0.2, 0.97), (0.0, -1.0, 0.0))
+    if field:  # one pass: geometry and visual field (no stored direction map)
+        monkeypatch.setattr(field_module, "DIRECTION_MAP_MAX_PIXELS", 0)
+        got, (position, cos_sigma) = field_module._compute_pixel_geometry(
+            cam, (frame.axes(), "evalglare"))
+    else:
+        got = pixel_geometry(cam)
+    model, p, table = field_module._fisheye_kernel_parameters(cam)
+    maps = [np.empty((rows, cols, 3) if not field else (1, 1, 3)), np.empty((rows, cols)),
+            np.empty((rows, cols), dtype=bool)]
+    field_maps = [np.empty((rows, cols)), np.empty((rows, cols))] if field else \
+        [np.empty((1, 1)), np.empty((1, 1))]
+    constants = field_module._field_constants(frame.axes(), "evalglare") if field else \
+        (np.zeros(3), np.zeros(3), np.zeros(3), 0, 0.0)
+    _kernels.fisheye_geometry(model, p, table, 7, 0, rows, -1, not field, *maps, field,
+                              *constants, *field_maps)
+    pairs = [(got.solid_angle, maps[1]), (got.valid, maps[2])]
+    if field:
+        pairs += [(position, field_maps[0]), (cos_sigma, field_maps[1])]
+    else:
+        pairs.append((got.directions, maps[0]))
+    for value, expected in pairs:
+        assert value.view(np.uint8).tobytes() == expected.view(np.uint8).tobytes()
+    assert got.valid.sum() > 0.3 * rows * cols

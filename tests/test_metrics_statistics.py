@@ -61,3 +61,45 @@ def test_histogram_range_from_the_score_pass_gives_the_same_statistics():
     none = np.full(image.size, np.nan)
     assert _field_luminance_kernel(image, np.zeros(image.size, bool), cos_sigma, none)[1:] == \
         (np.inf, -np.inf)
+
+
+def test_sums_are_added_in_pixel_order():
+    # The kernel keeps the current ring's sums in registers while the pixels stay in it.
+    # Reference: a Python loop adding each pixel to its ring's sums in pixel order, per
+    # stripe, the stripes then added in order (the kernel's documented order): equal bit
+    # for bit. Runs of one ring, single pixels between rings, pixels outside every ring
+    # (cos σ < 0 or beyond 90°), skipped pixels (NaN, ω = 0) and L ≤ 0 in between.
+    from lsadphoto.metrics.statistics import _STRIPES
+
+    rng = np.random.default_rng(8)
+    n = 4000
+    L = 10 ** rng.uniform(-1, 5, n)
+    L[rng.random(n) < 0.05] = 0.0
+    L[rng.random(n) < 0.02] = -1.0
+    L[rng.random(n) < 0.02] = np.nan
+    w = rng.uniform(1e-6, 3e-6, n)
+    w[rng.random(n) < 0.02] = 0.0
+    ring_of_run = rng.integers(0, 4, n // 40).repeat(40)  # runs of 40 pixels, one ring each
+    centre = np.array([15.0, 45.0, 75.0, 120.0])[ring_of_run]
+    sigma = centre + rng.uniform(-14.0, 14.0, n)
+    sigma[rng.random(n) < 0.1] = rng.uniform(0.0, 120.0)  # single pixels elsewhere
+    c = np.cos(np.radians(sigma))
+    stats = luminance_statistics(L, w, c)
+    edges = np.cos(np.radians([0.0, 30.0, 60.0, 90.0]))
+    step = -(-n // _STRIPES)
+    totals = np.zeros((3, 2))  # per ring: Σω, ΣL·ω, summed stripe after stripe
+    for k in range(_STRIPES):
+        part = np.zeros((3, 2))
+        for i in range(k * step, min(n, (k + 1) * step)):
+            if not (np.isfinite(L[i]) and w[i] > 0 and c[i] >= 0):
+                continue
+            ring = 0 if c[i] > edges[1] else 1 if c[i] > edges[2] else 2 if c[i] >= edges[3] \
+                else None
+            if ring is None:
+                continue
+            part[ring, 0] += w[i]
+            part[ring, 1] += L[i] * w[i]
+        totals += part
+    for ring in range(3):
+        assert stats["rings"][ring]["solid_angle"] == totals[ring, 0]
+        assert stats["rings"][ring]["mean"] == totals[ring, 1] / totals[ring, 0]

@@ -198,6 +198,33 @@ def test_grouping_links_within_half_the_search_angle(fisheye):
     assert set(np.unique(score.source_labels)) == {0, 1, 2}
 
 
+@pytest.mark.parametrize(("shape", "fraction"), [((1, 1), 0.5), ((7, 1), 0.5), ((1, 9), 0.5),
+                                               ((37, 53), 0.3), ((200, 150), 0.7),
+                                               ((64, 64), 0.0), ((30, 40), 1.0)])
+def test_grouping_nodes_are_numbered_in_column_major_order(shape, fraction):
+    # The grouping's nodes (numbered in evalglare's column-major scan, which orders the
+    # sources) from a row-major reading of the mask. Reference: numpy on the transposed mask
+    # (np.flatnonzero of mask.T is the column-major order) and the 3×3 neighbourhood of each
+    # pixel in the mask padded with False (the box's edge counts as outside); equal exactly.
+    from lsadphoto.metrics.grouping import _nodes
+
+    rows, cols = shape
+    mask = np.random.default_rng(3).random(shape) < fraction
+    flat = np.flatnonzero(mask.T)
+    node_cols, node_rows = np.divmod(flat, rows)
+    node = np.full(shape, -1, np.int32)
+    node[node_rows, node_cols] = np.arange(flat.size)
+    padded = np.pad(mask, 1)
+    inside = np.ones(shape, dtype=bool)
+    for dr in (0, 1, 2):
+        for dc in (0, 1, 2):
+            inside &= padded[dr:dr + rows, dc:dc + cols]
+    got = _nodes(mask)
+    for value, expected in zip(got, (node, node_rows, node_cols, ~inside[node_rows, node_cols]),
+                               strict=True):
+        np.testing.assert_array_equal(value, expected)
+
+
 def test_peak_extraction_splits_the_bright_core(fisheye):
     cam, d, w = fisheye
     centre = _up_direction(0.5)

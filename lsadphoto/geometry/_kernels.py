@@ -18,15 +18,16 @@ of the frame for a 180° circular fisheye in a 3:2 image.
 Numerics: IEEE float64 throughout, no ``fastmath`` (no reassociation, no contraction into
 fused multiply–adds), the same operations in the same order as the numpy reference
 methods — for the ideal fisheye the maps equal :meth:`IdealFisheyeProjection.directions`
-and :meth:`~IdealFisheyeProjection.solid_angles` bit for bit (tested). Three libm functions
-are replaced by branch-free Cephes approximations so that loops run on SIMD lanes: tan in
-the OpenCV (Kannala–Brandt) directions (:func:`tan_half_range`), atan2 in σ, τ and Iwata's
+and :meth:`~IdealFisheyeProjection.solid_angles` bit for bit (tested), but for the
+equidistant kind's tan. Three libm functions are replaced by branch-free Cephes
+approximations so that loops run on SIMD lanes: tan in the OpenCV (Kannala–Brandt) and the
+ideal equidistant directions (:func:`tan_half_range`), atan2 in σ, τ and Iwata's
 β (:func:`atan2_nonnegative`) and exp in the position index (:func:`exp_bounded`), each
 within a few ulp of libm (tested), far inside the tolerances to which the maps are tested
 (1e-11 for OpenCV directions, 1e-14 rad for σ, τ, relative 1e-12 for the position index).
 ``error_model="numpy"`` makes x/0 give ±inf or NaN as in numpy instead of raising, which
-also lets the compiler vectorise the loops. What does not vectorise on AVX2 — libm calls
-(the ideal fisheye's tan), table look-ups (gathers), float-to-integer conversions — is kept
+also lets the compiler vectorise the loops. What does not vectorise on AVX2 — libm calls,
+table look-ups (gathers), float-to-integer conversions — is kept
 in loops of its own; vectorised loops index arrays from 0 (slices of the span), so that the
 compiler knows the index is not negative. Small helpers are inlined at the numba level only
 where a vectorised loop needs them (compile time: about 15 s for these kernels on first use
@@ -319,29 +320,14 @@ def _kb_row(p, table, row, col_offset, ox, oy, oz):
 @njit(**_OPTIONS)
 def _ideal_row(p, row, col_offset, ox, oy, oz, corner):
     """Ideal-fisheye directions of the points (row, j + col_offset) into ``ox, oy, oz``:
-    IdealFisheyeProjection._unclipped_components (the same operations, so equal bit for bit),
-    split into loops so that all but the libm tan run on SIMD lanes — tan's argument, tan
-    (equidistant only), the components — and, for pixel centres, the image-circle test
-    (NaN outside; centre rule: corners are not clipped)."""
+    IdealFisheyeProjection._unclipped_components (the same operations; for the equidistant
+    kind tan(θ/2) is :func:`tan_half_range`, within 2 ulp of the C library's, so that the
+    whole loop runs on SIMD lanes: directions within a few ulp of the model's, the other
+    kinds equal bit for bit), and, for pixel centres, the image-circle test (NaN outside;
+    centre rule: corners are not clipped)."""
     cx, cy, kind, coefficient, limit = p[0], p[1], int(p[2]), p[3], p[4]
     y = row - cy
     n = ox.size
-    if kind == 0:  # equidistant: t = tan(θ/2), the argument parked in ox
-        for j in range(n):
-            x = (j + col_offset) - cx
-            ox[j] = min(math.sqrt(x * x + y * y) * coefficient, math.pi) * 0.5
-        # The point mirrored about the centre column, k = m − j, has the same x² where 2·cx
-        # is a whole number of columns from the row's start (a centred image): where its
-        # argument is the same (compared, so exact whatever cx), its tan is copied rather
-        # than computed again (a pure function of the argument: the same value).
-        m = 2.0 * (cx - col_offset)
-        mirror = int(m) if m == math.floor(m) and abs(m) < 4.0 * n + 4.0 else -1
-        for j in range(n):
-            k = mirror - j
-            if 0 <= k < j and ox[k] == ox[j]:
-                oz[j] = oz[k]
-            else:
-                oz[j] = math.tan(ox[j])
     for j in range(n):
         x = (j + col_offset) - cx
         r = math.sqrt(x * x + y * y)
@@ -352,8 +338,9 @@ def _ideal_row(p, row, col_offset, ox, oy, oz, corner):
         elif kind == 2:  # orthographic
             s = min(r * coefficient, 1.0)
             c = math.sqrt(1.0 - s * s)
-        else:
-            t = oz[j] if kind == 0 else r * coefficient
+        else:  # equidistant: t = tan(θ/2); stereographic: t = r·coefficient
+            t = tan_half_range(min(r * coefficient, math.pi) * 0.5) if kind == 0 \
+                else r * coefficient
             t2 = t * t
             s = 2.0 * t / (1.0 + t2)
             c = (1.0 - t2) / (1.0 + t2)
@@ -464,30 +451,51 @@ def _mirrored(d, ok, n, v, u, h):
 
 
 @njit(inline="always", **_OPTIONS)
-def _field_row(d, ok, n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row):
-    """σ, τ, cos σ (0 where not ``ok``) and, where ``field``, the position index of the ``n``
-    interleaved directions ``d`` of one row's span (see :func:`visual_field_maps`). Where the
-    span is its own mirror image (:func:`_mirrored`), the first half is computed and copied
-    to the second: the same values, half the arc tangents and exponentials."""
+def _field_row(d, ok, n, v, u, h, method, cap, angles, field, s_row, t_row, p_row, c_row):
+    """τ, cos σ (0 where not ``ok``), σ where ``angles`` or where the position index needs
+    it, and, where ``field``, the position index of the ``n`` interleaved directions ``d``
+    of one row's span (see :func:`visual_field_maps`). Where the span is its own mirror
+    image (:func:`_mirrored`), the first half is computed and copied to the second: the same
+    values, half the arc tangents and exponentials. The "evalglare" position index takes
+    Guth's formula (σ, τ) above the line of sight and Iwata's (β) below it (τ > π/2): each
+    formula's arc tangent and exponentials are computed for the row only where one of its
+    pixels takes it (a row of a fisheye seen along its axis lies wholly above or below) —
+    the same values as computing both for every pixel and selecting."""
     half_pi = 0.5 * math.pi
     v0, v1, v2, u0, u1, u2, h0, h1, h2 = v[0], v[1], v[2], u[0], u[1], u[2], h[0], h[1], h[2]
     iwata = method == 0
     total = n
     if _mirrored(d, ok, n, v, u, h):
         n = (n + 1) // 2
+    below = 0
     for j in range(n):
         dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
         forward = dx * v0 + dy * v1 + dz * v2
         up = dx * u0 + dy * u1 + dz * u2
         side = dx * h0 + dy * h1 + dz * h2
         lateral = math.sqrt(up * up + side * side)
-        s_row[j] = atan2_nonnegative(lateral, forward)
         t = atan2_nonnegative(abs(side), up)
         # On the line of sight τ is undefined: 0 where the lateral part is at rounding
         # level (as field._angles did).
-        t_row[j] = 0.0 if lateral < 1e-15 else t
+        t = 0.0 if lateral < 1e-15 else t
+        t_row[j] = t
         c_row[j] = forward if ok[j] else 0.0
-        if iwata:
+        below += 1 if t > half_pi else 0
+    guth = field and (not iwata or below < n)  # σ for Guth's and Kim's formulas
+    beta = field and iwata and below > 0
+    if angles or guth:
+        for j in range(n):
+            dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
+            forward = dx * v0 + dy * v1 + dz * v2
+            up = dx * u0 + dy * u1 + dz * u2
+            side = dx * h0 + dy * h1 + dz * h2
+            s_row[j] = atan2_nonnegative(math.sqrt(up * up + side * side), forward)
+    if beta:  # Iwata's β, kept in the output row
+        for j in range(n):
+            dx, dy, dz = d[3 * j], d[3 * j + 1], d[3 * j + 2]
+            forward = dx * v0 + dy * v1 + dz * v2
+            up = dx * u0 + dy * u1 + dz * u2
+            side = dx * h0 + dy * h1 + dz * h2
             p_row[j] = atan2_nonnegative(math.sqrt(side * side + 1.3225 * (up * up)), forward)
     if field:
         if method == 2:  # Kim2011
@@ -497,10 +505,15 @@ def _field_row(d, ok, n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row
                 centre = -9e-6 * t ** 3 + 0.0014 * t ** 2 + 0.0866 * t + 21.633
                 width = -9e-6 * t ** 3 + 0.0013 * t ** 2 + 0.0853 * t + 8.772
                 p_row[j] = exp_bounded((s - centre) / width)
+        elif not guth:  # evalglare, every pixel below the line of sight: Iwata
+            for j in range(n):
+                b = p_row[j] * _DEGREES
+                value = exp_bounded(6.49e-3 * b + 21e-5 * b * b)
+                p_row[j] = cap if value > cap else value  # noqa: FURB136 (NaN stays NaN, as np.minimum)
         else:
             for j in range(n):
                 exponent = _guth_exponent(s_row[j] * _DEGREES, t_row[j] * _DEGREES)
-                if iwata:  # evalglare: Iwata below the line of sight
+                if beta:  # evalglare: Iwata below the line of sight
                     b = p_row[j] * _DEGREES
                     exponent = 6.49e-3 * b + 21e-5 * b * b if t_row[j] > half_pi else exponent
                 value = exp_bounded(exponent)
@@ -508,7 +521,7 @@ def _field_row(d, ok, n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row
     for j in range(n, total):  # the mirrored half, where there is one
         k = total - 1 - j
         s_row[j], t_row[j], c_row[j] = s_row[k], t_row[k], c_row[k]
-        if field or iwata:
+        if field:
             p_row[j] = p_row[k]
 
 
@@ -544,15 +557,79 @@ def _field_outputs(i, j0, j1, rows_out, fill):
     return rows_out[i, j0:j1]
 
 
+@njit(inline="always", **_OPTIONS)
+def _row_solid_angles(w, ok, cx, cy, cz, x0, y0, z0, x1, y1, z1, n):
+    """Solid angle and validity of the ``n`` pixels of a row's span from their corner rows
+    above (``x0, y0, z0``) and below (``x1, y1, z1``), n + 1 corners each, and their centre
+    directions: the quad (above j, above j + 1, below j + 1, below j)."""
+    # Solid angles by the series on SIMD lanes (−1 where it does not apply)...
+    for j in range(n):
+        w[j] = _quad_series(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
+                            x1[j + 1], y1[j + 1], z1[j + 1], x1[j], y1[j], z1[j])
+    # ... the rest (NaN corners, large pixels) by the full formula...
+    for j in range(n):
+        if not w[j] >= 0:
+            w[j] = _quad(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
+                         x1[j + 1], y1[j + 1], z1[j + 1], x1[j], y1[j], z1[j])
+    # ... and validity, branch-free.
+    for j in range(n):
+        omega = w[j]
+        good = ((omega > 0) & (abs(omega) < np.inf) & (abs(cx[j]) < np.inf)
+                & (abs(cy[j]) < np.inf) & (abs(cz[j]) < np.inf))
+        w[j] = omega if good else 0.0
+        ok[j] = good
+
+
+@njit(inline="always", **_OPTIONS)
+def _write_row(r, j0, j1, cx, cy, cz, store_directions, directions, solid_angle, valid, field,
+               v, u, h, method, cap, position_index, cos_sigma, x0, y0, z0, x1, y1, z1):
+    """Row ``r`` of the maps from its span's centre directions and its corner rows above
+    (``x0, y0, z0``) and below (``x1, y1, z1``); pixels outside the span [j0, j1) invalid
+    without computing anything."""
+    cols = valid.shape[1]
+    w = solid_angle[r]
+    ok = valid[r]
+    if store_directions:
+        directions[r, :j0] = np.nan
+        directions[r, j1:] = np.nan
+    w[:j0] = 0.0
+    w[j1:] = 0.0
+    ok[:j0] = False
+    ok[j1:] = False
+    # The span as arrays of its own: loops over range(n) index from 0, which the compiler
+    # knows to be non-negative (no wraparound select) and vectorises.
+    n = j1 - j0
+    _row_solid_angles(w[j0:j1], ok[j0:j1], cx, cy, cz, x0, y0, z0, x1, y1, z1, n)
+    if store_directions:
+        d = directions[r, j0:j1]
+        for j in range(n):
+            good = ok[j0 + j]
+            d[j, 0] = cx[j] if good else np.nan
+            d[j, 1] = cy[j] if good else np.nan
+            d[j, 2] = cz[j] if good else np.nan
+    if field:  # the visual field over the row's valid span, as visual_field_maps
+        a, b = _valid_span(ok, cols)
+        m = b - a
+        d = _masked_interleaved(cx[a - j0:b - j0], cy[a - j0:b - j0], cz[a - j0:b - j0],
+                                ok[a:b], m)
+        p_row = _field_outputs(r, a, b, position_index, np.nan)
+        c_row = _field_outputs(r, a, b, cos_sigma, 0.0)
+        _field_row(d, ok[a:b], m, v, u, h, method, cap, False, True, np.empty(m),
+                   np.empty(m), p_row, c_row)
+
+
 @njit(parallel=True, **_OPTIONS,
-      aot=("void(int64, float64[::1], float64[::1], int64, int64, boolean, float64[:, :, ::1], "
-           "float64[:, ::1], boolean[:, ::1], boolean, float64[::1], float64[::1], "
-           "float64[::1], int64, float64, float64[:, ::1], float64[:, ::1])"))
-def fisheye_geometry(model, p, table, band_rows, row0, store_directions, directions, solid_angle,
-                     valid, field, v, u, h, method, cap, position_index, cos_sigma):
-    """Fill ``directions`` (rows, cols, 3), ``solid_angle`` and ``valid`` (rows, cols): the
-    image rows ``row0`` … ``row0 + rows − 1`` (a block of rows of the image, so that threads
-    can share an image out: :func:`lsadphoto._compiled.run_blocks`; 0 for the whole image).
+      aot=("void(int64, float64[::1], float64[::1], int64, int64, int64, int64, boolean, "
+           "float64[:, :, ::1], float64[:, ::1], boolean[:, ::1], boolean, float64[::1], "
+           "float64[::1], float64[::1], int64, float64, float64[:, ::1], float64[:, ::1])"))
+def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, store_directions,
+                     directions, solid_angle, valid, field, v, u, h, method, cap,
+                     position_index, cos_sigma):
+    """Fill the image rows ``row0`` … ``row1 − 1`` of ``directions`` (rows, cols, 3),
+    ``solid_angle`` and ``valid`` (rows, cols) — where ``mirror`` ≥ 0, also each such row's
+    mirror image ``mirror − r`` about the centre row where it lies below it in the image —
+    so that threads can share an image out in blocks of rows
+    (:func:`lsadphoto._compiled.run_blocks`).
 
     ``model`` is :data:`IDEAL_FISHEYE` (``p`` = cx, cy, kind code, radial coefficient,
     R·(1 + 1e-12)) or :data:`OPENCV_FISHEYE` (``p`` = cx, cy, fx, fy, k1…k4, θmax, ρmax, table
@@ -569,82 +646,64 @@ def fisheye_geometry(model, p, table, band_rows, row0, store_directions, directi
     Where ``field``, the visual field's position index and cos σ (:func:`visual_field_maps`'s
     arguments ``v, u, h, method, cap``) are computed in the same pass from the same centre
     directions, equal bit for bit to that kernel's.
+
+    ``mirror`` = 2·cy where the model's directions mirror exactly about the row cy, else −1:
+    the fisheye models with 2·cy a whole number (:func:`~lsadphoto.geometry.field.
+    _compute_pixel_geometry`), where the row offsets of a row and of its mirror image,
+    y = g − cy and (2·cy − g) − cy, are exact opposites, and every direction is computed
+    from x, y through x² + y² and a final product by y. The mirror row's centre and corner
+    directions are then this row's with y negated (its corners above are this row's below,
+    its span this row's), and are handed to the same per-row code as if computed: the maps
+    equal those of rows computed one by one, bit for bit (tested), with half the directions
+    computed.
     """
     rows, cols = valid.shape
-    n_bands = (rows + band_rows - 1) // band_rows
+    n_bands = (row1 - row0 + band_rows - 1) // band_rows
     for band in prange(n_bands):
-        r0 = band * band_rows
-        r1 = min(r0 + band_rows, rows)
+        r0 = row0 + band * band_rows
+        r1 = min(r0 + band_rows, row1)
         corners = np.empty((2, 3, cols + 1))
         # Centre directions are computed into contiguous rows: written straight into the
         # interleaved ``directions`` row (stride 3) the loops of _kb_row do not vectorise.
         centres = np.empty((3, cols))
+        flipped = np.empty((3, cols + 1))  # y of a mirrored row's centres and corners
         top = 0
         # Each row of corners is computed over the union of the spans of the two pixel rows
-        # that share it (one more corner than pixels).
-        # Image row g = row0 + r of the output row r (integers: exact as floats).
-        above = _centre_span(model, p, float(row0 + r0) - 1.0, cols)
-        below = _centre_span(model, p, float(row0 + r0), cols)
-        _corner_row(model, p, table, float(row0 + r0) - 0.5, min(above[0], below[0]),
+        # that share it (one more corner than pixels). Rows are integers: exact as floats.
+        above = _centre_span(model, p, float(r0) - 1.0, cols)
+        below = _centre_span(model, p, float(r0), cols)
+        _corner_row(model, p, table, float(r0) - 0.5, min(above[0], below[0]),
                     max(above[1], below[1]) + 1, corners[0])
         for r in range(r0, r1):
-            g = float(row0 + r)
+            g = float(r)
             j0, j1 = below
             below = _centre_span(model, p, g + 1.0, cols)
             bottom = 1 - top
             _corner_row(model, p, table, g + 0.5, min(j0, below[0]), max(j1, below[1]) + 1,
                         corners[bottom])
-            w = solid_angle[r]
-            ok = valid[r]
-            # Outside the span: invalid, without computing anything.
-            if store_directions:
-                directions[r, :j0] = np.nan
-                directions[r, j1:] = np.nan
-            w[:j0] = 0.0
-            w[j1:] = 0.0
-            ok[:j0] = False
-            ok[j1:] = False
-            # The span as arrays of its own: loops over range(n) index from 0, which the
-            # compiler knows to be non-negative (no wraparound select) and vectorises.
             n = j1 - j0
-            w, ok = w[j0:j1], ok[j0:j1]
-            x0, y0, z0 = corners[top, 0, j0:j1 + 1], corners[top, 1, j0:j1 + 1], corners[top, 2, j0:j1 + 1]
+            x0, y0, z0 = corners[top, 0, j0:j1 + 1], corners[top, 1, j0:j1 + 1], \
+                corners[top, 2, j0:j1 + 1]
             x1, y1, z1 = corners[bottom, 0, j0:j1 + 1], corners[bottom, 1, j0:j1 + 1], \
                 corners[bottom, 2, j0:j1 + 1]
             cx, cy, cz = centres[0, :n], centres[1, :n], centres[2, :n]
             _centre_row(model, p, table, g, float(j0), cx, cy, cz)
-            # Solid angles by the series on SIMD lanes (−1 where it does not apply)...
-            for j in range(n):
-                w[j] = _quad_series(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
-                                    x1[j + 1], y1[j + 1], z1[j + 1], x1[j], y1[j], z1[j])
-            # ... the rest (NaN corners, large pixels) by the full formula...
-            for j in range(n):
-                if not w[j] >= 0:
-                    w[j] = _quad(x0[j], y0[j], z0[j], x0[j + 1], y0[j + 1], z0[j + 1],
-                                 x1[j + 1], y1[j + 1], z1[j + 1], x1[j], y1[j], z1[j])
-            # ... and validity, branch-free.
-            for j in range(n):
-                omega = w[j]
-                good = ((omega > 0) & (abs(omega) < np.inf) & (abs(cx[j]) < np.inf)
-                        & (abs(cy[j]) < np.inf) & (abs(cz[j]) < np.inf))
-                w[j] = omega if good else 0.0
-                ok[j] = good
-            if store_directions:
-                d = directions[r, j0:j1]
+            _write_row(r, j0, j1, cx, cy, cz, store_directions, directions, solid_angle, valid,
+                       field, v, u, h, method, cap, position_index, cos_sigma,
+                       x0, y0, z0, x1, y1, z1)
+            image = mirror - r
+            if mirror >= 0 and r < image < rows:
+                # The mirror image: centres and corners with y negated, its upper corners
+                # the mirror of this row's lower ones and its lower ones of the upper.
+                my, upper_y, lower_y = flipped[0, :n], flipped[1, :n + 1], flipped[2, :n + 1]
                 for j in range(n):
-                    good = ok[j]
-                    d[j, 0] = cx[j] if good else np.nan
-                    d[j, 1] = cy[j] if good else np.nan
-                    d[j, 2] = cz[j] if good else np.nan
-            if field:  # the visual field over the row's valid span, as visual_field_maps
-                a, b = _valid_span(valid[r], cols)
-                m = b - a
-                d = _masked_interleaved(cx[a - j0:b - j0], cy[a - j0:b - j0], cz[a - j0:b - j0],
-                                        valid[r, a:b], m)
-                p_row = _field_outputs(r, a, b, position_index, np.nan)
-                c_row = _field_outputs(r, a, b, cos_sigma, 0.0)
-                _field_row(d, valid[r, a:b], m, v, u, h, method, cap, True, np.empty(m),
-                           np.empty(m), p_row, c_row)
+                    my[j] = -cy[j]
+                for j in range(n + 1):
+                    upper_y[j] = -y1[j]
+                    lower_y[j] = -y0[j]
+                _write_row(image, j0, j1, cx, my, cz, store_directions, directions,
+                           solid_angle, valid, field, v, u, h, method, cap, position_index,
+                           cos_sigma, x1, upper_y, z1, x0, lower_y, z0)
             top = bottom
 
 
@@ -733,8 +792,9 @@ def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, 
     :mod:`~lsadphoto.geometry.position_index` (Iwata's β from the components, as
     position_index_from_components). Per row, between its first and last valid pixel, the
     angles are computed on SIMD lanes (:func:`atan2_nonnegative`; the "evalglare" method
-    also Iwata's β, kept in the output row), then the position index (:func:`exp_bounded`:
-    also on SIMD lanes, the Guth/Iwata choice by a select); invalid pixels (NaN directions)
+    also Iwata's β, kept in the output row, in rows with a pixel below the line of sight),
+    then the position index (:func:`exp_bounded`: also on SIMD lanes, the Guth/Iwata choice
+    by a select where a row holds both, :func:`_field_row`); invalid pixels (NaN directions)
     get NaN σ, τ and position index and 0 cos σ — outside that span directly.
     """
     rows, cols = valid.shape
@@ -762,4 +822,5 @@ def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, 
             c_row = _field_outputs(i, j0, j1, cos_sigma, 0.0)
         else:
             p_row, c_row = np.empty(n), np.empty(n)
-        _field_row(d, ok[j0:j1], n, v, u, h, method, cap, field, s_row, t_row, p_row, c_row)
+        _field_row(d, ok[j0:j1], n, v, u, h, method, cap, angles, field, s_row, t_row, p_row,
+                   c_row)

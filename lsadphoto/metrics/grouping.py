@@ -140,23 +140,28 @@ _OPTIONS = {"cache": True, "error_model": "numpy", "nogil": True}
 def _nodes(mask):
     """Node number of each ``mask`` pixel in column-major order (−1 elsewhere), the nodes'
     rows and columns, and whether each node lies on the patch boundary (a pixel of its 8
-    neighbours, or the edge of the box, is not in the mask)."""
+    neighbours, or the edge of the box, is not in the mask). The mask is read row by row
+    (its memory order): a node's number is its column's first number (the mask pixels of
+    the columns before it) plus the mask pixels above it in its column."""
     rows, cols = mask.shape
+    start = np.zeros(cols + 1, np.int64)  # column-major order, like evalglare's scan
+    for r in range(rows):
+        for c in range(cols):
+            start[c + 1] += mask[r, c]
+    for c in range(cols):
+        start[c + 1] += start[c]
+    n = start[cols]
     node = np.full((rows, cols), -1, np.int32)
-    n = 0
-    for c in range(cols):  # column-major order, like evalglare's scan
-        for r in range(rows):
-            if mask[r, c]:
-                node[r, c] = n
-                n += 1
     node_rows = np.empty(n, np.int64)
     node_cols = np.empty(n, np.int64)
     boundary = np.zeros(n, np.bool_)
-    for c in range(cols):
-        for r in range(rows):
-            k = node[r, c]
-            if k < 0:
+    for r in range(rows):
+        for c in range(cols):
+            if not mask[r, c]:
                 continue
+            k = start[c]
+            start[c] += 1
+            node[r, c] = k
             node_rows[k] = r
             node_cols[k] = c
             edge = False

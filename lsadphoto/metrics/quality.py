@@ -328,8 +328,12 @@ def _filled_row(L, field, row, c0, lo, hi, out):
     """``out[j]`` = the filled map at columns ``lo + j`` of image row ``row`` (``c0 + lo`` …
     ``c0 + hi − 1``): L as float32 on the field, 0 elsewhere."""
     zero = np.float32(0.0)
+    # The row's slices (columns ≥ 0: the evaluated pixels' stencils lie in the image), so
+    # that the loop reads them as contiguous vectors (2-D indexing made it a gather).
+    values = L[row, c0 + lo:c0 + hi]
+    inside = field[row, c0 + lo:c0 + hi]
     for j in range(hi - lo):
-        out[j] = np.float32(L[row, c0 + lo + j]) if field[row, c0 + lo + j] else zero
+        out[j] = np.float32(values[j]) if inside[j] else zero
 
 
 @njit(**_KERNEL_OPTIONS,

@@ -94,25 +94,39 @@ def _accumulate(luminance, solid_angle, cos_sigma, cos_edges, n_stripes, origin,
         k_high = np.full(n_groups, -np.inf)
         k_hist = hist[k]
         last_L, last_bin = np.nan, 0  # neighbours often share a value: one log10 for a run
+        # The current group's accumulators in registers, stored back when the group changes
+        # (rings are concentric: a row crosses few borders): every sum is still added to in
+        # pixel order, so the results are the same bits.
+        g = n_rings
+        count_g, w_g, lw_g, zero_g = k_count[g], k_sums[0, g], k_sums[1, g], k_sums[2, g]
+        low_g, high_g = k_low[g], k_high[g]
         for i in range(k * step, min(n, (k + 1) * step)):
             L = np.float64(luminance[i])
             w = np.float64(solid_angle[i])
             c = np.float64(cos_sigma[i])
             if not ((np.abs(L) < np.inf) & (w > 0) & (c >= 0)):
                 continue
-            g = _group(c, cos_edges, n_rings)
-            k_count[g] += 1
-            k_sums[0, g] += w
-            k_sums[1, g] += L * w
+            group = _group(c, cos_edges, n_rings)
+            if group != g:
+                k_count[g], k_sums[0, g], k_sums[1, g], k_sums[2, g] = count_g, w_g, lw_g, zero_g
+                k_low[g], k_high[g] = low_g, high_g
+                g = group
+                count_g, w_g, lw_g, zero_g = k_count[g], k_sums[0, g], k_sums[1, g], k_sums[2, g]
+                low_g, high_g = k_low[g], k_high[g]
+            count_g += 1
+            w_g += w
+            lw_g += L * w
             if L > 0:
                 if L != last_L:
                     last_L = L
                     last_bin = min(int((math.log10(L) - origin) * per_decade), n_bins - 1)
                 k_hist[g, last_bin] += w
             else:
-                k_sums[2, g] += w
-            k_low[g] = min(k_low[g], L)
-            k_high[g] = max(k_high[g], L)
+                zero_g += w
+            low_g = min(low_g, L)
+            high_g = max(high_g, L)
+        k_count[g], k_sums[0, g], k_sums[1, g], k_sums[2, g] = count_g, w_g, lw_g, zero_g
+        k_low[g], k_high[g] = low_g, high_g
         count[k] = k_count
         sums[k] = k_sums
         low[k] = k_low
