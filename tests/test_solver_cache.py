@@ -653,6 +653,7 @@ def test_floor_points_inside_a_box_standing_on_the_floor_do_not_darken_the_floor
     assert np.mean(np.abs(value - 1.0) < 1e-9) >= 0.99
 
 
+@pytest.mark.slow
 def test_wall_of_small_triangles_just_above_a_bench_in_front_takes_its_indirect_light_at_the_pixel():
     # The station hall's column faces just above a bench seat (docs/accuracy.md, session 13):
     # the canonical room cut into small triangles (its sides interpolate patch points of
