@@ -156,12 +156,12 @@ PIXEL_NEAR_RAYS = 64
 #: kept) still came out 1.1–2× too bright, the columns at free distances of 1–2 supports +6 %.
 PIXEL_VALIDITY = 0.5
 #: Polar angle [°] of the ring of 6 probe rays (azimuths 60° apart) whose harmonic mean free
-#: distance stands for the hemisphere's in that test (:func:`_free_distance`): the middle,
-#: sin²θ = ¼, of the inner half of the cosine-weighted hemisphere that Ward et al. sample.
-#: A second ring at 60° (the outer half's middle) counted the adjacent surface of every
-#: concave corner, where E_ind varies smoothly and the grid's points and bias estimate follow
-#: it: in the canonical room at 512² it flagged 5325 pixels (74 with the normal ray alone)
-#: and the render's CPU went 9–11 → 41–43 s (docs/accuracy.md, session 13).
+#: distance stands for the hemisphere's in that test on small triangles' sides
+#: (:func:`_free_distance`): the middle, sin²θ = ¼, of the inner half of the cosine-weighted
+#: hemisphere that Ward et al. sample. A second ring at 60° (the outer half's middle) counts
+#: the adjacent surface of a concave corner sooner: with both rings on every pixel the
+#: canonical room at 512² flagged 5325 pixels, with this one 3479, with the normal ray 74
+#: (docs/accuracy.md, session 13).
 PIXEL_PROBE_POLAR_DEG = 30.0
 #: Pixels of one triangle side whose own estimates of E_ind share one record: those in one
 #: cube of edge ``PIXEL_RECORD`` × 2^⌊log₂ t⌋, t the free distance [m] (between t/8 and t/4: a
