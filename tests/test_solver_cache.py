@@ -665,7 +665,7 @@ def test_wall_of_small_triangles_just_above_a_bench_in_front_takes_its_indirect_
     # pixel's hit, E_dir by 64 shadow samples per luminaire and E_ind by the cache's
     # estimator on another store (4096 node draws). Mean ratio over the 414 pixels, seeds
     # 1–4: before 1.003, 0.957, 0.961, 0.961 (seed 2 asserted here: 0.957); with the probe
-    # ring (render_cached's Notes) 1.008, 0.987, 0.995, 0.985. Asserted within 2.5 % (the two
+    # rings (render_cached's Notes) 1.005, 0.992, 1.015, 1.009. Asserted within 2.5 % (the two
     # stores' chain noise, common to all pixels and in neither σ, moves the mean by ≈ 1 %:
     # the four seeds' spread after) and the bias of before (−4.3 %) excluded.
     from lsadphoto.geometry.pinhole import PinholeProjection
