@@ -654,6 +654,46 @@ def test_floor_points_inside_a_box_standing_on_the_floor_do_not_darken_the_floor
 
 
 @pytest.mark.slow
+def test_wall_of_small_triangles_just_above_a_bench_in_front_takes_its_indirect_light_at_the_pixel():
+    # The station hall's column faces just above a bench seat (docs/accuracy.md, session 13):
+    # the canonical room cut into small triangles (its sides interpolate patch points of
+    # 1 m) with a 0.45 m high bench standing 0.2 m in front of the wall x = 6; the pixels on
+    # the wall 0.02–0.3 m above the seat, whose normal ray passes over the bench (so the
+    # validity test with the normal ray alone keeps their interpolation), see the bench
+    # below them and get less E_ind than the patch points 0.5–1 m away. Reference per
+    # pixel, independent of the cache and of the render's store: ρ/π·(E_dir + E_ind) at the
+    # pixel's hit, E_dir by 64 shadow samples per luminaire and E_ind by the cache's
+    # estimator on another store (4096 node draws). Mean ratio over the 414 pixels, seeds
+    # 1–4: before 1.003, 0.957, 0.961, 0.961 (seed 2 asserted here: 0.957); with the probe
+    # rings (render_cached's Notes) 1.005, 0.992, 1.015, 1.009. Asserted within 2.5 % (the two
+    # stores' chain noise, common to all pixels and in neither σ, moves the mean by ≈ 1 %:
+    # the four seeds' spread after) and the bias of before (−4.3 %) excluded.
+    from lsadphoto.geometry.pinhole import PinholeProjection
+
+    room = _tessellated(_canonical_room_with({"type": "box", "min": [5.3, 1.0, 0.0], "max": [5.8, 3.0, 0.45],
+                                              "facing": "outward", "material": "wall"}), 3)
+    store = simulate(room, samples=2 ** 15, seed=2)
+    store.surface_cache = build_surface_cache(store, spacing=1.0, nodes=512, seed=3)
+    size = 64
+    focal = size / (2 * math.tan(math.radians(20)))
+    proj = PinholeProjection(fx=focal, fy=focal, cx=(size - 1) / 2, cy=(size - 1) / 2, width=size, height=size)
+    pose = {"position": np.array([3.0, 2.0, 0.9]), "rotation": camera_to_world([1, 0, -0.08])}
+    lmap = render(store, proj, estimator="cache", seed=6, **pose)
+    engine = engine_for(room)
+    valid, prim, dist, d = primary_rays(room, engine, proj, pose["position"], pose["rotation"])
+    x = pose["position"] + d * dist[:, None]
+    band = np.flatnonzero((prim >= 0) & (np.abs(x[:, 0] - 6) < 1e-6) & (x[:, 2] > 0.47) & (x[:, 2] < 0.75)
+                          & (np.abs(x[:, 1] - 2) < 0.8))
+    assert band.size > 300 and np.all(store.surface_cache.level[prim[band]] == 0)
+    assert lmap.provenance["pixels_estimated_without_cache"] > band.size
+    normal = np.tile([-1.0, 0, 0], (band.size, 1))
+    e_ind = indirect_illuminance(simulate(room, samples=2 ** 15, seed=52), x[band], normal, nodes=4096, seed=4, key=5)
+    e_dir, _ = direct_illuminance(room, engine, x[band], normal, samples=64, seed=5, block_ids=np.arange(band.size))
+    ref = 0.5 / math.pi * (e_dir + e_ind.mean(axis=1))
+    assert abs(np.mean(lmap.luminance.ravel()[valid][band] / ref) - 1) < 0.025
+
+
+@pytest.mark.slow
 def test_floor_under_a_low_bench_takes_its_indirect_light_at_the_pixel():
     # A 1.2 × 1.6 m bench seat 0.25 m over the canonical room's floor (a box 5 cm thick, no
     # legs), seen from 0.15 m above the floor, with a coarse cache (1 m cells, refinement

@@ -155,6 +155,11 @@ PIXEL_NEAR_RAYS = 64
 #: station hall with 1: the floor under a bench 0.12 m inside its edge (one corner outside
 #: kept) still came out 1.1–2× too bright, the columns at free distances of 1–2 supports +6 %.
 PIXEL_VALIDITY = 0.5
+#: Polar angles [°] of the two rings of 6 probe rays each (azimuths 60° apart) whose harmonic
+#: mean free distance stands for the hemisphere's in that test on small triangles' sides
+#: (:func:`_free_distance`): the middles, sin²θ = ¼ and ¾, of the two halves of the
+#: cosine-weighted hemisphere that Ward et al. sample.
+PIXEL_PROBE_POLAR_DEG = (30.0, 60.0)
 #: Pixels of one triangle side whose own estimates of E_ind share one record: those in one
 #: cube of edge ``PIXEL_RECORD`` × 2^⌊log₂ t⌋, t the free distance [m] (between t/8 and t/4: a
 #: record serves points within 0.43·t of it, inside the validity radius above).
@@ -834,8 +839,10 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     column behind a bench: E_ind halves below the points). Such a pixel takes E_ind from the
     cache's own unbiased estimator at its point instead (:func:`indirect_illuminance`, the
     cache's node draws, :data:`PIXEL_NEAR_RAYS` near-field paths per group, no bias): the
-    validity test of Ward et al. (1988), with the point's free distance along its normal for
-    their harmonic mean distance, as :attr:`SurfaceCache.clearance` does for the cache points.
+    validity test of Ward et al. (1988), with the smaller of the point's free distance along
+    its normal and the harmonic mean of 12 probe rays' (:func:`_free_distance`; small
+    triangles' sides only) for their harmonic mean distance over the hemisphere: a bench below a column's face lowers
+    E_ind there though the normal ray passes over it.
     Neighbouring such pixels share one estimate, a *record* (:func:`_pixel_records`), so that
     their cost follows the area they cover, not the view's resolution. Lambertian scenes only.
     """
@@ -895,7 +902,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                                             distant_samples=DISTANT_RAYS_PER_DIRECT_SAMPLE * direct_samples)
             side = np.where(c.front[refl], 0, 1)
             e_ind, b, support = cache.interpolate_with_bias(scene, c.triangle[refl], x, side, support=True)
-            free = engine.closest_hit(x + engine.epsilon * c.normal[refl], c.normal[refl])[1]
+            free = _free_distance(engine, x, c.normal[refl], ring=cache.level[c.triangle[refl]] == 0)
             k = (c.reflectance[refl] / math.pi)[:, None]
             unresolved = np.flatnonzero(PIXEL_VALIDITY * free < support)
             if unresolved.size:  # their E_ind comes after all chunks, from records
@@ -942,6 +949,42 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                **({} if est is None else {"glossy_rays": int(glossy_rays)}),
                "uncertainty": "noise and estimated interpolation bias in quadrature"},
         elapsed=time.perf_counter() - t0, pose=(position, rotation))
+
+
+def _free_distance(engine, x, n, *, ring):
+    """Free distance [m] in front of points ``x`` (unit normals ``n``): the distance along
+    the normal, and where ``ring`` (bool per point) the smaller of it and the harmonic mean
+    over two rings of 6 probe rays at :data:`PIXEL_PROBE_POLAR_DEG` from it (∞ where every
+    ray leaves the scene). Ward et al. (1988) take the harmonic mean of the distances their
+    cosine-weighted hemisphere samples travel; the rings sit at the middles of its two
+    halves, in fixed directions, so that a pixel's value does not depend on chunks or threads. The normal ray alone (session 12)
+    misses a surface standing beside the normal: the bench below a column's face just above
+    its seat, whose effect the patch kernel — an average over 1.5 patch sizes with a plane's
+    bias — cannot see (station hall, docs/accuracy.md session 13). :func:`render_cached`
+    asks for the rings on small triangles' sides only: a grid's points reach the triangle's
+    edges, refined where their values differ, and its second-difference bias follows a
+    concave corner's profile, where the rings, counting the adjacent surface, flagged
+    thousands of pixels for no gain (the canonical room at 512²: 5325 pixels against 74,
+    CPU 9–11 → 41–43 s)."""
+    lift = x + engine.epsilon * n
+    along = engine.closest_hit(lift, n)[1]
+    if not np.any(ring):
+        return along
+    x, n, lift = x[ring], n[ring], lift[ring]
+    a = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
+    t1 = a - np.einsum("ij,ij->i", a, n)[:, None] * n
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    t2 = np.cross(n, t1)
+    inverse = np.zeros(len(x))
+    rays = 0
+    with np.errstate(divide="ignore"):
+        for polar in np.radians(PIXEL_PROBE_POLAR_DEG):
+            for azimuth in np.radians(np.arange(0.0, 360.0, 60.0)):
+                d = math.cos(polar) * n + math.sin(polar) * (math.cos(azimuth) * t1 + math.sin(azimuth) * t2)
+                inverse += 1.0 / engine.closest_hit(lift, d)[1]  # 0 for a ray that leaves the scene
+                rays += 1
+        along[ring] = np.minimum(along[ring], rays / inverse)
+    return along
 
 
 def _pixel_records(est, x, n, free, side, block, *, workers):
