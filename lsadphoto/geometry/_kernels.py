@@ -507,15 +507,14 @@ def _field_row(d, ok, n, v, u, h, method, cap, angles, field, s_row, t_row, p_ro
                 p_row[j] = exp_bounded((s - centre) / width)
         elif not guth:  # evalglare, every pixel below the line of sight: Iwata
             for j in range(n):
-                b = p_row[j] * _DEGREES
-                value = exp_bounded(6.49e-3 * b + 21e-5 * b * b)
+                value = exp_bounded(_iwata_exponent(p_row[j] * _DEGREES))
                 p_row[j] = cap if value > cap else value  # noqa: FURB136 (NaN stays NaN, as np.minimum)
         else:
             for j in range(n):
                 exponent = _guth_exponent(s_row[j] * _DEGREES, t_row[j] * _DEGREES)
                 if beta:  # evalglare: Iwata below the line of sight
-                    b = p_row[j] * _DEGREES
-                    exponent = 6.49e-3 * b + 21e-5 * b * b if t_row[j] > half_pi else exponent
+                    exponent = _iwata_exponent(p_row[j] * _DEGREES) if t_row[j] > half_pi \
+                        else exponent
                 value = exp_bounded(exponent)
                 p_row[j] = cap if value > cap else value  # noqa: FURB136 (NaN stays NaN, as np.minimum)
     for j in range(n, total):  # the mirrored half, where there is one
@@ -770,6 +769,13 @@ def _guth_exponent(s, t):
     """ln of position_index_Guth with σ, τ already in degrees."""
     return ((35.2 - 0.31889 * t - 1.22 * exp_bounded(-2.0 * t / 9.0)) * 1e-3 * s
             + (21.0 + 0.26667 * t - 0.002963 * t * t) * 1e-5 * s * s)
+
+
+@njit(inline="always", **_OPTIONS)
+def _iwata_exponent(b):
+    """ln of Iwata's position index below the line of sight with β in degrees (as
+    :func:`~lsadphoto.geometry.position_index.position_index_Iwata`)."""
+    return 6.49e-3 * b + 21e-5 * b * b
 
 
 @njit(parallel=True, **_OPTIONS,
