@@ -82,7 +82,7 @@ from numba import njit
 
 from ..._validation import check_positive_int
 from ...errors import BadInputError
-from .._sampling import cosine_directions, stream
+from .._sampling import cosine_directions, orthonormal_basis, stream
 from ..cache_grid import PATCH_KERNEL, SurfaceCache, cells_over_contrast, grid_index, patch_neighbours, patch_sides
 from ..direct import (ALL_LUMINAIRES_UP_TO, DIRECT_SAMPLES, LuminaireTable, direct_illuminance,
                       sampled_direct_illuminance)
@@ -971,10 +971,7 @@ def _free_distance(engine, x, n, *, ring):
     if not np.any(ring):
         return along
     x, n, lift = x[ring], n[ring], lift[ring]
-    a = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    t1 = a - np.einsum("ij,ij->i", a, n)[:, None] * n
-    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
-    t2 = np.cross(n, t1)
+    t1, t2 = orthonormal_basis(n)
     inverse = np.zeros(len(x))
     rays = 0
     with np.errstate(divide="ignore"):
