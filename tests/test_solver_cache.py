@@ -24,6 +24,7 @@ from lsadphoto.io import read_exr
 from lsadphoto.solver import (
     camera_to_world,
     load_store,
+    read_scene,
     render,
     scene_from_dict,
     simulate,
@@ -691,6 +692,50 @@ def test_wall_of_small_triangles_just_above_a_bench_in_front_takes_its_indirect_
     e_dir, _ = direct_illuminance(room, engine, x[band], normal, samples=64, seed=5, block_ids=np.arange(band.size))
     ref = 0.5 / math.pi * (e_dir + e_ind.mean(axis=1))
     assert abs(np.mean(lmap.luminance.ravel()[valid][band] / ref) - 1) < 0.025
+
+
+@pytest.mark.slow
+def test_column_top_above_the_luminaires_takes_its_indirect_light_at_the_pixel(tmp_path):
+    # The station hall's column tops above the luminaires' plane (docs/accuracy.md, session
+    # 14): the 0.35-scale hall of the accuracy benchmark (columns of 2 m × 0.31 m facets to
+    # 6 m, point luminaires at 5.5 m beside them), a narrow view of the top 0.4 m of the
+    # nearest column. E_ind there falls by a third from 5 m to 6 m (no direct light above
+    # the luminaires' plane, the lit column faces below it seen less and less), while the
+    # top patch's points lie at 4.7 and 5.3 m, all below these pixels: the kernel
+    # extrapolates from one side, and neither its plane nor the probe rings (nothing near)
+    # see it. With the lean test (render_cached's Notes) the pixels take E_ind at their own
+    # point. Reference per pixel, independent of the cache and of the render's store:
+    # ρ/π·(E_dir + E_ind) at the pixel's hit, E_dir by 64 shadow samples per luminaire and
+    # E_ind by the cache's estimator on another store (16 384 node draws). Mean ratio over
+    # the 244 pixels, seeds 1–3: before 1.114, 1.170, 1.225; after 1.018, 1.031, 1.050
+    # (seed 2 asserted). Asserted within 6 %: the two stores' chain noise is common to all
+    # pixels and in neither σ (the seeds' spread, ±2–5 %), and the bias of before (+17 %) is
+    # excluded.
+    from lsadphoto.datasets.hall import make_station_hall
+    from lsadphoto.geometry.pinhole import PinholeProjection
+
+    hall = read_scene(make_station_hall(tmp_path, length=21.0, width=10.0, luminaires=42, detail=0.35,
+                                        view_size=16))
+    store = simulate(hall, samples=2 ** 16, seed=2)
+    store.surface_cache = build_surface_cache(store, nodes=4096, seed=3)
+    size = 48
+    focal = size / (2 * math.tan(math.radians(6)))
+    proj = PinholeProjection(fx=focal, fy=focal, cx=(size - 1) / 2, cy=(size - 1) / 2, width=size, height=size)
+    eye = np.array([3.0, 5.0, 1.6])
+    pose = {"position": eye, "rotation": camera_to_world(np.array([3.6, 6.5, 5.6]) - eye)}
+    lmap = render(store, proj, estimator="cache", seed=7, **pose)
+    engine = engine_for(hall)
+    valid, prim, dist, d = primary_rays(hall, engine, proj, pose["position"], pose["rotation"])
+    x = eye + d * dist[:, None]
+    band = np.flatnonzero((prim >= 0) & (x[:, 2] > 5.55) & (x[:, 2] < 5.95)
+                          & (np.hypot(x[:, 0] - 3.675, x[:, 1] - 6.6667) < 0.41))
+    assert band.size > 200 and np.all(store.surface_cache.level[prim[band]] == 0)
+    normal, _ = hall.facing_normals(prim[band], d[band])
+    e_ind = indirect_illuminance(simulate(hall, samples=2 ** 16, seed=52), x[band], normal, nodes=16384, seed=4,
+                                 key=5)
+    e_dir, _ = direct_illuminance(hall, engine, x[band], normal, samples=64, seed=5, block_ids=np.arange(band.size))
+    ref = 0.4 / math.pi * (e_dir + e_ind.mean(axis=1))
+    assert abs(np.mean(lmap.luminance.ravel()[valid][band] / ref) - 1) < 0.06
 
 
 @pytest.mark.slow
