@@ -707,10 +707,10 @@ def test_column_top_above_the_luminaires_takes_its_indirect_light_at_the_pixel(t
     # point. Reference per pixel, independent of the cache and of the render's store:
     # ρ/π·(E_dir + E_ind) at the pixel's hit, E_dir by 64 shadow samples per luminaire and
     # E_ind by the cache's estimator on another store (16 384 node draws). Mean ratio over
-    # the 244 pixels, seeds 1–3: before 1.114, 1.170, 1.225; after 1.018, 1.031, 1.050
+    # the 244 pixels, seeds 1–3: before 1.114, 1.170, 1.225; after 0.971, 0.979, 1.009
     # (seed 2 asserted). Asserted within 6 %: the two stores' chain noise is common to all
-    # pixels and in neither σ (the seeds' spread, ±2–5 %), and the bias of before (+17 %) is
-    # excluded.
+    # pixels and in neither σ (the seeds' spread, ±2–5 % before and after), and the bias of
+    # before (+17 % at seed 2) is excluded.
     from lsadphoto.datasets.hall import make_station_hall
     from lsadphoto.geometry.pinhole import PinholeProjection
 

@@ -172,9 +172,9 @@ PIXEL_LEAN = 0.8
 #: cube of edge ``PIXEL_RECORD`` × 2^⌊log₂ t⌋, t the distance [m] to the nearest surface that
 #: the pixel's normal ray and probe rays meet (between t/8 and t/4: a record serves points
 #: within 0.43·t of it). Session 12 took t from the validity test's free distance; on patch
-#: pixels that is a harmonic mean, and a column face 0.09 m above a bench seat shared the
-#: estimate of a point up to 0.1 m lower, where E_ind was 15 % less (docs/accuracy.md,
-#: session 14).
+#: pixels that is a harmonic mean, and a column face 0.09 m above a bench seat (free distance
+#: 0.71 m, nearest surface 0.27 m) shared the estimate of any point in its cube of 0.125 m,
+#: while E_ind falls by 17 % within 0.06 m below it (docs/accuracy.md, session 14).
 PIXEL_RECORD = 0.25
 
 _NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
