@@ -570,6 +570,45 @@ def test_patch_interpolation_keeps_parallel_sheets_apart():
     assert np.all(cache.interpolate(scene, t, x, np.ones(400, int)) == 0.0)
 
 
+def test_patch_kernel_lean_marks_pixels_beyond_their_points():
+    # The lean of the patch kernel (interpolate_with_bias(support=True)): the distance from a
+    # point to its kernel points' weighted centroid on the tangent plane. On a face of the
+    # closed column above (0.4 × 3 m, cut into small triangles; patch points at 0.5, 1.38 and
+    # 2.38–2.5 m), a point below the lowest points or above the highest sees them all on one
+    # side: lean ≈ support (measured 0.95–0.98 of it at 0.1, 0.3 and 2.9 m), which the render's
+    # lean test (PIXEL_LEAN = 0.8) marks as an extrapolation; a point between points has a
+    # small lean (0.06–0.11 of the support at 1.0, 1.5 and 2.0 m). Asserted against those
+    # bounds with margin; and 0 ≤ lean ≤ support everywhere (|Σ w·u|/Σ w ≤ Σ w·|x − q|/Σ w).
+    from lsadphoto.solver.integrators.surface_cache import PIXEL_LEAN
+
+    scene = scene_from_dict({
+        "materials": {"grey": {"reflectance": 0.5}},
+        "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [4, 4, 3], "facing": "inward",
+                      "material": "grey"},
+                     {"type": "box", "min": [1.8, 1.8, 0], "max": [2.2, 2.2, 3], "facing": "outward",
+                      "material": "grey"}],
+        "luminaires": [{"type": "point", "position": [1, 1, 2.5], "flux": 1000}],
+    })
+    scene = _tessellated(scene, 3)
+    cache = build_surface_cache(simulate(scene, samples=512, seed=1), spacing=1.0, nodes=16, patch_refine=0,
+                                seed=2)
+    z = np.array([0.1, 0.3, 2.9, 1.0, 1.5, 2.0])
+    x = np.column_stack([np.full(z.size, 1.8), np.full(z.size, 2.0), z])
+    prim = engine_for(scene).closest_hit(x - [0.8, 0, 0], np.tile([1.0, 0, 0], (z.size, 1)))[0]
+    assert np.all(cache.level[prim] == 0)
+    side = np.where(scene.normals[prim, 0] < 0, 0, 1)  # the side facing −x, out of the column
+    _, _, support, lean = cache.interpolate_with_bias(scene, prim, x, side, support=True)
+    ratio = lean / support
+    assert np.all(ratio[:3] > 0.9) and PIXEL_LEAN < 0.9
+    assert np.all(ratio[3:] < 0.25)
+    column = np.flatnonzero(np.all((scene.triangles[:, :, :2] > 1.7) & (scene.triangles[:, :, :2] < 2.3),
+                                   axis=(1, 2)) & (np.abs(scene.normals[:, 2]) < 0.5))
+    t = np.random.default_rng(3).choice(column, 300)
+    centre = scene.triangles[t].mean(axis=1)
+    _, _, support, lean = cache.interpolate_with_bias(scene, t, centre, np.zeros(300, int), support=True)
+    assert np.all(lean >= 0) and np.all(lean <= support * (1 + 1e-12))
+
+
 def _canonical_room_with(surface):
     """The canonical room (its TOML with an 8 × 8 px view) with one more surface (a TOML surface table)."""
     import tomllib
