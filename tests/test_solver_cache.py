@@ -24,6 +24,7 @@ from lsadphoto.io import read_exr
 from lsadphoto.solver import (
     camera_to_world,
     load_store,
+    read_scene,
     render,
     scene_from_dict,
     simulate,
@@ -569,6 +570,45 @@ def test_patch_interpolation_keeps_parallel_sheets_apart():
     assert np.all(cache.interpolate(scene, t, x, np.ones(400, int)) == 0.0)
 
 
+def test_patch_kernel_lean_marks_pixels_beyond_their_points():
+    # The lean of the patch kernel (interpolate_with_bias(support=True)): the distance from a
+    # point to its kernel points' weighted centroid on the tangent plane. On a face of the
+    # closed column above (0.4 × 3 m, cut into small triangles; patch points at 0.5, 1.38 and
+    # 2.38–2.5 m), a point below the lowest points or above the highest sees them all on one
+    # side: lean ≈ support (measured 0.95–0.98 of it at 0.1, 0.3 and 2.9 m), which the render's
+    # lean test (PIXEL_LEAN = 0.8) marks as an extrapolation; a point between points has a
+    # small lean (0.06–0.11 of the support at 1.0, 1.5 and 2.0 m). Asserted against those
+    # bounds with margin; and 0 ≤ lean ≤ support everywhere (|Σ w·u|/Σ w ≤ Σ w·|x − q|/Σ w).
+    from lsadphoto.solver.integrators.surface_cache import PIXEL_LEAN
+
+    scene = scene_from_dict({
+        "materials": {"grey": {"reflectance": 0.5}},
+        "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [4, 4, 3], "facing": "inward",
+                      "material": "grey"},
+                     {"type": "box", "min": [1.8, 1.8, 0], "max": [2.2, 2.2, 3], "facing": "outward",
+                      "material": "grey"}],
+        "luminaires": [{"type": "point", "position": [1, 1, 2.5], "flux": 1000}],
+    })
+    scene = _tessellated(scene, 3)
+    cache = build_surface_cache(simulate(scene, samples=512, seed=1), spacing=1.0, nodes=16, patch_refine=0,
+                                seed=2)
+    z = np.array([0.1, 0.3, 2.9, 1.0, 1.5, 2.0])
+    x = np.column_stack([np.full(z.size, 1.8), np.full(z.size, 2.0), z])
+    prim = engine_for(scene).closest_hit(x - [0.8, 0, 0], np.tile([1.0, 0, 0], (z.size, 1)))[0]
+    assert np.all(cache.level[prim] == 0)
+    side = np.where(scene.normals[prim, 0] < 0, 0, 1)  # the side facing −x, out of the column
+    _, _, support, lean = cache.interpolate_with_bias(scene, prim, x, side, support=True)
+    ratio = lean / support
+    assert np.all(ratio[:3] > 0.9) and PIXEL_LEAN < 0.9
+    assert np.all(ratio[3:] < 0.25)
+    column = np.flatnonzero(np.all((scene.triangles[:, :, :2] > 1.7) & (scene.triangles[:, :, :2] < 2.3),
+                                   axis=(1, 2)) & (np.abs(scene.normals[:, 2]) < 0.5))
+    t = np.random.default_rng(3).choice(column, 300)
+    centre = scene.triangles[t].mean(axis=1)
+    _, _, support, lean = cache.interpolate_with_bias(scene, t, centre, np.zeros(300, int), support=True)
+    assert np.all(lean >= 0) and np.all(lean <= support * (1 + 1e-12))
+
+
 def _canonical_room_with(surface):
     """The canonical room (its TOML with an 8 × 8 px view) with one more surface (a TOML surface table)."""
     import tomllib
@@ -691,6 +731,50 @@ def test_wall_of_small_triangles_just_above_a_bench_in_front_takes_its_indirect_
     e_dir, _ = direct_illuminance(room, engine, x[band], normal, samples=64, seed=5, block_ids=np.arange(band.size))
     ref = 0.5 / math.pi * (e_dir + e_ind.mean(axis=1))
     assert abs(np.mean(lmap.luminance.ravel()[valid][band] / ref) - 1) < 0.025
+
+
+@pytest.mark.slow
+def test_column_top_above_the_luminaires_takes_its_indirect_light_at_the_pixel(tmp_path):
+    # The station hall's column tops above the luminaires' plane (docs/accuracy.md, session
+    # 14): the 0.35-scale hall of the accuracy benchmark (columns of 2 m × 0.31 m facets to
+    # 6 m, point luminaires at 5.5 m beside them), a narrow view of the top 0.4 m of the
+    # nearest column. E_ind there falls by a third from 5 m to 6 m (no direct light above
+    # the luminaires' plane, the lit column faces below it seen less and less), while the
+    # top patch's points lie at 4.7 and 5.3 m, all below these pixels: the kernel
+    # extrapolates from one side, and neither its plane nor the probe rings (nothing near)
+    # see it. With the lean test (render_cached's Notes) the pixels take E_ind at their own
+    # point. Reference per pixel, independent of the cache and of the render's store:
+    # ρ/π·(E_dir + E_ind) at the pixel's hit, E_dir by 64 shadow samples per luminaire and
+    # E_ind by the cache's estimator on another store (16 384 node draws). Mean ratio over
+    # the 244 pixels, seeds 1–3: before 1.114, 1.170, 1.225; after 0.971, 0.979, 1.009
+    # (seed 2 asserted). Asserted within 6 %: the two stores' chain noise is common to all
+    # pixels and in neither σ (the seeds' spread, ±2–5 % before and after), and the bias of
+    # before (+17 % at seed 2) is excluded.
+    from lsadphoto.datasets.hall import make_station_hall
+    from lsadphoto.geometry.pinhole import PinholeProjection
+
+    hall = read_scene(make_station_hall(tmp_path, length=21.0, width=10.0, luminaires=42, detail=0.35,
+                                        view_size=16))
+    store = simulate(hall, samples=2 ** 16, seed=2)
+    store.surface_cache = build_surface_cache(store, nodes=4096, seed=3)
+    size = 48
+    focal = size / (2 * math.tan(math.radians(6)))
+    proj = PinholeProjection(fx=focal, fy=focal, cx=(size - 1) / 2, cy=(size - 1) / 2, width=size, height=size)
+    eye = np.array([3.0, 5.0, 1.6])
+    pose = {"position": eye, "rotation": camera_to_world(np.array([3.6, 6.5, 5.6]) - eye)}
+    lmap = render(store, proj, estimator="cache", seed=7, **pose)
+    engine = engine_for(hall)
+    valid, prim, dist, d = primary_rays(hall, engine, proj, pose["position"], pose["rotation"])
+    x = eye + d * dist[:, None]
+    band = np.flatnonzero((prim >= 0) & (x[:, 2] > 5.55) & (x[:, 2] < 5.95)
+                          & (np.hypot(x[:, 0] - 3.675, x[:, 1] - 6.6667) < 0.41))
+    assert band.size > 200 and np.all(store.surface_cache.level[prim[band]] == 0)
+    normal, _ = hall.facing_normals(prim[band], d[band])
+    e_ind = indirect_illuminance(simulate(hall, samples=2 ** 16, seed=52), x[band], normal, nodes=16384, seed=4,
+                                 key=5)
+    e_dir, _ = direct_illuminance(hall, engine, x[band], normal, samples=64, seed=5, block_ids=np.arange(band.size))
+    ref = 0.4 / math.pi * (e_dir + e_ind.mean(axis=1))
+    assert abs(np.mean(lmap.luminance.ravel()[valid][band] / ref) - 1) < 0.06
 
 
 @pytest.mark.slow

@@ -257,11 +257,14 @@ def _patch_weight(x, n, i, point, normal, clearance, j, r2):
 
 @njit(**_NUMBA)
 def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, values, with_bias, out,
-                  bias, support):
+                  bias, support, lean):
     """out[i] = the kernel average of ``values`` over the patches near point i (see
     :meth:`SurfaceCache.interpolate`), its own patch's value where none qualifies;
     support[i] = the weights' mean distance [m] from point i to those patch points (to its
-    own patch's point where none qualifies); and, with
+    own patch's point where none qualifies); lean[i] = the length [m] of the weights' centroid
+    ū of the patch points' offsets on the tangent plane (defined below; ≈ support[i] where
+    all of them lie on one side of x, the average then an extrapolation; support[i] where
+    none qualifies); and, with
     ``with_bias``, bias[i] = that average's first-order bias per group: g·ū, ū the weights'
     centroid of the patch points' offsets u_j = q_j − x projected on the tangent plane, g the
     gradient of a weighted least-squares plane through their values (g = (C + λI)⁻¹ Σ w_j
@@ -294,6 +297,8 @@ def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, val
         count = 0
         total = 0.0
         reach = 0.0
+        u0 = 0.0
+        u1 = 0.0
         for g in range(G):
             out[i, g] = 0.0
             bias[i, g] = 0.0
@@ -304,6 +309,8 @@ def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, val
                 continue
             total += w
             reach += w * math.sqrt(dx * dx + dy * dy + dz * dz)
+            u0 += w * (dx * t1x + dy * t1y + dz * t1z)
+            u1 += w * (dx * t2x + dy * t2y + dz * t2z)
             for g in range(G):
                 out[i, g] += w * values[j, g]
             if with_bias:
@@ -316,11 +323,13 @@ def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, val
             for g in range(G):
                 out[i, g] /= total
             support[i] = reach / total
+            lean[i] = math.sqrt(u0 * u0 + u1 * u1) / total
         else:
             for g in range(G):
                 out[i, g] = values[c, g]
             support[i] = math.sqrt((point[c, 0] - x[i, 0]) ** 2 + (point[c, 1] - x[i, 1]) ** 2
                                    + (point[c, 2] - x[i, 2]) ** 2)
+            lean[i] = support[i]
         if not with_bias or count < 2 or total <= 0:
             continue
         m0 = 0.0
@@ -496,13 +505,17 @@ class SurfaceCache:
         the coarse interpolation, :meth:`_borderline_bias`; the patches of small triangles: the kernel average's first-order
         bias, :func:`_patch_kernel`). With ``support``, also the interpolation's support
         distance [m], shape (n,): the weights' mean distance from each point to the cache
-        points that interpolate it (the bias estimate sees E_ind only at that distance)."""
-        value, bias, distance = self._interpolate(scene, prim, x, side, True)
-        return (value, bias, distance) if support else (value, bias)
+        points that interpolate it (the bias estimate sees E_ind only at that distance), and
+        its lean [m], shape (n,): on small triangles the distance from each point to those
+        points' weighted centroid on its tangent plane (near the support distance where they
+        all lie on one side: an extrapolation; :func:`_patch_kernel`), 0 on grid triangles,
+        whose cells enclose the point."""
+        value, bias, distance, lean = self._interpolate(scene, prim, x, side, True)
+        return (value, bias, distance, lean) if support else (value, bias)
 
     def _interpolate(self, scene, prim, x, side, with_bias):
         """E_ind per group, shape (n, groups), with ``with_bias`` its bias (else None), and
-        the support distance [m], shape (n,) (:meth:`interpolate_with_bias`): the grid's
+        the support distance and lean [m], shape (n,) each (:meth:`interpolate_with_bias`): the grid's
         interpolation where ``prim`` has a grid (level ≥ 1), the patches' kernel average on
         small triangles (level 0)."""
         prim = np.asarray(prim)
@@ -513,6 +526,7 @@ class SurfaceCache:
         value = np.zeros((len(prim), self.values.shape[1]))
         bias = np.zeros_like(value) if with_bias else None
         distance = np.zeros(len(prim))
+        lean = np.zeros(len(prim))
         grid = np.flatnonzero(m >= 1)
         if grid.size:
             index, weight, cells = self._cells(scene, prim[grid], x[grid], side[grid])
@@ -530,11 +544,11 @@ class SurfaceCache:
                 bias[grid] = b
         small = np.flatnonzero(m == 0)
         if small.size:
-            value[small], b, distance[small] = self._on_patches(scene, prim[small], x[small], side[small],
-                                                                with_bias)
+            value[small], b, distance[small], lean[small] = self._on_patches(scene, prim[small], x[small],
+                                                                             side[small], with_bias)
             if with_bias:
                 bias[small] = b
-        return value, bias, distance
+        return value, bias, distance, lean
 
     def _seen(self, scene, x, normal, index, weight):
         """The corner weights (n, 3) of points ``x`` (unit normals ``normal`` of their side)
@@ -618,7 +632,7 @@ class SurfaceCache:
     def _on_patches(self, scene, prim, x, side, with_bias):
         """:func:`_patch_kernel` at points ``x`` on small triangles ``prim``, side 0 (front)
         or 1: the kernel average and its bias (zeros without ``with_bias``), each (n, groups),
-        and the support distance [m], (n,)."""
+        and the support distance and lean [m], (n,) each."""
         own = self.patch[prim, side]
         if np.any(own < 0):
             raise BadInputError("surface cache lacks a triangle seen in this view (a stale cache?)")
@@ -627,10 +641,11 @@ class SurfaceCache:
         value = np.empty((len(prim), self.values.shape[1]))
         bias = np.empty_like(value)
         support = np.empty(len(prim))
+        lean = np.empty(len(prim))
         _patch_kernel(np.ascontiguousarray(x, dtype=np.float64), n, own,
                       np.ascontiguousarray(self.positions[self.patch_row]),
                       np.ascontiguousarray(self.patch_normal),
                       np.ascontiguousarray(self.clearance[self.patch_row]), self.patch_radius,
                       self.patch_start, self.patch_index,
-                      np.ascontiguousarray(self.values[self.patch_row]), with_bias, value, bias, support)
-        return value, bias, support
+                      np.ascontiguousarray(self.values[self.patch_row]), with_bias, value, bias, support, lean)
+        return value, bias, support, lean

@@ -82,7 +82,7 @@ from numba import njit
 
 from ..._validation import check_positive_int
 from ...errors import BadInputError
-from .._sampling import cosine_directions, stream
+from .._sampling import cosine_directions, orthonormal_basis, stream
 from ..cache_grid import PATCH_KERNEL, SurfaceCache, cells_over_contrast, grid_index, patch_neighbours, patch_sides
 from ..direct import (ALL_LUMINAIRES_UP_TO, DIRECT_SAMPLES, LuminaireTable, direct_illuminance,
                       sampled_direct_illuminance)
@@ -160,9 +160,21 @@ PIXEL_VALIDITY = 0.5
 #: (:func:`_free_distance`): the middles, sin²θ = ¼ and ¾, of the two halves of the
 #: cosine-weighted hemisphere that Ward et al. sample.
 PIXEL_PROBE_POLAR_DEG = (30.0, 60.0)
+#: On small triangles' sides a pixel's E_ind is interpolated only where the lean of its patch
+#: kernel (the distance from the pixel to the weighted centroid of the patch points' offsets
+#: on its tangent plane, :meth:`SurfaceCache.interpolate_with_bias`) is at most this fraction
+#: of the support distance: beyond it the points lie within ±37° (cos⁻¹ 0.8) of one direction
+#: as seen from the pixel, and the kernel extrapolates from one side — the top of a column
+#: above the luminaires' plane, where E_ind falls by a third within the top patch, below
+#: its points (docs/accuracy.md, session 14).
+PIXEL_LEAN = 0.8
 #: Pixels of one triangle side whose own estimates of E_ind share one record: those in one
-#: cube of edge ``PIXEL_RECORD`` × 2^⌊log₂ t⌋, t the free distance [m] (between t/8 and t/4: a
-#: record serves points within 0.43·t of it, inside the validity radius above).
+#: cube of edge ``PIXEL_RECORD`` × 2^⌊log₂ t⌋, t the distance [m] to the nearest surface that
+#: the pixel's normal ray and probe rays meet (between t/8 and t/4: a record serves points
+#: within 0.43·t of it). Session 12 took t from the validity test's free distance; on patch
+#: pixels that is a harmonic mean, and a column face 0.09 m above a bench seat (free distance
+#: 0.71 m, nearest surface 0.27 m) shared the estimate of any point in its cube of 0.125 m,
+#: while E_ind falls by 17 % within 0.06 m below it (docs/accuracy.md, session 14).
 PIXEL_RECORD = 0.25
 
 _NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
@@ -842,9 +854,17 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     validity test of Ward et al. (1988), with the smaller of the point's free distance along
     its normal and the harmonic mean of 12 probe rays' (:func:`_free_distance`; small
     triangles' sides only) for their harmonic mean distance over the hemisphere: a bench below a column's face lowers
-    E_ind there though the normal ray passes over it.
+    E_ind there though the normal ray passes over it. On small triangles' sides a pixel whose
+    patch kernel leans to one side — its points' weighted centroid on the tangent plane lies
+    farther than :data:`PIXEL_LEAN` times the support distance from the pixel, so that the
+    kernel extrapolates — takes E_ind at its point too: the top of a column above the
+    luminaires' plane, where E_ind falls beyond the top patch's points with nothing near to
+    flag it.
     Neighbouring such pixels share one estimate, a *record* (:func:`_pixel_records`), so that
-    their cost follows the area they cover, not the view's resolution. Lambertian scenes only.
+    their cost follows the area they cover, not the view's resolution; its size follows the
+    distance to the nearest surface that the probe rays meet (the harmonic mean lets a bench
+    seat just below a column face count little, while E_ind changes within that distance).
+    Lambertian scenes only.
     """
     if not isinstance(store, LsadStore):
         raise BadInputError("render_cached needs an LsadStore (simulate the scene first)")
@@ -878,7 +898,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
         store, engine, nodes=nodes, near_distance=near_distance,
         direct_samples=cache.provenance.get("direct_samples", DIRECT_SAMPLES), seed=seed, key=2,
         near_rays=PIXEL_NEAR_RAYS)
-    # the pixels that take E_ind from records (Notes): their point, normal, free distance [m],
+    # the pixels that take E_ind from records (Notes): their point, normal, nearest surface [m],
     # stream block, triangle side and ρ/π
     own = np.zeros(valid.size, dtype=bool)
     own_point, own_normal = np.zeros((valid.size, 3)), np.zeros((valid.size, 3))
@@ -901,17 +921,17 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                                             block_ids=c.block[refl], luminaires=luminaires,
                                             distant_samples=DISTANT_RAYS_PER_DIRECT_SAMPLE * direct_samples)
             side = np.where(c.front[refl], 0, 1)
-            e_ind, b, support = cache.interpolate_with_bias(scene, c.triangle[refl], x, side, support=True)
-            free = _free_distance(engine, x, c.normal[refl], ring=cache.level[c.triangle[refl]] == 0)
+            e_ind, b, support, lean = cache.interpolate_with_bias(scene, c.triangle[refl], x, side, support=True)
+            free, nearest = _free_distance(engine, x, c.normal[refl], ring=cache.level[c.triangle[refl]] == 0)
             k = (c.reflectance[refl] / math.pi)[:, None]
-            unresolved = np.flatnonzero(PIXEL_VALIDITY * free < support)
+            unresolved = np.flatnonzero((PIXEL_VALIDITY * free < support) | (lean > PIXEL_LEAN * support))
             if unresolved.size:  # their E_ind comes after all chunks, from records
                 e_ind[unresolved] = 0.0
                 b[unresolved] = 0.0
                 rows = c.index[refl][unresolved]
                 own[rows] = True
                 own_point[rows], own_normal[rows] = x[unresolved], c.normal[refl][unresolved]
-                own_free[rows], own_block[rows] = free[unresolved], c.block[refl][unresolved]
+                own_free[rows], own_block[rows] = nearest[unresolved], c.block[refl][unresolved]
                 own_side[rows] = 2 * c.triangle[refl][unresolved] + side[unresolved]
                 own_k[rows] = k[unresolved, 0]
             out[refl] += k * (e_dir[:, None] + e_ind)
@@ -955,7 +975,8 @@ def _free_distance(engine, x, n, *, ring):
     """Free distance [m] in front of points ``x`` (unit normals ``n``): the distance along
     the normal, and where ``ring`` (bool per point) the smaller of it and the harmonic mean
     over two rings of 6 probe rays at :data:`PIXEL_PROBE_POLAR_DEG` from it (∞ where every
-    ray leaves the scene). Ward et al. (1988) take the harmonic mean of the distances their
+    ray leaves the scene); and the distance [m] to the nearest surface that those rays meet
+    (the normal ray's where not ``ring``), which sizes a pixel's record (:func:`_pixel_records`). Ward et al. (1988) take the harmonic mean of the distances their
     cosine-weighted hemisphere samples travel; the rings sit at the middles of its two
     halves, in fixed directions, so that a pixel's value does not depend on chunks or threads. The normal ray alone (session 12)
     misses a surface standing beside the normal: the bench below a column's face just above
@@ -969,29 +990,31 @@ def _free_distance(engine, x, n, *, ring):
     lift = x + engine.epsilon * n
     along = engine.closest_hit(lift, n)[1]
     if not np.any(ring):
-        return along
+        return along, along.copy()
+    nearest = along.copy()
     x, n, lift = x[ring], n[ring], lift[ring]
-    a = np.where((np.abs(n[:, 0]) < 0.9)[:, None], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
-    t1 = a - np.einsum("ij,ij->i", a, n)[:, None] * n
-    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
-    t2 = np.cross(n, t1)
+    t1, t2 = orthonormal_basis(n)
     inverse = np.zeros(len(x))
+    near = along[ring]
     rays = 0
     with np.errstate(divide="ignore"):
         for polar in np.radians(PIXEL_PROBE_POLAR_DEG):
             for azimuth in np.radians(np.arange(0.0, 360.0, 60.0)):
                 d = math.cos(polar) * n + math.sin(polar) * (math.cos(azimuth) * t1 + math.sin(azimuth) * t2)
-                inverse += 1.0 / engine.closest_hit(lift, d)[1]  # 0 for a ray that leaves the scene
+                hit = engine.closest_hit(lift, d)[1]
+                inverse += 1.0 / hit  # 0 for a ray that leaves the scene
+                near = np.minimum(near, hit)
                 rays += 1
+        nearest[ring] = near
         along[ring] = np.minimum(along[ring], rays / inverse)
-    return along
+    return along, nearest
 
 
 def _pixel_records(est, x, n, free, side, block, *, workers):
-    """E_ind [lx] per group, shape (P, groups), at pixel points ``x`` (normals ``n``, free
-    distances ``free`` [m], triangle sides ``side``, stream blocks ``block``; in the view's
-    pixel order) from records: the pixels of one side in one cube of edge
-    :data:`PIXEL_RECORD` × 2^⌊log₂ t⌋ (the same power of two of their free distance t) take
+    """E_ind [lx] per group, shape (P, groups), at pixel points ``x`` (normals ``n``, distances
+    ``free`` [m] to their nearest surface, triangle sides ``side``, stream blocks ``block``; in
+    the view's pixel order) from records: the pixels of one side in one cube of edge
+    :data:`PIXEL_RECORD` × 2^⌊log₂ t⌋ (the same power of two of their distance t) take
     ``est``'s estimate at the first of them, drawn from that pixel's block's streams (so the
     map depends neither on chunks nor on threads); and the number of records."""
     scale = np.exp2(np.floor(np.log2(np.maximum(free, est.engine.epsilon))))  # 0 where surfaces touch
