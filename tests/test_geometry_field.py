@@ -377,21 +377,35 @@ MIRRORED_CAMERAS = {  # 2·cy a whole number: rows computed with their mirror im
     "low centre": IdealFisheyeProjection("stereographic", 90.0, 110.0, 70.0, 200.0, 181, 149),
     "opencv": OpenCVFisheyeProjection(60.0, 60.0, 101.7, 74.0, (0.05, -0.01, 0.003, -0.0005),
                                       203, 149),
+    # 2·cx a whole number too: columns right of cx copied from their mirror images.
+    "opencv, centred columns": OpenCVFisheyeProjection(
+        60.0, 61.0, 101.0, 74.0, (0.05, -0.01, 0.003, -0.0005), 203, 149),
+    # cx left of the middle, the circle cut by the left edge: the columns right of the mirror
+    # image of column 0 are computed on their own.
+    "left centre": IdealFisheyeProjection("equidistant", 60.5, 74.0, 72.0, 185.0, 201, 149),
+    "opencv, right centre": OpenCVFisheyeProjection(
+        55.0, 55.0, 140.0, 74.5, (0.02, -0.004, 0.001, -0.0002), 203, 150),
 }
+#: Cameras of MIRRORED_CAMERAS whose columns mirror (2·cx a whole number).
+MIRRORED_COLUMNS = {"centred, odd rows", "centred, even rows", "low centre",
+                    "opencv, centred columns", "left centre", "opencv, right centre"}
 
 
 @pytest.mark.parametrize("name", MIRRORED_CAMERAS)
 @pytest.mark.parametrize("field", [False, True])
 def test_mirrored_rows_equal_rows_computed_one_by_one(monkeypatch, name, field):
     """Where 2·cy is a whole number, the geometry pass computes each row above the centre
-    with its mirror image below (the directions with y negated). Reference: the same kernel
-    with no mirror, every row computed from its own coordinates; equal bit for bit, maps
-    with and without the stored directions, with and without the visual field."""
+    with its mirror image below (the directions with y negated); where 2·cx is, the columns
+    right of the centre from their mirror images (x negated). Reference: the same kernel
+    with neither mirror, every row and column computed from its own coordinates; equal bit
+    for bit, maps with and without the stored directions, with and without the visual
+    field."""
     from lsadphoto.geometry import _kernels
 
     cam = MIRRORED_CAMERAS[name]
     rows, cols = cam.shape
     assert field_module._mirror_rows(cam.cy, rows)[0] == round(2 * cam.cy)
+    assert (field_module._mirror_cols(cam.cx) >= 0) == (name in MIRRORED_COLUMNS)
     frame = ObserverFrame((0.1, -0.2, 0.97), (0.0, -1.0, 0.0))
     if field:  # one pass: geometry and visual field (no stored direction map)
         monkeypatch.setattr(field_module, "DIRECTION_MAP_MAX_PIXELS", 0)
@@ -406,7 +420,7 @@ def test_mirrored_rows_equal_rows_computed_one_by_one(monkeypatch, name, field):
         [np.empty((1, 1)), np.empty((1, 1))]
     constants = field_module._field_constants(frame.axes(), "evalglare") if field else \
         (np.zeros(3), np.zeros(3), np.zeros(3), 0, 0.0)
-    _kernels.fisheye_geometry(model, p, table, 7, 0, rows, -1, not field, *maps, field,
+    _kernels.fisheye_geometry(model, p, table, 7, 0, rows, -1, -1, not field, *maps, field,
                               *constants, *field_maps)
     pairs = [(got.solid_angle, maps[1]), (got.valid, maps[2])]
     if field:

@@ -377,13 +377,48 @@ def _centre_span(model, p, row, cols):
 
 
 @njit(**_OPTIONS)
-def _corner_row(model, p, table, row, j0, j1, corners):
-    """Directions of the corners (row, j − ½), j0 ≤ j < j1, into ``corners[:, j]``."""
+def _corner_row(model, p, table, row, j0, j1, corners, mirror_cols):
+    """Directions of the corners (row, j − ½), j0 ≤ j < j1, into ``corners[:, j]``
+    (:func:`_mirrored_columns` where ``mirror_cols`` ≥ 0)."""
     cx, cy, cz = corners[0, j0:j1], corners[1, j0:j1], corners[2, j0:j1]
+    _mirrored_columns(model, p, table, row, j0 - 0.5, cx, cy, cz, True, mirror_cols)
+
+
+@njit(inline="always", **_OPTIONS)
+def _model_row(model, p, table, row, col_offset, ox, oy, oz, corner):
+    """The model's directions of the points (row, col_offset + j) into ``ox, oy, oz``:
+    :func:`_kb_row` or :func:`_ideal_row` (``corner``: without the image-circle test)."""
     if model == OPENCV_FISHEYE:
-        _kb_row(p, table, row, j0 - 0.5, cx, cy, cz)
+        _kb_row(p, table, row, col_offset, ox, oy, oz)
     else:
-        _ideal_row(p, row, j0 - 0.5, cx, cy, cz, True)
+        _ideal_row(p, row, col_offset, ox, oy, oz, corner)
+
+
+@njit(**_OPTIONS)
+def _mirrored_columns(model, p, table, row, col_offset, ox, oy, oz, corner, mirror_cols):
+    """:func:`_model_row`, the points right of the column cx = ``mirror_cols``/2 whose mirror
+    image about it lies in the range copied from it with x negated, where ``mirror_cols`` ≥ 0
+    (2·cx a whole number: the column offsets c − cx of a point and of its mirror image
+    2·cx − c are exact opposites, and both models compute a direction from x and y through
+    x² + y² (ρ, θ, the image-circle test) and a final product by x; the same bits as
+    computing it, but the sign of a NaN, which every consumer only tests for). The points
+    beyond the mirror of the range's first one are computed, so any range is right."""
+    n = ox.size
+    if mirror_cols < 0:
+        _model_row(model, p, table, row, col_offset, ox, oy, oz, corner)
+        return
+    # Point j's mirror image is point s − j (s whole: col_offset is whole or a half).
+    s = int(mirror_cols - 2.0 * col_offset)
+    k1 = min(n, max(0, s // 2 + 1))  # points j ≤ s/2 (left of cx or on it): computed
+    k2 = min(n, max(k1, s + 1))  # k1 ≤ j < k2: mirror images of computed points
+    _model_row(model, p, table, row, col_offset, ox[:k1], oy[:k1], oz[:k1], corner)
+    for j in range(k1, k2):
+        m = s - j
+        ox[j] = -ox[m]
+        oy[j] = oy[m]
+        oz[j] = oz[m]
+    if k2 < n:
+        _model_row(model, p, table, row, col_offset + k2, ox[k2:], oy[k2:], oz[k2:], corner)
 
 
 @njit(**_OPTIONS)
@@ -391,11 +426,9 @@ def _centre_row(model, p, table, row, col_offset, ox, oy, oz):
     """Directions of the pixel centres (row, col_offset + j), j < len(ox): the projection's
     per-pixel function, which every kernel that needs a direction calls (the maps of
     :func:`fisheye_geometry`, :func:`fisheye_directions`, :func:`visual_field_maps`). Each
-    value is a pure function of its pixel's coordinates."""
-    if model == OPENCV_FISHEYE:
-        _kb_row(p, table, row, col_offset, ox, oy, oz)
-    else:
-        _ideal_row(p, row, col_offset, ox, oy, oz, False)
+    value is a pure function of its pixel's coordinates (:func:`fisheye_geometry` copies the
+    mirror images of computed ones, the same bits: :func:`_mirrored_columns`)."""
+    _model_row(model, p, table, row, col_offset, ox, oy, oz, False)
 
 
 @njit(parallel=True, **_OPTIONS,
@@ -618,12 +651,13 @@ def _write_row(r, j0, j1, cx, cy, cz, store_directions, directions, solid_angle,
 
 
 @njit(parallel=True, **_OPTIONS,
-      aot=("void(int64, float64[::1], float64[::1], int64, int64, int64, int64, boolean, "
-           "float64[:, :, ::1], float64[:, ::1], boolean[:, ::1], boolean, float64[::1], "
-           "float64[::1], float64[::1], int64, float64, float64[:, ::1], float64[:, ::1])"))
-def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, store_directions,
-                     directions, solid_angle, valid, field, v, u, h, method, cap,
-                     position_index, cos_sigma):
+      aot=("void(int64, float64[::1], float64[::1], int64, int64, int64, int64, int64, "
+           "boolean, float64[:, :, ::1], float64[:, ::1], boolean[:, ::1], boolean, "
+           "float64[::1], float64[::1], float64[::1], int64, float64, float64[:, ::1], "
+           "float64[:, ::1])"))
+def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, mirror_cols,
+                     store_directions, directions, solid_angle, valid, field, v, u, h, method,
+                     cap, position_index, cos_sigma):
     """Fill the image rows ``row0`` … ``row1 − 1`` of ``directions`` (rows, cols, 3),
     ``solid_angle`` and ``valid`` (rows, cols) — where ``mirror`` ≥ 0, also each such row's
     mirror image ``mirror − r`` about the centre row where it lies below it in the image —
@@ -654,7 +688,9 @@ def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, store_direc
     directions are then this row's with y negated (its corners above are this row's below,
     its span this row's), and are handed to the same per-row code as if computed: the maps
     equal those of rows computed one by one, bit for bit (tested), with half the directions
-    computed.
+    computed. Likewise ``mirror_cols`` = 2·cx where 2·cx is a whole number, else −1: the
+    centre and corner directions right of the column cx are copied from their mirror images
+    with x negated (:func:`_mirrored_columns`), halving the directions computed again.
     """
     rows, cols = valid.shape
     n_bands = (row1 - row0 + band_rows - 1) // band_rows
@@ -672,21 +708,21 @@ def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, store_direc
         above = _centre_span(model, p, float(r0) - 1.0, cols)
         below = _centre_span(model, p, float(r0), cols)
         _corner_row(model, p, table, float(r0) - 0.5, min(above[0], below[0]),
-                    max(above[1], below[1]) + 1, corners[0])
+                    max(above[1], below[1]) + 1, corners[0], mirror_cols)
         for r in range(r0, r1):
             g = float(r)
             j0, j1 = below
             below = _centre_span(model, p, g + 1.0, cols)
             bottom = 1 - top
             _corner_row(model, p, table, g + 0.5, min(j0, below[0]), max(j1, below[1]) + 1,
-                        corners[bottom])
+                        corners[bottom], mirror_cols)
             n = j1 - j0
             x0, y0, z0 = corners[top, 0, j0:j1 + 1], corners[top, 1, j0:j1 + 1], \
                 corners[top, 2, j0:j1 + 1]
             x1, y1, z1 = corners[bottom, 0, j0:j1 + 1], corners[bottom, 1, j0:j1 + 1], \
                 corners[bottom, 2, j0:j1 + 1]
             cx, cy, cz = centres[0, :n], centres[1, :n], centres[2, :n]
-            _centre_row(model, p, table, g, float(j0), cx, cy, cz)
+            _mirrored_columns(model, p, table, g, float(j0), cx, cy, cz, False, mirror_cols)
             _write_row(r, j0, j1, cx, cy, cz, store_directions, directions, solid_angle, valid,
                        field, v, u, h, method, cap, position_index, cos_sigma,
                        x0, y0, z0, x1, y1, z1)

@@ -302,6 +302,14 @@ def _mirror_rows(cy, rows):
     return mirror, [(0, m), (min(mirror + 1, rows), rows)]
 
 
+def _mirror_cols(cx):
+    """2·cx where the image columns mirror about the column cx (2·cx a whole number:
+    :func:`._kernels.fisheye_geometry` copies the directions right of cx from their mirror
+    images), else −1."""
+    twice = 2.0 * float(cx)
+    return int(twice) if twice == math.floor(twice) and abs(twice) < 2.0 ** 52 else -1
+
+
 def _compute_pixel_geometry(projection, field=None):
     """The :class:`PixelGeometry` of ``projection``; with ``field`` = (axes, method), for a
     fisheye model, also the visual field's position index and cos σ from the same pass:
@@ -322,6 +330,7 @@ def _compute_pixel_geometry(projection, field=None):
         on = field is not None
 
         mirror, computed = _mirror_rows(p[1], rows)
+        mirror_cols = _mirror_cols(p[0])
 
         def rows_of(array, r0, r1):  # the block's rows of a map (a placeholder as it is)
             return array[r0:r1] if array.shape[0] == rows else array
@@ -335,14 +344,14 @@ def _compute_pixel_geometry(projection, field=None):
                     populate(rows_of(directions, a, b), solid_angle[a:b], valid[a:b],
                              rows_of(position, a, b), rows_of(cos_sigma, a, b))
             _kernels.fisheye_geometry(model, p, table, band_rows, r0, r1,
-                                      mirror if mirrored else -1, store, directions,
-                                      solid_angle, valid, on, *field_args)
+                                      mirror if mirrored else -1, mirror_cols, store,
+                                      directions, solid_angle, valid, on, *field_args)
 
         # Blocks of whole bands, one per thread where the ahead-of-time code runs them: the
         # rows that mirror rows below them (with those), then the rest.
         workers = _kernels.fisheye_geometry.threads_for(
-            model, p, table, band_rows, 0, rows, mirror, store, directions, solid_angle, valid,
-            on, *field_args)
+            model, p, table, band_rows, 0, rows, mirror, mirror_cols, store, directions,
+            solid_angle, valid, on, *field_args)
         blocks = [(a + r0, a + r1, k == 0) for k, (a, b) in enumerate(computed)
                   for r0, r1 in row_blocks(b - a, workers, band_rows)]
         run_blocks(task, blocks, workers)
