@@ -15,7 +15,8 @@ valid pixel. The pixels outside get the values their NaN directions would give (
 directions, σ, τ and position index; zero solid angle and cos σ; not valid) directly: half
 of the frame for a 180° circular fisheye in a 3:2 image.
 
-Numerics: IEEE float64 throughout, no ``fastmath`` (no reassociation, no contraction into
+Numerics: IEEE float64 throughout (the position index and cos σ are stored as float32,
+each rounded once from its float64 value: :func:`_store_field_row`), no ``fastmath`` (no reassociation, no contraction into
 fused multiply–adds), the same operations in the same order as the numpy reference
 methods — for the ideal fisheye the maps equal :meth:`IdealFisheyeProjection.directions`
 and :meth:`~IdealFisheyeProjection.solid_angles` bit for bit (tested), but for the
@@ -590,6 +591,17 @@ def _field_outputs(i, j0, j1, rows_out, fill):
 
 
 @njit(inline="always", **_OPTIONS)
+def _store_field_row(i, j0, j1, p_row, c_row, position_index, cos_sigma):
+    """Row ``i`` of the float32 position-index and cos σ maps: the float64 values ``p_row``,
+    ``c_row`` of its span [j0, j1) rounded once, NaN and 0 outside it."""
+    p_out = _field_outputs(i, j0, j1, position_index, np.float32(np.nan))
+    c_out = _field_outputs(i, j0, j1, cos_sigma, np.float32(0.0))
+    for j in range(j1 - j0):
+        p_out[j] = np.float32(p_row[j])
+        c_out[j] = np.float32(c_row[j])
+
+
+@njit(inline="always", **_OPTIONS)
 def _row_solid_angles(w, ok, cx, cy, cz, x0, y0, z0, x1, y1, z1, n):
     """Solid angle and validity of the ``n`` pixels of a row's span from their corner rows
     above (``x0, y0, z0``) and below (``x1, y1, z1``), n + 1 corners each, and their centre
@@ -644,17 +656,17 @@ def _write_row(r, j0, j1, cx, cy, cz, store_directions, directions, solid_angle,
         m = b - a
         d = _masked_interleaved(cx[a - j0:b - j0], cy[a - j0:b - j0], cz[a - j0:b - j0],
                                 ok[a:b], m)
-        p_row = _field_outputs(r, a, b, position_index, np.nan)
-        c_row = _field_outputs(r, a, b, cos_sigma, 0.0)
+        p_row, c_row = np.empty(m), np.empty(m)
         _field_row(d, ok[a:b], m, v, u, h, method, cap, False, True, np.empty(m),
                    np.empty(m), p_row, c_row)
+        _store_field_row(r, a, b, p_row, c_row, position_index, cos_sigma)
 
 
 @njit(parallel=True, **_OPTIONS,
       aot=("void(int64, float64[::1], float64[::1], int64, int64, int64, int64, int64, "
            "boolean, float64[:, :, ::1], float64[:, ::1], boolean[:, ::1], boolean, "
-           "float64[::1], float64[::1], float64[::1], int64, float64, float64[:, ::1], "
-           "float64[:, ::1])"))
+           "float64[::1], float64[::1], float64[::1], int64, float64, float32[:, ::1], "
+           "float32[:, ::1])"))
 def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, mirror_cols,
                      store_directions, directions, solid_angle, valid, field, v, u, h, method,
                      cap, position_index, cos_sigma):
@@ -676,9 +688,9 @@ def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, mirror_cols
     corners over the union of the spans of the two rows that share them); pixels outside it
     are set invalid directly. Each corner and pixel is a pure function of its coordinates
     (the spans too): the result does not depend on the bands or the number of threads.
-    Where ``field``, the visual field's position index and cos σ (:func:`visual_field_maps`'s
-    arguments ``v, u, h, method, cap``) are computed in the same pass from the same centre
-    directions, equal bit for bit to that kernel's.
+    Where ``field``, the visual field's position index and cos σ (float32 maps;
+    :func:`visual_field_maps`'s arguments ``v, u, h, method, cap``) are computed in the same
+    pass from the same centre directions, equal bit for bit to that kernel's.
 
     ``mirror`` = 2·cy where the model's directions mirror exactly about the row cy, else −1:
     the fisheye models with 2·cy a whole number (:func:`~lsadphoto.geometry.field.
@@ -817,10 +829,11 @@ def _iwata_exponent(b):
 @njit(parallel=True, **_OPTIONS,
       aot=("void(float64[:, :, ::1], boolean[:, ::1], int64, float64[::1], float64[::1], "
            "float64[::1], float64[::1], float64[::1], int64, float64, boolean, boolean, "
-           "float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, ::1])"))
+           "float64[:, ::1], float64[:, ::1], float32[:, ::1], float32[:, ::1])"))
 def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, angles, field,
                       sigma, tau, position_index, cos_sigma):
-    """σ, τ [rad], position index and cos σ of every pixel (see field.visual_field).
+    """σ, τ [rad] (float64), position index and cos σ (float32, rounded once from float64)
+    of every pixel (see field.visual_field).
 
     The pixel directions are read from the ``directions`` map where ``model`` is negative;
     otherwise they are computed per row from the fisheye ``model`` (``p``, ``table`` as in
@@ -859,10 +872,8 @@ def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, 
             t_row = _field_outputs(i, j0, j1, tau, np.nan)
         else:
             s_row, t_row = np.empty(n), np.empty(n)
-        if field:
-            p_row = _field_outputs(i, j0, j1, position_index, np.nan)
-            c_row = _field_outputs(i, j0, j1, cos_sigma, 0.0)
-        else:
-            p_row, c_row = np.empty(n), np.empty(n)
+        p_row, c_row = np.empty(n), np.empty(n)
         _field_row(d, ok[j0:j1], n, v, u, h, method, cap, angles, field, s_row, t_row, p_row,
                    c_row)
+        if field:
+            _store_field_row(i, j0, j1, p_row, c_row, position_index, cos_sigma)

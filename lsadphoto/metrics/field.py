@@ -38,7 +38,8 @@ BACKGROUND_METHODS = ("CIE", "mean", "Ev")
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot="void(float64[::1], float64[::1], float64[::1], boolean[::1])")
+      aot=tuple(f"void({L}[::1], float64[::1], {C}[::1], boolean[::1])"
+                for L in ("float64", "float32") for C in ("float64", "float32")))
 def _evaluated_field_kernel(luminance, solid_angle, cos_sigma, out):
     n = out.size
     step = 1 << 16
@@ -214,8 +215,9 @@ class FieldSums:
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot=tuple(f"Tuple((float64[:, ::1], int64[:, ::1]))({L}[::1], float64[::1], float64[::1], "
-                "float64[::1], boolean[::1], int64)" for L in ("float64", "float32")))
+      aot=tuple(f"Tuple((float64[:, ::1], int64[:, ::1]))({L}[::1], float64[::1], {C}[::1], "
+                f"{C}[::1], boolean[::1], int64)" for L in ("float64", "float32")
+                for C in ("float64", "float32")))
 def _field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask, chunk):
     n = luminance.size
     n_chunks = (n + chunk - 1) // chunk
@@ -227,7 +229,7 @@ def _field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask, 
         for i in range(k * chunk, min(n, (k + 1) * chunk)):
             L = np.float64(luminance[i])  # float() of a float32 stays float32 in numba
             w = float(solid_angle[i])
-            c = float(cos_sigma[i])
+            c = np.float64(cos_sigma[i])  # float32 maps too (VisualField)
             if not (math.isfinite(L) and w > 0 and c >= 0):
                 continue
             n_field += 1
@@ -239,7 +241,7 @@ def _field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask, 
             if source_mask[i]:
                 n_source += 1
                 s[3] += e
-                P = float(position_index[i])
+                P = np.float64(position_index[i])
                 term = L * L * w / (P * P)
                 if math.isfinite(term):
                     s[7] += term

@@ -267,10 +267,10 @@ def _weight(P, m):
 
 
 @njit(parallel=True, **_KERNEL_OPTIONS,
-      aot=tuple(f"void({L}[:, ::1], float64[:, ::1], float64[:, ::1], boolean[:, ::1], "
+      aot=tuple(f"void({L}[:, ::1], float64[:, ::1], {P}[:, ::1], boolean[:, ::1], "
                 "float64[:, :, ::1], boolean, float64, boolean, boolean, boolean, boolean[:, ::1], "
                 "int64[::1], float64[:, ::1], int64[:, ::1], boolean[:, ::1])"
-                for L in ("float64", "float32")))
+                for L in ("float64", "float32") for P in ("float64", "float32")))
 def _field_kernel(L, omega, P, valid, d, check_d, m, use_p, use_valid, weighted, field,
                   counts, sums, extent, flags):
     """The field and the field sums, row by row, in float32 as the numpy version had them
@@ -728,8 +728,8 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
 
 
 @njit(parallel=True, **_KERNEL_OPTIONS,
-      aot=("void(int64[::1], float64[::1], float64[::1], float64[::1], float64, boolean, float64, "
-           "float64[::1], float64[::1], float64[::1])"))
+      aot=tuple(f"void(int64[::1], float64[::1], {P}[::1], float64[::1], float64, boolean, "
+                "float64, float64[::1], float64[::1], float64[::1])" for P in ("float64", "float32")))
 def _candidate_values(index, grad, P, omega, m, weighted, mean, contrast, omega_out,
                       weighted_contrast):
     """Per candidate (flat image ``index``, gradient ``grad``): the contrast w·g/L̄ with the
