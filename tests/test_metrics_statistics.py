@@ -109,8 +109,9 @@ def test_sums_are_added_in_pixel_order():
 
 def test_histogram_cells_are_added_in_pixel_order():
     # Reference: a Python loop adding each pixel's ω to its histogram cell (ring, bin) in
-    # pixel order; equal bit for bit (a kernel that kept cells in registers must keep it). Runs of equal luminance (one cell), runs crossing ring borders,
-    # alternating cells, skipped pixels and L ≤ 0 in between; float32 and float64 maps.
+    # pixel order; equal bit for bit (a kernel that kept cells in registers must keep it).
+    # Runs of equal luminance (one cell), runs crossing ring borders, alternating cells,
+    # skipped pixels and L ≤ 0 in between; float32 and float64 maps.
     from lsadphoto.metrics.statistics import _accumulate
 
     rng = np.random.default_rng(9)

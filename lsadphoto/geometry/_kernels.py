@@ -16,16 +16,17 @@ directions, σ, τ and position index; zero solid angle and cos σ; not valid) d
 of the frame for a 180° circular fisheye in a 3:2 image.
 
 Numerics: IEEE float64 throughout (the position index and cos σ are stored as float32,
-each rounded once from its float64 value: :func:`_store_field_row`), no ``fastmath`` (no reassociation, no contraction into
-fused multiply–adds), the same operations in the same order as the numpy reference
-methods — for the ideal fisheye the maps equal :meth:`IdealFisheyeProjection.directions`
-and :meth:`~IdealFisheyeProjection.solid_angles` bit for bit (tested), but for the
-equidistant kind's tan. Three libm functions are replaced by branch-free Cephes
-approximations so that loops run on SIMD lanes: tan in the OpenCV (Kannala–Brandt) and the
-ideal equidistant directions (:func:`tan_half_range`), atan2 in σ, τ and Iwata's
-β (:func:`atan2_nonnegative`) and exp in the position index (:func:`exp_bounded`), each
-within a few ulp of libm (tested), far inside the tolerances to which the maps are tested
-(1e-11 for OpenCV directions, 1e-14 rad for σ, τ, relative 1e-12 for the position index).
+each rounded once from its float64 value: :func:`_store_field_row`), no ``fastmath`` (no
+reassociation, no contraction into fused multiply–adds), the same operations in the same
+order as the numpy reference methods — for the ideal fisheye the maps equal
+:meth:`IdealFisheyeProjection.directions` and :meth:`~IdealFisheyeProjection.solid_angles`
+bit for bit (tested), but for the equidistant kind's tan. Three libm functions are
+replaced by branch-free Cephes approximations so that loops run on SIMD lanes: tan in the
+OpenCV (Kannala–Brandt) and the ideal equidistant directions (:func:`tan_half_range`),
+atan2 in σ, τ and Iwata's β (:func:`atan2_nonnegative`) and exp in the position index
+(:func:`exp_bounded`), each within a few ulp of libm (tested), far inside the tolerances
+to which the maps are tested (1e-11 for OpenCV directions, 1e-14 rad for σ, τ, relative
+1e-12 for the position index before its rounding to float32).
 ``error_model="numpy"`` makes x/0 give ±inf or NaN as in numpy instead of raising, which
 also lets the compiler vectorise the loops. What does not vectorise on AVX2 — libm calls,
 table look-ups (gathers), float-to-integer conversions — is kept
@@ -397,13 +398,13 @@ def _model_row(model, p, table, row, col_offset, ox, oy, oz, corner):
 
 @njit(**_OPTIONS)
 def _mirrored_columns(model, p, table, row, col_offset, ox, oy, oz, corner, mirror_cols):
-    """:func:`_model_row`, the points right of the column cx = ``mirror_cols``/2 whose mirror
-    image about it lies in the range copied from it with x negated, where ``mirror_cols`` ≥ 0
-    (2·cx a whole number: the column offsets c − cx of a point and of its mirror image
-    2·cx − c are exact opposites, and both models compute a direction from x and y through
-    x² + y² (ρ, θ, the image-circle test) and a final product by x; the same bits as
-    computing it, but the sign of a NaN, which every consumer only tests for). The points
-    beyond the mirror of the range's first one are computed, so any range is right."""
+    """The directions of :func:`_model_row`. Where ``mirror_cols`` = 2·cx ≥ 0 (a whole
+    number), a point right of the column cx whose mirror image 2·cx − c lies in the range is
+    copied from that image with x negated: the column offsets c − cx and (2·cx − c) − cx are
+    exact opposites, and both models compute a direction from x and y only through x² + y²
+    (ρ, θ, the image-circle test) and a final product by x — the same bits as computing it,
+    but for the sign of a NaN, which the consumers only test for. Points right of the
+    mirror image of the range's first point are computed, so any range is right."""
     n = ox.size
     if mirror_cols < 0:
         _model_row(model, p, table, row, col_offset, ox, oy, oz, corner)

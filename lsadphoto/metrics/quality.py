@@ -729,7 +729,8 @@ def _analyse(luminance, directions, solid_angle, position_index, *, size_arcmin,
 
 @njit(parallel=True, **_KERNEL_OPTIONS,
       aot=tuple(f"void(int64[::1], float64[::1], {P}[::1], float64[::1], float64, boolean, "
-                "float64, float64[::1], float64[::1], float64[::1])" for P in ("float64", "float32")))
+                "float64, float64[::1], float64[::1], float64[::1])"
+                for P in ("float64", "float32")))
 def _candidate_values(index, grad, P, omega, m, weighted, mean, contrast, omega_out,
                       weighted_contrast):
     """Per candidate (flat image ``index``, gradient ``grad``): the contrast w·g/L̄ with the
