@@ -71,8 +71,9 @@ def _sums(luminance, solid_angle, cos_sigma, mask):
                                   cos_sigma)
     m = np.zeros(L.shape, dtype=bool) if mask is None else np.broadcast_to(
         np.asarray(mask, dtype=bool), L.shape)
-    # P = 1 everywhere: the position index enters only ugr_sum, unused here.
-    return field_sums(L, w, c, np.ones(L.shape), m)
+    # P = 1 everywhere: the position index enters only ugr_sum, unused here. In cos σ's
+    # precision (a visual field's float32 map: the compiled signatures pair them).
+    return field_sums(L, w, c, np.ones(L.shape, dtype=np.result_type(c.dtype, np.float32)), m)
 
 
 def vertical_illuminance(luminance, solid_angle, cos_sigma, *, mask=None):
