@@ -37,8 +37,8 @@ sys.exit(code)
 """
 
 
-def _score(path, **env):
-    done = subprocess.run([sys.executable, "-c", SCRIPT, "score", str(path), "--json"],
+def _score(path, *options, **env):
+    done = subprocess.run([sys.executable, "-c", SCRIPT, "score", str(path), "--json", *options],
                           capture_output=True, text=True, env={**os.environ, **env})
     assert done.returncode == 0, done.stderr
     return json.loads(done.stdout), json.loads(done.stderr.strip().splitlines()[-1])
@@ -95,6 +95,24 @@ def test_ahead_of_time_and_just_in_time_scores_are_identical(tmp_path):
     for record in (ahead, just_in_time):
         record.pop("provenance")
     assert ahead == just_in_time
+
+
+@pytest.mark.parametrize("method", ["fixed", "task", "mean", "contrast"])
+def test_every_source_method_scores_without_numba(tmp_path, method):
+    # Every kernel call of a score matches an ahead-of-time signature: the visual field's
+    # float32 P and cos σ maps reach the selection rules' field sums too (the mean and
+    # contrast rules once paired them with a float64 P and fell back to numba's JIT).
+    cam = IdealFisheyeProjection("equidistant", 59.5, 59.5, 60.0, 180.0, 120, 120)
+    window = dict(azimuth=(-20, 60), elevation=(-5, 50), luminance=(2500.0, 9000.0))
+    L = window_scene(cam.directions(*cam.pixel_grid()), background=(40.0, 160.0),
+                     windows=[window])
+    path = tmp_path / "window.hdr"
+    write_hdr(LuminanceMap(L, projection=cam, calibrated=True), path)
+    record, numba_loaded = _score(path, "--source-method", method)
+    if numba_loaded:
+        skip_without_ahead_of_time_kernels()
+    assert not numba_loaded
+    assert record["settings"]["source_method"] == method
 
 
 def test_arguments_outside_the_signatures_run_just_in_time():

@@ -255,6 +255,16 @@ FRAMES = {  # rolled: rows crossing the line of sight's horizon; along the axis:
 }
 
 
+def _assert_float32_of(stored, reference, *, rtol=0.0, atol=0.0):
+    """``stored`` (float32) is a float64 value within ``rtol``·|reference| + ``atol`` of
+    ``reference`` rounded once to float32: within half a float32 ulp of that value."""
+    assert stored.dtype == np.float32
+    reference = np.asarray(reference, dtype=np.float64)
+    half_ulp = 0.5 * np.spacing(np.abs(reference).astype(np.float32)).astype(np.float64)
+    error = np.abs(stored.astype(np.float64) - reference)
+    assert np.all(error <= half_ulp * (1 + 1e-9) + rtol * np.abs(reference) + atol)
+
+
 @pytest.mark.parametrize("method", ["evalglare", "Guth", "Kim2011"])
 @pytest.mark.parametrize("frame_name", FRAMES)
 def test_visual_field_against_observer_and_position_index(method, frame_name):
@@ -270,10 +280,13 @@ def test_visual_field_against_observer_and_position_index(method, frame_name):
     np.testing.assert_allclose(field.sigma[ok], sigma[ok], atol=1e-14)
     np.testing.assert_allclose(field.tau[ok], tau[ok], atol=1e-13)
     # Position index from components (Iwata's β by one atan2) vs from σ, τ: rounding in β
-    # (≈1e-15 rad) times dlnP/dβ (< 0.1 per degree) — 1e-12 relative is ample.
-    np.testing.assert_allclose(field.position_index[ok], position_index(sigma[ok], tau[ok], method=method), rtol=1e-12)
+    # (≈1e-15 rad) times dlnP/dβ (< 0.1 per degree) — 1e-12 relative is ample; the map stores
+    # that float64 value rounded once to float32 (VisualField): within half a float32 ulp of
+    # it, so within half an ulp of the reference plus 1e-12 relative.
+    reference = position_index(sigma[ok], tau[ok], method=method)
+    _assert_float32_of(field.position_index[ok], reference, rtol=1e-12)
     v = frame.axes()[0]
-    np.testing.assert_allclose(field.cos_sigma[ok], geometry.directions[ok] @ v, atol=1e-15)
+    _assert_float32_of(field.cos_sigma[ok], geometry.directions[ok] @ v, atol=1e-15)
     assert np.all(np.isnan(field.sigma[~ok])) and np.all(np.isnan(field.position_index[~ok]))
     assert np.all(field.cos_sigma[~ok] == 0)
     assert (field.cos_sigma[ok] < 0).any()  # the 200° circle reaches behind the observer
@@ -359,7 +372,8 @@ def test_mirrored_rows_equal_their_direct_computation(monkeypatch, one_pass, met
     assert np.array_equal(field.cos_sigma, field.cos_sigma[:, ::-1])
     c = 93  # right part: columns 93…200 (the centre column 100 inside, spans not mirrored)
     part = [np.ascontiguousarray(a[:, c:]) for a in (directions, valid)]
-    maps = [np.empty(part[1].shape) for _ in range(4)]
+    maps = [np.empty(part[1].shape, dtype) for dtype in (np.float64, np.float64, np.float32,
+                                                         np.float32)]  # σ, τ; P, cos σ
     _kernels.visual_field_maps(part[0], part[1], -1, np.empty(0), np.empty(0),
                                *field_module._field_constants(frame.axes(), method), True, True,
                                *maps)
@@ -377,21 +391,35 @@ MIRRORED_CAMERAS = {  # 2·cy a whole number: rows computed with their mirror im
     "low centre": IdealFisheyeProjection("stereographic", 90.0, 110.0, 70.0, 200.0, 181, 149),
     "opencv": OpenCVFisheyeProjection(60.0, 60.0, 101.7, 74.0, (0.05, -0.01, 0.003, -0.0005),
                                       203, 149),
+    # 2·cx a whole number too: columns right of cx copied from their mirror images.
+    "opencv, centred columns": OpenCVFisheyeProjection(
+        60.0, 61.0, 101.0, 74.0, (0.05, -0.01, 0.003, -0.0005), 203, 149),
+    # cx left of the middle, the circle cut by the left edge: the columns right of the mirror
+    # image of column 0 are computed on their own.
+    "left centre": IdealFisheyeProjection("equidistant", 60.5, 74.0, 72.0, 185.0, 201, 149),
+    "opencv, right centre": OpenCVFisheyeProjection(
+        55.0, 55.0, 140.0, 74.5, (0.02, -0.004, 0.001, -0.0002), 203, 150),
 }
+#: Cameras of MIRRORED_CAMERAS whose columns mirror (2·cx a whole number).
+MIRRORED_COLUMNS = {"centred, odd rows", "centred, even rows", "low centre",
+                    "opencv, centred columns", "left centre", "opencv, right centre"}
 
 
 @pytest.mark.parametrize("name", MIRRORED_CAMERAS)
 @pytest.mark.parametrize("field", [False, True])
 def test_mirrored_rows_equal_rows_computed_one_by_one(monkeypatch, name, field):
     """Where 2·cy is a whole number, the geometry pass computes each row above the centre
-    with its mirror image below (the directions with y negated). Reference: the same kernel
-    with no mirror, every row computed from its own coordinates; equal bit for bit, maps
-    with and without the stored directions, with and without the visual field."""
+    with its mirror image below (the directions with y negated); where 2·cx is, the columns
+    right of the centre from their mirror images (x negated). Reference: the same kernel
+    with neither mirror, every row and column computed from its own coordinates; equal bit
+    for bit, maps with and without the stored directions, with and without the visual
+    field."""
     from lsadphoto.geometry import _kernels
 
     cam = MIRRORED_CAMERAS[name]
     rows, cols = cam.shape
     assert field_module._mirror_rows(cam.cy, rows)[0] == round(2 * cam.cy)
+    assert (field_module._mirror_cols(cam.cx) >= 0) == (name in MIRRORED_COLUMNS)
     frame = ObserverFrame((0.1, -0.2, 0.97), (0.0, -1.0, 0.0))
     if field:  # one pass: geometry and visual field (no stored direction map)
         monkeypatch.setattr(field_module, "DIRECTION_MAP_MAX_PIXELS", 0)
@@ -402,11 +430,10 @@ def test_mirrored_rows_equal_rows_computed_one_by_one(monkeypatch, name, field):
     model, p, table = field_module._fisheye_kernel_parameters(cam)
     maps = [np.empty((rows, cols, 3) if not field else (1, 1, 3)), np.empty((rows, cols)),
             np.empty((rows, cols), dtype=bool)]
-    field_maps = [np.empty((rows, cols)), np.empty((rows, cols))] if field else \
-        [np.empty((1, 1)), np.empty((1, 1))]
+    field_maps = [np.empty((rows, cols) if field else (1, 1), np.float32) for _ in range(2)]
     constants = field_module._field_constants(frame.axes(), "evalglare") if field else \
         (np.zeros(3), np.zeros(3), np.zeros(3), 0, 0.0)
-    _kernels.fisheye_geometry(model, p, table, 7, 0, rows, -1, not field, *maps, field,
+    _kernels.fisheye_geometry(model, p, table, 7, 0, rows, -1, -1, not field, *maps, field,
                               *constants, *field_maps)
     pairs = [(got.solid_angle, maps[1]), (got.valid, maps[2])]
     if field:

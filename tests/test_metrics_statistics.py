@@ -1,5 +1,7 @@
 """Luminance statistics against numpy's weighted inverted-CDF quantiles."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -103,3 +105,39 @@ def test_sums_are_added_in_pixel_order():
     for ring in range(3):
         assert stats["rings"][ring]["solid_angle"] == totals[ring, 0]
         assert stats["rings"][ring]["mean"] == totals[ring, 1] / totals[ring, 0]
+
+
+def test_histogram_cells_are_added_in_pixel_order():
+    # Reference: a Python loop adding each pixel's ω to its histogram cell (ring, bin) in
+    # pixel order; equal bit for bit (a kernel that kept cells in registers must keep it).
+    # Runs of equal luminance (one cell), runs crossing ring borders, alternating cells,
+    # skipped pixels and L ≤ 0 in between; float32 and float64 maps.
+    from lsadphoto.metrics.statistics import _accumulate
+
+    rng = np.random.default_rng(9)
+    n = 5000
+    L = np.repeat(10 ** rng.uniform(-1, 4, n // 25), 25)  # runs of 25 equal values
+    L[rng.random(n) < 0.1] = rng.choice([3.0, 3000.0])  # alternating cells
+    L[rng.random(n) < 0.03] = 0.0
+    L[rng.random(n) < 0.02] = np.nan
+    w = rng.uniform(1e-6, 3e-6, n)
+    w[rng.random(n) < 0.02] = 0.0
+    sigma = np.repeat(rng.uniform(0.0, 100.0, n // 60 + 1), 60)[:n]
+    for dtype in (np.float64, np.float32):
+        c = np.cos(np.radians(sigma)).astype(dtype)
+        edges = np.cos(np.radians([0.0, 30.0, 60.0, 90.0]))
+        origin, per_decade = -2.0, 200.0
+        n_bins = int(7 * per_decade)
+        outputs = (np.empty((1, 4), np.int64), np.empty((1, 3, 4)), np.empty((1, 4)),
+                   np.empty((1, 4)), np.zeros((1, 4, n_bins)))
+        _accumulate(L, w, c, edges, 1, origin, n_bins, per_decade, *outputs)
+        expected = np.zeros((4, n_bins))
+        for i in range(n):
+            ci = float(c[i])
+            if not (np.isfinite(L[i]) and w[i] > 0 and ci >= 0) or not L[i] > 0:
+                continue
+            ring = 0 if ci > edges[1] else 1 if ci > edges[2] else 2 if ci >= edges[3] else 3
+            cell = min(int((math.log10(L[i]) - origin) * per_decade), n_bins - 1)
+            expected[ring, cell] += w[i]
+        assert np.array_equal(outputs[4][0].view(np.uint64), expected.view(np.uint64))
+        assert np.count_nonzero(expected) > 50

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from lsadphoto.datasets import disk_sources_scene
 from lsadphoto.errors import BadInputError
-from lsadphoto.geometry import IdealFisheyeProjection, ObserverFrame, position_index
+from lsadphoto.geometry import IdealFisheyeProjection, ObserverFrame, position_index, visual_field
 from lsadphoto.luminance_map import LuminanceMap
 from lsadphoto.metrics.field import background_luminance
 from lsadphoto.metrics.grouping import group_sources_evalglare
@@ -108,8 +108,9 @@ def test_uniform_disk_source_matches_closed_form(fisheye, sigma_deg):
     pixel_exact = 8 * math.log10(0.25 / l_b_exact * L_s**2
                                  * _cap_integral_of_inverse_p2(_up_direction(s0), rho))
     assert v["ugr_pixel"] == pytest.approx(pixel_exact, abs=0.05)
-    # The production value is the public ugr_pixel of the same pixels (one path).
-    cos_sigma, P = _maps(d, w)
+    # The production value is the public ugr_pixel of the same pixels (one path), with the
+    # visual field's P map (float32, each value rounded once from float64: VisualField).
+    P = visual_field(cam, ObserverFrame()).position_index
     assert v["ugr_pixel"] == pytest.approx(ugr_pixel(L, w, P, score.source_mask,
                                                      v["background_luminance"]), abs=1e-9)
     # DGP (Wienold & Christoffersen 2006, evalglare's coefficients) from the same closed forms.

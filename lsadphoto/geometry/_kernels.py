@@ -15,16 +15,18 @@ valid pixel. The pixels outside get the values their NaN directions would give (
 directions, σ, τ and position index; zero solid angle and cos σ; not valid) directly: half
 of the frame for a 180° circular fisheye in a 3:2 image.
 
-Numerics: IEEE float64 throughout, no ``fastmath`` (no reassociation, no contraction into
-fused multiply–adds), the same operations in the same order as the numpy reference
-methods — for the ideal fisheye the maps equal :meth:`IdealFisheyeProjection.directions`
-and :meth:`~IdealFisheyeProjection.solid_angles` bit for bit (tested), but for the
-equidistant kind's tan. Three libm functions are replaced by branch-free Cephes
-approximations so that loops run on SIMD lanes: tan in the OpenCV (Kannala–Brandt) and the
-ideal equidistant directions (:func:`tan_half_range`), atan2 in σ, τ and Iwata's
-β (:func:`atan2_nonnegative`) and exp in the position index (:func:`exp_bounded`), each
-within a few ulp of libm (tested), far inside the tolerances to which the maps are tested
-(1e-11 for OpenCV directions, 1e-14 rad for σ, τ, relative 1e-12 for the position index).
+Numerics: IEEE float64 throughout (the position index and cos σ are stored as float32,
+each rounded once from its float64 value: :func:`_store_field_row`), no ``fastmath`` (no
+reassociation, no contraction into fused multiply–adds), the same operations in the same
+order as the numpy reference methods — for the ideal fisheye the maps equal
+:meth:`IdealFisheyeProjection.directions` and :meth:`~IdealFisheyeProjection.solid_angles`
+bit for bit (tested), but for the equidistant kind's tan. Three libm functions are
+replaced by branch-free Cephes approximations so that loops run on SIMD lanes: tan in the
+OpenCV (Kannala–Brandt) and the ideal equidistant directions (:func:`tan_half_range`),
+atan2 in σ, τ and Iwata's β (:func:`atan2_nonnegative`) and exp in the position index
+(:func:`exp_bounded`), each within a few ulp of libm (tested), far inside the tolerances
+to which the maps are tested (1e-11 for OpenCV directions, 1e-14 rad for σ, τ, relative
+1e-12 for the position index before its rounding to float32).
 ``error_model="numpy"`` makes x/0 give ±inf or NaN as in numpy instead of raising, which
 also lets the compiler vectorise the loops. What does not vectorise on AVX2 — libm calls,
 table look-ups (gathers), float-to-integer conversions — is kept
@@ -377,13 +379,48 @@ def _centre_span(model, p, row, cols):
 
 
 @njit(**_OPTIONS)
-def _corner_row(model, p, table, row, j0, j1, corners):
-    """Directions of the corners (row, j − ½), j0 ≤ j < j1, into ``corners[:, j]``."""
+def _corner_row(model, p, table, row, j0, j1, corners, mirror_cols):
+    """Directions of the corners (row, j − ½), j0 ≤ j < j1, into ``corners[:, j]``
+    (:func:`_mirrored_columns` where ``mirror_cols`` ≥ 0)."""
     cx, cy, cz = corners[0, j0:j1], corners[1, j0:j1], corners[2, j0:j1]
+    _mirrored_columns(model, p, table, row, j0 - 0.5, cx, cy, cz, True, mirror_cols)
+
+
+@njit(inline="always", **_OPTIONS)
+def _model_row(model, p, table, row, col_offset, ox, oy, oz, corner):
+    """The model's directions of the points (row, col_offset + j) into ``ox, oy, oz``:
+    :func:`_kb_row` or :func:`_ideal_row` (``corner``: without the image-circle test)."""
     if model == OPENCV_FISHEYE:
-        _kb_row(p, table, row, j0 - 0.5, cx, cy, cz)
+        _kb_row(p, table, row, col_offset, ox, oy, oz)
     else:
-        _ideal_row(p, row, j0 - 0.5, cx, cy, cz, True)
+        _ideal_row(p, row, col_offset, ox, oy, oz, corner)
+
+
+@njit(**_OPTIONS)
+def _mirrored_columns(model, p, table, row, col_offset, ox, oy, oz, corner, mirror_cols):
+    """The directions of :func:`_model_row`. Where ``mirror_cols`` = 2·cx ≥ 0 (a whole
+    number), a point right of the column cx whose mirror image 2·cx − c lies in the range is
+    copied from that image with x negated: the column offsets c − cx and (2·cx − c) − cx are
+    exact opposites, and both models compute a direction from x and y only through x² + y²
+    (ρ, θ, the image-circle test) and a final product by x — the same bits as computing it,
+    but for the sign of a NaN, which the consumers only test for. Points right of the
+    mirror image of the range's first point are computed, so any range is right."""
+    n = ox.size
+    if mirror_cols < 0:
+        _model_row(model, p, table, row, col_offset, ox, oy, oz, corner)
+        return
+    # Point j's mirror image is point s − j (s whole: col_offset is whole or a half).
+    s = int(mirror_cols - 2.0 * col_offset)
+    k1 = min(n, max(0, s // 2 + 1))  # points j ≤ s/2 (left of cx or on it): computed
+    k2 = min(n, max(k1, s + 1))  # k1 ≤ j < k2: mirror images of computed points
+    _model_row(model, p, table, row, col_offset, ox[:k1], oy[:k1], oz[:k1], corner)
+    for j in range(k1, k2):
+        m = s - j
+        ox[j] = -ox[m]
+        oy[j] = oy[m]
+        oz[j] = oz[m]
+    if k2 < n:
+        _model_row(model, p, table, row, col_offset + k2, ox[k2:], oy[k2:], oz[k2:], corner)
 
 
 @njit(**_OPTIONS)
@@ -391,11 +428,9 @@ def _centre_row(model, p, table, row, col_offset, ox, oy, oz):
     """Directions of the pixel centres (row, col_offset + j), j < len(ox): the projection's
     per-pixel function, which every kernel that needs a direction calls (the maps of
     :func:`fisheye_geometry`, :func:`fisheye_directions`, :func:`visual_field_maps`). Each
-    value is a pure function of its pixel's coordinates."""
-    if model == OPENCV_FISHEYE:
-        _kb_row(p, table, row, col_offset, ox, oy, oz)
-    else:
-        _ideal_row(p, row, col_offset, ox, oy, oz, False)
+    value is a pure function of its pixel's coordinates (:func:`fisheye_geometry` copies the
+    mirror images of computed ones, the same bits: :func:`_mirrored_columns`)."""
+    _model_row(model, p, table, row, col_offset, ox, oy, oz, False)
 
 
 @njit(parallel=True, **_OPTIONS,
@@ -557,6 +592,17 @@ def _field_outputs(i, j0, j1, rows_out, fill):
 
 
 @njit(inline="always", **_OPTIONS)
+def _store_field_row(i, j0, j1, p_row, c_row, position_index, cos_sigma):
+    """Row ``i`` of the float32 position-index and cos σ maps: the float64 values ``p_row``,
+    ``c_row`` of its span [j0, j1) rounded once, NaN and 0 outside it."""
+    p_out = _field_outputs(i, j0, j1, position_index, np.float32(np.nan))
+    c_out = _field_outputs(i, j0, j1, cos_sigma, np.float32(0.0))
+    for j in range(j1 - j0):
+        p_out[j] = np.float32(p_row[j])
+        c_out[j] = np.float32(c_row[j])
+
+
+@njit(inline="always", **_OPTIONS)
 def _row_solid_angles(w, ok, cx, cy, cz, x0, y0, z0, x1, y1, z1, n):
     """Solid angle and validity of the ``n`` pixels of a row's span from their corner rows
     above (``x0, y0, z0``) and below (``x1, y1, z1``), n + 1 corners each, and their centre
@@ -611,19 +657,20 @@ def _write_row(r, j0, j1, cx, cy, cz, store_directions, directions, solid_angle,
         m = b - a
         d = _masked_interleaved(cx[a - j0:b - j0], cy[a - j0:b - j0], cz[a - j0:b - j0],
                                 ok[a:b], m)
-        p_row = _field_outputs(r, a, b, position_index, np.nan)
-        c_row = _field_outputs(r, a, b, cos_sigma, 0.0)
+        p_row, c_row = np.empty(m), np.empty(m)
         _field_row(d, ok[a:b], m, v, u, h, method, cap, False, True, np.empty(m),
                    np.empty(m), p_row, c_row)
+        _store_field_row(r, a, b, p_row, c_row, position_index, cos_sigma)
 
 
 @njit(parallel=True, **_OPTIONS,
-      aot=("void(int64, float64[::1], float64[::1], int64, int64, int64, int64, boolean, "
-           "float64[:, :, ::1], float64[:, ::1], boolean[:, ::1], boolean, float64[::1], "
-           "float64[::1], float64[::1], int64, float64, float64[:, ::1], float64[:, ::1])"))
-def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, store_directions,
-                     directions, solid_angle, valid, field, v, u, h, method, cap,
-                     position_index, cos_sigma):
+      aot=("void(int64, float64[::1], float64[::1], int64, int64, int64, int64, int64, "
+           "boolean, float64[:, :, ::1], float64[:, ::1], boolean[:, ::1], boolean, "
+           "float64[::1], float64[::1], float64[::1], int64, float64, float32[:, ::1], "
+           "float32[:, ::1])"))
+def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, mirror_cols,
+                     store_directions, directions, solid_angle, valid, field, v, u, h, method,
+                     cap, position_index, cos_sigma):
     """Fill the image rows ``row0`` … ``row1 − 1`` of ``directions`` (rows, cols, 3),
     ``solid_angle`` and ``valid`` (rows, cols) — where ``mirror`` ≥ 0, also each such row's
     mirror image ``mirror − r`` about the centre row where it lies below it in the image —
@@ -642,9 +689,9 @@ def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, store_direc
     corners over the union of the spans of the two rows that share them); pixels outside it
     are set invalid directly. Each corner and pixel is a pure function of its coordinates
     (the spans too): the result does not depend on the bands or the number of threads.
-    Where ``field``, the visual field's position index and cos σ (:func:`visual_field_maps`'s
-    arguments ``v, u, h, method, cap``) are computed in the same pass from the same centre
-    directions, equal bit for bit to that kernel's.
+    Where ``field``, the visual field's position index and cos σ (float32 maps;
+    :func:`visual_field_maps`'s arguments ``v, u, h, method, cap``) are computed in the same
+    pass from the same centre directions, equal bit for bit to that kernel's.
 
     ``mirror`` = 2·cy where the model's directions mirror exactly about the row cy, else −1:
     the fisheye models with 2·cy a whole number (:func:`~lsadphoto.geometry.field.
@@ -654,7 +701,9 @@ def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, store_direc
     directions are then this row's with y negated (its corners above are this row's below,
     its span this row's), and are handed to the same per-row code as if computed: the maps
     equal those of rows computed one by one, bit for bit (tested), with half the directions
-    computed.
+    computed. Likewise ``mirror_cols`` = 2·cx where 2·cx is a whole number, else −1: the
+    centre and corner directions right of the column cx are copied from their mirror images
+    with x negated (:func:`_mirrored_columns`), halving the directions computed again.
     """
     rows, cols = valid.shape
     n_bands = (row1 - row0 + band_rows - 1) // band_rows
@@ -672,21 +721,21 @@ def fisheye_geometry(model, p, table, band_rows, row0, row1, mirror, store_direc
         above = _centre_span(model, p, float(r0) - 1.0, cols)
         below = _centre_span(model, p, float(r0), cols)
         _corner_row(model, p, table, float(r0) - 0.5, min(above[0], below[0]),
-                    max(above[1], below[1]) + 1, corners[0])
+                    max(above[1], below[1]) + 1, corners[0], mirror_cols)
         for r in range(r0, r1):
             g = float(r)
             j0, j1 = below
             below = _centre_span(model, p, g + 1.0, cols)
             bottom = 1 - top
             _corner_row(model, p, table, g + 0.5, min(j0, below[0]), max(j1, below[1]) + 1,
-                        corners[bottom])
+                        corners[bottom], mirror_cols)
             n = j1 - j0
             x0, y0, z0 = corners[top, 0, j0:j1 + 1], corners[top, 1, j0:j1 + 1], \
                 corners[top, 2, j0:j1 + 1]
             x1, y1, z1 = corners[bottom, 0, j0:j1 + 1], corners[bottom, 1, j0:j1 + 1], \
                 corners[bottom, 2, j0:j1 + 1]
             cx, cy, cz = centres[0, :n], centres[1, :n], centres[2, :n]
-            _centre_row(model, p, table, g, float(j0), cx, cy, cz)
+            _mirrored_columns(model, p, table, g, float(j0), cx, cy, cz, False, mirror_cols)
             _write_row(r, j0, j1, cx, cy, cz, store_directions, directions, solid_angle, valid,
                        field, v, u, h, method, cap, position_index, cos_sigma,
                        x0, y0, z0, x1, y1, z1)
@@ -781,10 +830,11 @@ def _iwata_exponent(b):
 @njit(parallel=True, **_OPTIONS,
       aot=("void(float64[:, :, ::1], boolean[:, ::1], int64, float64[::1], float64[::1], "
            "float64[::1], float64[::1], float64[::1], int64, float64, boolean, boolean, "
-           "float64[:, ::1], float64[:, ::1], float64[:, ::1], float64[:, ::1])"))
+           "float64[:, ::1], float64[:, ::1], float32[:, ::1], float32[:, ::1])"))
 def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, angles, field,
                       sigma, tau, position_index, cos_sigma):
-    """σ, τ [rad], position index and cos σ of every pixel (see field.visual_field).
+    """σ, τ [rad] (float64), position index and cos σ (float32, rounded once from float64)
+    of every pixel (see field.visual_field).
 
     The pixel directions are read from the ``directions`` map where ``model`` is negative;
     otherwise they are computed per row from the fisheye ``model`` (``p``, ``table`` as in
@@ -823,10 +873,8 @@ def visual_field_maps(directions, valid, model, p, table, v, u, h, method, cap, 
             t_row = _field_outputs(i, j0, j1, tau, np.nan)
         else:
             s_row, t_row = np.empty(n), np.empty(n)
-        if field:
-            p_row = _field_outputs(i, j0, j1, position_index, np.nan)
-            c_row = _field_outputs(i, j0, j1, cos_sigma, 0.0)
-        else:
-            p_row, c_row = np.empty(n), np.empty(n)
+        p_row, c_row = np.empty(n), np.empty(n)
         _field_row(d, ok[j0:j1], n, v, u, h, method, cap, angles, field, s_row, t_row, p_row,
                    c_row)
+        if field:
+            _store_field_row(i, j0, j1, p_row, c_row, position_index, cos_sigma)

@@ -302,6 +302,14 @@ def _mirror_rows(cy, rows):
     return mirror, [(0, m), (min(mirror + 1, rows), rows)]
 
 
+def _mirror_cols(cx):
+    """2·cx where the image columns mirror about the column cx (2·cx a whole number:
+    :func:`._kernels.fisheye_geometry` copies the directions right of cx from their mirror
+    images), else −1."""
+    twice = 2.0 * float(cx)
+    return int(twice) if twice == math.floor(twice) and abs(twice) < 2.0 ** 52 else -1
+
+
 def _compute_pixel_geometry(projection, field=None):
     """The :class:`PixelGeometry` of ``projection``; with ``field`` = (axes, method), for a
     fisheye model, also the visual field's position index and cos σ from the same pass:
@@ -322,6 +330,7 @@ def _compute_pixel_geometry(projection, field=None):
         on = field is not None
 
         mirror, computed = _mirror_rows(p[1], rows)
+        mirror_cols = _mirror_cols(p[0])
 
         def rows_of(array, r0, r1):  # the block's rows of a map (a placeholder as it is)
             return array[r0:r1] if array.shape[0] == rows else array
@@ -335,14 +344,14 @@ def _compute_pixel_geometry(projection, field=None):
                     populate(rows_of(directions, a, b), solid_angle[a:b], valid[a:b],
                              rows_of(position, a, b), rows_of(cos_sigma, a, b))
             _kernels.fisheye_geometry(model, p, table, band_rows, r0, r1,
-                                      mirror if mirrored else -1, store, directions,
-                                      solid_angle, valid, on, *field_args)
+                                      mirror if mirrored else -1, mirror_cols, store,
+                                      directions, solid_angle, valid, on, *field_args)
 
         # Blocks of whole bands, one per thread where the ahead-of-time code runs them: the
         # rows that mirror rows below them (with those), then the rest.
         workers = _kernels.fisheye_geometry.threads_for(
-            model, p, table, band_rows, 0, rows, mirror, store, directions, solid_angle, valid,
-            on, *field_args)
+            model, p, table, band_rows, 0, rows, mirror, mirror_cols, store, directions,
+            solid_angle, valid, on, *field_args)
         blocks = [(a + r0, a + r1, k == 0) for k, (a, b) in enumerate(computed)
                   for r0, r1 in row_blocks(b - a, workers, band_rows)]
         run_blocks(task, blocks, workers)
@@ -396,9 +405,10 @@ def _field_arguments(field, shape):
     """:func:`_field_constants` of ``field`` = (axes, method) and fresh P and cos σ maps of
     ``shape``; placeholders for None."""
     if field is None:
-        unused = np.empty((1, 1))
+        unused = np.empty((1, 1), dtype=np.float32)
         return np.zeros(3), np.zeros(3), np.zeros(3), 0, 0.0, unused, unused
-    return (*_field_constants(*field), np.empty(shape), np.empty(shape))
+    return (*_field_constants(*field), np.empty(shape, dtype=np.float32),
+            np.empty(shape, dtype=np.float32))
 
 
 def pixel_geometry(projection):
@@ -481,11 +491,16 @@ class VisualField:
     tau : numpy.ndarray, shape (rows, cols)
         Angle τ around the line of sight from the upward half-plane [rad], 0…π (0 above,
         π/2 to the side, π below; 0 on the line of sight); NaN where invalid. Read-only.
-    position_index : numpy.ndarray, shape (rows, cols)
+    position_index : numpy.ndarray, shape (rows, cols), float32
         Position index P [–] of the chosen method; NaN where invalid. Read-only.
-    cos_sigma : numpy.ndarray, shape (rows, cols)
+    cos_sigma : numpy.ndarray, shape (rows, cols), float32
         d̂·v̂ [–] (the cosine factor of vertical illuminance; negative behind the observer);
         0 where invalid, so that sums over the image need no mask. Read-only.
+
+    The position index and cos σ are computed in float64 and stored as float32 (rounded
+    once: relative 2⁻²⁴ ≈ 6·10⁻⁸, far below any metric's uncertainty; the sums over the
+    field stay float64): 8 bytes per pixel fewer to fault in, write and read (at 24 MP
+    0.19 GB; docs/performance.md, session 14).
     """
 
     def __init__(self, geometry, axes, method, maps=None):
@@ -515,8 +530,10 @@ def _visual_field_maps(geometry, axes, method, *, angles):
     from . import _kernels
 
     shape = geometry.valid.shape
-    unused = np.empty((1, 1))
-    out = [np.empty(shape), np.empty(shape)]
+    # σ, τ float64; position index and cos σ float32 (VisualField).
+    dtype = np.float64 if angles else np.float32
+    unused = np.empty((1, 1), dtype=np.float32 if angles else np.float64)
+    out = [np.empty(shape, dtype=dtype), np.empty(shape, dtype=dtype)]
     maps = (out + [unused, unused]) if angles else ([unused, unused] + out)
     # The directions from the fisheye model inside the kernel where no map is stored.
     if geometry.model is not None and geometry._directions is None:

@@ -14,13 +14,17 @@ cut-off and the design module's gradient components.
 * :func:`correlate_separable`: ``out[i, j] = Σ_a Σ_b ky[a]·kx[b]·x[i + a − ry, j + b − rx]``
   (correlation, each kernel centred on its middle tap: OpenCV's convention with the default
   anchor) for kernels that are symmetric or antisymmetric (Q's Gaussian and its
-  derivative), the taps at ±b sharing one product; the row pass first, both passes summed
-  in float64 (the float32 inputs and taps are exact in it), the result rounded once to
-  float32. Only pixels whose whole stencil
+  derivative), the taps at ±b sharing one product; the row pass first, summed in float64
+  (the float32 inputs and taps are exact in it) and rounded once to float32, then the
+  column pass summed in float32: within (r_y + 4)·2⁻²⁴ of Σ|k_y|·|k_x|·|x| of the exact
+  correlation (tested against float64), which moves Q by about 10⁻⁸ relative
+  (docs/performance.md, session 14). The float32 column pass streams half the bytes on
+  twice the SIMD lanes: Q's candidate pass, which shares these sums, 0.21 → 0.16 s of CPU
+  at 24 MP. Only pixels whose whole stencil
   lies in the image are computed; the border of ``ry`` rows and ``rx`` columns is NaN (Q
   reads none of it: its evaluated pixels are eroded by the stencil). OpenCV sums in float32
   (with fused multiply–adds in its SIMD lanes, without in the row tails), so the two agree to
-  float32 summation error, ≤ (n_x + n_y + 2)·2⁻²⁴ of Σ|k_y|·|k_x|·|x| (tested).
+  float32 summation error (tested).
 * :func:`erode_square`: ``out[i, j]`` true where every pixel of the (2r + 1)² square centred
   on (i, j) is true and inside the image (OpenCV's ``erode`` with a square of ones and a
   constant border of 0) — exact, by run lengths along rows and then columns.
@@ -39,24 +43,27 @@ _BAND_ROWS = 64
 
 
 @njit(inline="always", **_OPTIONS)
-def _taps(out, x, k, centre, parity, n):
-    """out[j] (+)= Σ_b k[centre + b]·x[centre + j + b] over |b| ≤ centre for j < n, the
-    kernel symmetric (``parity`` 1) or antisymmetric (−1): the pairs x[j + b] ± x[j − b]
+def _taps(out, acc, x, k, centre, parity, n):
+    """out[j] = Σ_b k[centre + b]·x[centre + j + b] over |b| ≤ centre for j < n, summed in
+    the float64 row ``acc`` and rounded once to ``out``'s dtype (float32 rows of the rings),
+    the kernel symmetric (``parity`` 1) or antisymmetric (−1): the pairs x[j + b] ± x[j − b]
     share one product."""
     c = k[centre]
     xc = x[centre:centre + n]
     for j in range(n):
-        out[j] = c * np.float64(xc[j])
+        acc[j] = c * np.float64(xc[j])
     for b in range(1, centre + 1):
         t = k[centre + b]
         xp = x[centre + b:centre + b + n]
         xm = x[centre - b:centre - b + n]
         if parity > 0:
             for j in range(n):
-                out[j] += t * (np.float64(xp[j]) + np.float64(xm[j]))
+                acc[j] += t * (np.float64(xp[j]) + np.float64(xm[j]))
         else:
             for j in range(n):
-                out[j] += t * (np.float64(xp[j]) - np.float64(xm[j]))
+                acc[j] += t * (np.float64(xp[j]) - np.float64(xm[j]))
+    for j in range(n):
+        out[j] = acc[j]
 
 
 @njit(parallel=True, **_OPTIONS,
@@ -65,7 +72,7 @@ def _taps(out, x, k, centre, parity, n):
 def _correlate(image, kx, ky, parity_x, parity_y, band_rows, out):
     """:func:`correlate_separable` into ``out`` (kernels as float64 copies of the float32
     taps, each symmetric or antisymmetric: ``parity_x``, ``parity_y`` ±1). Each band of
-    output rows keeps its row-filtered input rows in a ring of 2·ry + 1 float64 rows; every
+    output rows keeps its row-filtered input rows in a ring of 2·ry + 1 float32 rows; every
     output value is the same sum in the same order whatever the bands, so the result does
     not depend on them or on the threads."""
     rows, cols = image.shape
@@ -86,24 +93,27 @@ def _correlate(image, kx, ky, parity_x, parity_y, band_rows, out):
     for band in prange(n_bands):
         r0 = first + band * band_rows
         r1 = min(r0 + band_rows, last)
-        ring = np.empty((ny, inner))
-        acc = np.empty(inner)
+        ring = np.empty((ny, inner), dtype=np.float32)
+        row_sums = np.empty(inner)
+        acc = np.empty(inner, dtype=np.float32)
+        ky32 = ky.astype(np.float32)
         for src in range(r0 - ry, r1 + ry):
             # The row pass of input row ``src`` into its slot of the ring.
-            _taps(ring[src % ny], image[src], kx, rx, parity_x, inner)
+            _taps(ring[src % ny], row_sums, image[src], kx, rx, parity_x, inner)
             i = src - ry  # the output row whose stencil this input row completes
             if i < r0:
                 continue
-            _column_taps(acc, ring, i, ky, ry, parity_y, inner)
+            _column_taps(acc, ring, i, ky32, ry, parity_y, inner)
             o = out[i, rx:rx + inner]
             for j in range(inner):
-                o[j] = np.float32(acc[j])
+                o[j] = acc[j]
 
 
 @njit(inline="always", **_OPTIONS)
 def _column_taps(out, ring, i, k, centre, parity, n):
     """out[j] = Σ_a k[centre + a]·(row i + a)[j] over |a| ≤ centre, input row m kept in
-    ``ring[m % len(ring)]``, paired as in :func:`_taps`."""
+    ``ring[m % len(ring)]``, paired as in :func:`_taps`, in the arithmetic of ``out``,
+    ``ring`` and ``k`` (float32 in this module's callers)."""
     size = ring.shape[0]
     c = k[centre]
     rc = ring[i % size]

@@ -38,7 +38,8 @@ BACKGROUND_METHODS = ("CIE", "mean", "Ev")
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot="void(float64[::1], float64[::1], float64[::1], boolean[::1])")
+      aot=tuple(f"void({L}[::1], float64[::1], {C}[::1], boolean[::1])"
+                for L in ("float64", "float32") for C in ("float64", "float32")))
 def _evaluated_field_kernel(luminance, solid_angle, cos_sigma, out):
     n = out.size
     step = 1 << 16
@@ -70,8 +71,9 @@ def _sums(luminance, solid_angle, cos_sigma, mask):
                                   cos_sigma)
     m = np.zeros(L.shape, dtype=bool) if mask is None else np.broadcast_to(
         np.asarray(mask, dtype=bool), L.shape)
-    # P = 1 everywhere: the position index enters only ugr_sum, unused here.
-    return field_sums(L, w, c, np.ones(L.shape), m)
+    # P = 1 everywhere: the position index enters only ugr_sum, unused here. In cos σ's
+    # precision (a visual field's float32 map: the compiled signatures pair them).
+    return field_sums(L, w, c, np.ones(L.shape, dtype=np.result_type(c.dtype, np.float32)), m)
 
 
 def vertical_illuminance(luminance, solid_angle, cos_sigma, *, mask=None):
@@ -214,8 +216,9 @@ class FieldSums:
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot=tuple(f"Tuple((float64[:, ::1], int64[:, ::1]))({L}[::1], float64[::1], float64[::1], "
-                "float64[::1], boolean[::1], int64)" for L in ("float64", "float32")))
+      aot=tuple(f"Tuple((float64[:, ::1], int64[:, ::1]))({L}[::1], float64[::1], {C}[::1], "
+                f"{C}[::1], boolean[::1], int64)" for L in ("float64", "float32")
+                for C in ("float64", "float32")))
 def _field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask, chunk):
     n = luminance.size
     n_chunks = (n + chunk - 1) // chunk
@@ -227,7 +230,7 @@ def _field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask, 
         for i in range(k * chunk, min(n, (k + 1) * chunk)):
             L = np.float64(luminance[i])  # float() of a float32 stays float32 in numba
             w = float(solid_angle[i])
-            c = float(cos_sigma[i])
+            c = np.float64(cos_sigma[i])  # float32 maps too (VisualField)
             if not (math.isfinite(L) and w > 0 and c >= 0):
                 continue
             n_field += 1
@@ -239,7 +242,7 @@ def _field_sums(luminance, solid_angle, cos_sigma, position_index, source_mask, 
             if source_mask[i]:
                 n_source += 1
                 s[3] += e
-                P = float(position_index[i])
+                P = np.float64(position_index[i])
                 term = L * L * w / (P * P)
                 if math.isfinite(term):
                     s[7] += term

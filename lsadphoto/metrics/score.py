@@ -72,10 +72,8 @@ _CHUNK = 1 << 16
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot=("Tuple((int64, float64, float64))(float32[::1], boolean[::1], float64[::1], "
-           "float64[::1])",
-           "Tuple((int64, float64, float64))(float64[::1], boolean[::1], float64[::1], "
-           "float64[::1])"))
+      aot=tuple(f"Tuple((int64, float64, float64))({L}[::1], boolean[::1], {C}[::1], "
+                "float64[::1])" for L in ("float32", "float64") for C in ("float32", "float64")))
 def _field_luminance_kernel(image, evaluated, cos_sigma, luminance):
     """The luminance (float64; NaN outside the valid pixels; not written where
     ``luminance`` is empty), the number of evaluated pixels that are not valid (luminance

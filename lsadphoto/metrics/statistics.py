@@ -54,7 +54,8 @@ def _group(c, cos_edges, n_rings):
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot="float64[:, ::1](float64[::1], float64[::1], float64[::1], int64)")
+      aot=tuple(f"float64[:, ::1]({L}[::1], float64[::1], {C}[::1], int64)"
+                for L in ("float64", "float32") for C in ("float64", "float32")))
 def _positive_range(luminance, solid_angle, cos_sigma, n_stripes):
     """Per stripe: the smallest and largest positive L of the evaluated field (finite L,
     ω > 0, cos σ ≥ 0); +inf and −inf where there is none."""
@@ -74,9 +75,10 @@ def _positive_range(luminance, solid_angle, cos_sigma, n_stripes):
 
 
 @njit(parallel=True, cache=True, error_model="numpy", nogil=True,
-      aot=tuple(f"void({L}[::1], float64[::1], float64[::1], float64[::1], int64, float64, "
+      aot=tuple(f"void({L}[::1], float64[::1], {C}[::1], float64[::1], int64, float64, "
                 "int64, float64, int64[:, ::1], float64[:, :, ::1], float64[:, ::1], "
-                "float64[:, ::1], float64[:, :, ::1])" for L in ("float64", "float32")))
+                "float64[:, ::1], float64[:, :, ::1])" for L in ("float64", "float32")
+                for C in ("float64", "float32")))
 def _accumulate(luminance, solid_angle, cos_sigma, cos_edges, n_stripes, origin, n_bins,
                 per_decade, count, sums, low, high, hist):
     """Per stripe k and group g (ring, or outside every ring): pixel count ``count[k, g]``,
