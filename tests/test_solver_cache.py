@@ -533,12 +533,9 @@ def test_a_finely_tessellated_room_costs_its_area_and_renders_as_the_plain_one()
     _assert_agrees_with_the_local_estimate(cached, room)
 
 
-def test_patch_interpolation_keeps_parallel_sheets_apart():
-    # A closed square column (outward box, 0.4 m, cut into small triangles) in a room: the
-    # sides inside the column see no light (E_ind = 0 there), the outer sides do. Written
-    # into the cache as 0 inside and 1 outside, the kernel average on every outer side is
-    # exactly 1 (constants are reproduced; the inner side of the opposite face, parallel
-    # and 0.4 m away within the 1.5 m kernel, may not leak in), and 0 inside.
+def _room_with_column():
+    """A 4 × 4 × 3 m grey room (ρ = 0.5) with a closed square column (outward box, 0.4 m, 1.8–2.2 m
+    in x and y) and a point luminaire, every surface cut into small triangles (patches)."""
     scene = scene_from_dict({
         "materials": {"grey": {"reflectance": 0.5}},
         "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [4, 4, 3], "facing": "inward",
@@ -547,7 +544,16 @@ def test_patch_interpolation_keeps_parallel_sheets_apart():
                       "material": "grey"}],
         "luminaires": [{"type": "point", "position": [1, 1, 2.5], "flux": 1000}],
     })
-    scene = _tessellated(scene, 3)
+    return _tessellated(scene, 3)
+
+
+def test_patch_interpolation_keeps_parallel_sheets_apart():
+    # A closed square column (outward box, 0.4 m, cut into small triangles) in a room: the
+    # sides inside the column see no light (E_ind = 0 there), the outer sides do. Written
+    # into the cache as 0 inside and 1 outside, the kernel average on every outer side is
+    # exactly 1 (constants are reproduced; the inner side of the opposite face, parallel
+    # and 0.4 m away within the 1.5 m kernel, may not leak in), and 0 inside.
+    scene = _room_with_column()
     store = simulate(scene, samples=512, seed=1)
     cache = build_surface_cache(store, spacing=1.0, nodes=16, patch_refine=0, seed=2)
     # the column's four sides (its top and bottom lie in the ceiling's and floor's planes)
@@ -581,15 +587,7 @@ def test_patch_kernel_lean_marks_pixels_beyond_their_points():
     # bounds with margin; and 0 ≤ lean ≤ support everywhere (|Σ w·u|/Σ w ≤ Σ w·|x − q|/Σ w).
     from lsadphoto.solver.integrators.surface_cache import PIXEL_LEAN
 
-    scene = scene_from_dict({
-        "materials": {"grey": {"reflectance": 0.5}},
-        "surfaces": [{"type": "box", "min": [0, 0, 0], "max": [4, 4, 3], "facing": "inward",
-                      "material": "grey"},
-                     {"type": "box", "min": [1.8, 1.8, 0], "max": [2.2, 2.2, 3], "facing": "outward",
-                      "material": "grey"}],
-        "luminaires": [{"type": "point", "position": [1, 1, 2.5], "flux": 1000}],
-    })
-    scene = _tessellated(scene, 3)
+    scene = _room_with_column()
     cache = build_surface_cache(simulate(scene, samples=512, seed=1), spacing=1.0, nodes=16, patch_refine=0,
                                 seed=2)
     z = np.array([0.1, 0.3, 2.9, 1.0, 1.5, 2.0])
