@@ -902,7 +902,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     # stream block, triangle side and ρ/π
     own = np.zeros(valid.size, dtype=bool)
     own_point, own_normal = np.zeros((valid.size, 3)), np.zeros((valid.size, 3))
-    own_free, own_block, own_side, own_k = (np.zeros(valid.size), np.zeros(valid.size, np.int64),
+    own_nearest, own_block, own_side, own_k = (np.zeros(valid.size), np.zeros(valid.size, np.int64),
                                             np.zeros(valid.size, np.int64), np.zeros(valid.size))
 
     def work(start):
@@ -931,7 +931,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                 rows = c.index[refl][unresolved]
                 own[rows] = True
                 own_point[rows], own_normal[rows] = x[unresolved], c.normal[refl][unresolved]
-                own_free[rows], own_block[rows] = nearest[unresolved], c.block[refl][unresolved]
+                own_nearest[rows], own_block[rows] = nearest[unresolved], c.block[refl][unresolved]
                 own_side[rows] = 2 * c.triangle[refl][unresolved] + side[unresolved]
                 own_k[rows] = k[unresolved, 0]
             out[refl] += k * (e_dir[:, None] + e_ind)
@@ -946,7 +946,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     rows = np.flatnonzero(own)
     records = 0
     if rows.size:
-        e_ind, records = _pixel_records(at_pixel, own_point[rows], own_normal[rows], own_free[rows],
+        e_ind, records = _pixel_records(at_pixel, own_point[rows], own_normal[rows], own_nearest[rows],
                                         own_side[rows], own_block[rows], workers=int(workers))
         lum_b[rows] += own_k[rows, None] * e_ind
     openings = luminous_openings(scene, position, d, dist)
@@ -972,21 +972,22 @@ def render_cached(store, projection, *, position, rotation, cache=None,
 
 
 def _free_distance(engine, x, n, *, ring):
-    """Free distance [m] in front of points ``x`` (unit normals ``n``): the distance along
-    the normal, and where ``ring`` (bool per point) the smaller of it and the harmonic mean
-    over two rings of 6 probe rays at :data:`PIXEL_PROBE_POLAR_DEG` from it (∞ where every
-    ray leaves the scene); and the distance [m] to the nearest surface that those rays meet
-    (the normal ray's where not ``ring``), which sizes a pixel's record (:func:`_pixel_records`). Ward et al. (1988) take the harmonic mean of the distances their
-    cosine-weighted hemisphere samples travel; the rings sit at the middles of its two
-    halves, in fixed directions, so that a pixel's value does not depend on chunks or threads. The normal ray alone (session 12)
-    misses a surface standing beside the normal: the bench below a column's face just above
-    its seat, whose effect the patch kernel — an average over 1.5 patch sizes with a plane's
-    bias — cannot see (station hall, docs/accuracy.md session 13). :func:`render_cached`
-    asks for the rings on small triangles' sides only: a grid's points reach the triangle's
-    edges, refined where their values differ, and its second-difference bias follows a
-    concave corner's profile, where the rings, counting the adjacent surface, flagged
-    thousands of pixels for no gain (the canonical room at 512²: 5325 pixels against 74,
-    CPU 9–11 → 41–43 s)."""
+    """Free distance [m] in front of points ``x`` (unit normals ``n``): the distance along the
+    normal, and where ``ring`` (bool per point) the smaller of it and the harmonic mean over
+    two rings of 6 probe rays at :data:`PIXEL_PROBE_POLAR_DEG` from it (∞ where every ray
+    leaves the scene); and the distance [m] to the nearest surface that those rays meet (the
+    normal ray's where not ``ring``), which sizes a pixel's record (:func:`_pixel_records`).
+    Ward et al. (1988) take the harmonic mean of the distances their cosine-weighted
+    hemisphere samples travel; the rings sit at the middles of its two halves, in fixed
+    directions, so that a pixel's value does not depend on chunks or threads. The normal ray
+    alone (session 12) misses a surface standing beside the normal: the bench below a
+    column's face just above its seat, whose effect the patch kernel — an average over 1.5
+    patch sizes with a plane's bias — cannot see (station hall, docs/accuracy.md session
+    13). :func:`render_cached` asks for the rings on small triangles' sides only: a grid's
+    points reach the triangle's edges, refined where their values differ, and its
+    second-difference bias follows a concave corner's profile, where the rings, counting the
+    adjacent surface, flagged thousands of pixels for no gain (the canonical room at 512²:
+    5325 pixels against 74, CPU 9–11 → 41–43 s)."""
     lift = x + engine.epsilon * n
     along = engine.closest_hit(lift, n)[1]
     if not np.any(ring):
@@ -1010,14 +1011,14 @@ def _free_distance(engine, x, n, *, ring):
     return along, nearest
 
 
-def _pixel_records(est, x, n, free, side, block, *, workers):
+def _pixel_records(est, x, n, nearest, side, block, *, workers):
     """E_ind [lx] per group, shape (P, groups), at pixel points ``x`` (normals ``n``, distances
-    ``free`` [m] to their nearest surface, triangle sides ``side``, stream blocks ``block``; in
+    ``nearest`` [m] to their nearest surface, triangle sides ``side``, stream blocks ``block``; in
     the view's pixel order) from records: the pixels of one side in one cube of edge
     :data:`PIXEL_RECORD` × 2^⌊log₂ t⌋ (the same power of two of their distance t) take
     ``est``'s estimate at the first of them, drawn from that pixel's block's streams (so the
     map depends neither on chunks nor on threads); and the number of records."""
-    scale = np.exp2(np.floor(np.log2(np.maximum(free, est.engine.epsilon))))  # 0 where surfaces touch
+    scale = np.exp2(np.floor(np.log2(np.maximum(nearest, est.engine.epsilon))))  # 0 where surfaces touch
     cube = np.floor(x / (PIXEL_RECORD * scale)[:, None]).astype(np.int64)
     key = np.column_stack([side, np.log2(scale).astype(np.int64), cube])
     _, first, record = np.unique(key, axis=0, return_index=True, return_inverse=True)
