@@ -90,13 +90,13 @@ def _correlate(image, kx, ky, parity_x, parity_y, band_rows, out):
         return
     first, last = ry, rows - ry  # output rows with a complete column stencil
     n_bands = (last - first + band_rows - 1) // band_rows
+    ky32 = ky.astype(np.float32)  # the column pass's taps (float32 arithmetic)
     for band in prange(n_bands):
         r0 = first + band * band_rows
         r1 = min(r0 + band_rows, last)
         ring = np.empty((ny, inner), dtype=np.float32)
         row_sums = np.empty(inner)
         acc = np.empty(inner, dtype=np.float32)
-        ky32 = ky.astype(np.float32)
         for src in range(r0 - ry, r1 + ry):
             # The row pass of input row ``src`` into its slot of the ring.
             _taps(ring[src % ny], row_sums, image[src], kx, rx, parity_x, inner)

@@ -392,7 +392,6 @@ def _candidates_kernel(L, field, r0, c0, evaluated, omega, derivative, smooth, p
     row_sums = np.empty(box_cols)
     acc_u = np.empty(box_cols, dtype=np.float32)
     acc_v = np.empty(box_cols, dtype=np.float32)
-    row_sums = np.empty(box_cols)
     smooth32, derivative32 = smooth.astype(np.float32), derivative.astype(np.float32)
     k = 0
     for src in range(i_first - reach, i_last + reach + 1):

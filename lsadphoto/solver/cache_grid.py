@@ -309,14 +309,16 @@ def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, val
                 continue
             total += w
             reach += w * math.sqrt(dx * dx + dy * dy + dz * dz)
-            u0 += w * (dx * t1x + dy * t1y + dz * t1z)
-            u1 += w * (dx * t2x + dy * t2y + dz * t2z)
+            p0 = dx * t1x + dy * t1y + dz * t1z  # the offset on the tangent plane
+            p1 = dx * t2x + dy * t2y + dz * t2z
+            u0 += w * p0
+            u1 += w * p1
             for g in range(G):
                 out[i, g] += w * values[j, g]
             if with_bias:
                 wk[count] = w
-                uk[count, 0] = dx * t1x + dy * t1y + dz * t1z
-                uk[count, 1] = dx * t2x + dy * t2y + dz * t2z
+                uk[count, 0] = p0
+                uk[count, 1] = p1
                 jk[count] = j
             count += 1
         if total > 0:
@@ -332,13 +334,8 @@ def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, val
             lean[i] = support[i]
         if not with_bias or count < 2 or total <= 0:
             continue
-        m0 = 0.0
-        m1 = 0.0
-        for k in range(count):
-            m0 += wk[k] * uk[k, 0]
-            m1 += wk[k] * uk[k, 1]
-        m0 /= total
-        m1 /= total
+        m0 = u0 / total  # ū
+        m1 = u1 / total
         c00 = 0.0
         c01 = 0.0
         c11 = 0.0
