@@ -31,9 +31,10 @@ and 105.1 lx with ``-ad 4, 9, 16, 64``, and 104.1, 104.0, 103.9, 103.9 lx with `
 ``-ad 512`` within 0.2 % (docs/accuracy.md, session 15). The divisions of rtrace's
 stratified hemisphere reject a direction within (π/4)/n of a neighbouring division's sample
 and draw again (``ambcollision`` in ambcomp.c), so its samples are no longer uniform within
-a division; that is the likely cause. ``-ad 16 --repeats R`` costs no more for the same
-standard error in the canonical room (96 s of CPU for 1000 traces, 0.14 % mean relative
-standard error, against 48 s for 8 runs at ``-ad 512``, 0.18 %).
+a division; that is the likely cause. ``-ad 16 --repeats R`` costs about as much for the
+same standard error in the canonical room (96 s of CPU for 1000 traces, 0.14 % mean relative
+standard error, against 48 s for 8 runs at ``-ad 512``, 0.18 %) and gives it hundreds of
+degrees of freedom instead of runs − 1.
 
 Scenes:
 
