@@ -16,7 +16,25 @@ index gives independent noise: the runs' deviations from their mean correlate as
 −1/(runs − 1), PITFALLS.md). Their mean is the reference and their standard deviation over
 √runs its standard error — with runs − 1 degrees of freedom: with two runs that estimate
 alone makes z heavy-tailed (a perfect estimator of our noise equal to the reference's
-would show only 98.6 % of pixels with |z| ≤ 3; 99.5 % with 8 runs).
+would show only 98.6 % of pixels with |z| ≤ 3; 99.5 % with 8 runs). ``--repeats R`` traces
+the subset R times over within each run: Radiance's default ``-u+`` draws every ambient
+sample from ``random()`` (seeded from the clock), so each trace is an independent draw
+(lag-1 correlation of consecutive traces of one ray 0.00 ± 0.03 at ``-ad 16``), and the
+standard error has runs·R − 1 degrees of freedom.
+
+**Small ``-ad`` for an unbiased reference.** With ``-aa 0`` and many ambient divisions
+rtrace's first-bounce estimate is not unbiased near a wall: at a ceiling point of the
+canonical room 0.3 m from the lit wall (1.5, 0.3, 3.0) ``rtrace -I`` gave 105.3 ± 0.4 lx
+with ``-ad 1`` (one cosine-distributed sample: the plainest estimator), 105.6, 105.5, 105.4
+and 105.1 lx with ``-ad 4, 9, 16, 64``, and 104.1, 104.0, 103.9, 103.9 lx with ``-ad 128, 256,
+512, 1024`` (σ 0.05–0.2 lx), while 16 other points of the room agreed between ``-ad 16`` and
+``-ad 512`` within 0.2 % (docs/accuracy.md, session 15). The divisions of rtrace's
+stratified hemisphere reject a direction within (π/4)/n of a neighbouring division's sample
+and draw again (``ambcollision`` in ambcomp.c), so its samples are no longer uniform within
+a division; that is the likely cause. ``-ad 16 --repeats R`` costs about as much for the
+same standard error in the canonical room (96 s of CPU for 1000 traces, 0.14 % mean relative
+standard error, against 48 s for 8 runs at ``-ad 512``, 0.18 %) and gives it hundreds of
+degrees of freedom instead of runs − 1.
 
 Scenes:
 
@@ -44,8 +62,11 @@ vwrays' float32, pass on different sides).
 
 Run (2-core machine)::
 
-    python benchmarks/accuracy_vs_rtrace.py --scene canonical --size 128
-    python benchmarks/accuracy_vs_rtrace.py --scene hall --size 128 --hall-scale 0.5
+    python benchmarks/accuracy_vs_rtrace.py --scene canonical --size 128 --runs 2 --repeats 500
+    python benchmarks/accuracy_vs_rtrace.py --scene hall --size 128 --hall-scale 0.35 --repeats 200
+
+(the references: 96 s and 381 s of rtrace CPU; ``--rtrace "-ab 8 -ad 512 …" --runs 8
+--repeats 1`` gives the earlier sessions' references).
 
 Writes a Markdown fragment with the command to ``--output``. The references are kept in
 ``--reference-cache`` (default: a folder in the system's temporary directory), keyed by the
@@ -123,18 +144,20 @@ def _hall_rad(folder, scale):
     return path, [(v.name, v.position, v.rotation) for v in scene.views]
 
 
-def _reference(rad, view_options, size, pixels, rtrace_options, seed, runs=2, cache=None):
+def _reference(rad, view_options, size, pixels, rtrace_options, seed, runs=2, cache=None, repeats=1):
     """Flat pixel indices, reference luminance [cd·m⁻²], its standard error, rtrace's
     primary hit points [m] and rtrace CPU [s]; kept in the folder ``cache`` (if given) under a
-    hash of the scene's files, the view, the pixels, the options, the runs and Radiance's
-    version, so that two of our builds compare against one reference (the CPU is that of the
-    run that made it)."""
+    hash of the scene's files, the view, the pixels, the options, the runs, the repeats and
+    Radiance's version, so that two of our builds compare against one reference (the CPU is
+    that of the run that made it). Each run traces the subset ``repeats`` times over in one
+    process; every trace is one draw."""
     binpath, env, version = _radiance()
     folder = rad.parent
     if cache:
         import hashlib
 
-        h = hashlib.sha256(repr((view_options, size, pixels, rtrace_options, seed, runs, version)).encode())
+        key = (view_options, size, pixels, rtrace_options, seed, runs, version) + ((repeats,) if repeats > 1 else ())
+        h = hashlib.sha256(repr(key).encode())
         for f in sorted(folder.iterdir()):
             if f.suffix in (".rad", ".dat", ".cal"):
                 h.update(f.name.encode() + f.read_bytes())
@@ -143,7 +166,7 @@ def _reference(rad, view_options, size, pixels, rtrace_options, seed, runs=2, ca
             with np.load(path) as z:
                 print(f"reference from {path}", file=sys.stderr)
                 return z["pick"], z["mean"], z["sigma"], z["hits"], float(z["cpu"])
-        result = _reference(rad, view_options, size, pixels, rtrace_options, seed, runs)
+        result = _reference(rad, view_options, size, pixels, rtrace_options, seed, runs, repeats=repeats)
         path.parent.mkdir(parents=True, exist_ok=True)
         np.savez(path, **dict(zip(("pick", "mean", "sigma", "hits", "cpu"), result)))
         return result
@@ -165,14 +188,16 @@ def _reference(rad, view_options, size, pixels, rtrace_options, seed, runs=2, ca
             order = slice(None) if k % 2 == 0 else slice(None, None, -1)
             lead = 97 * k if k >= 2 else 0
             subset = np.ascontiguousarray(np.concatenate([np.repeat(rays[pick][:1], lead, axis=0),
-                                                          rays[pick][order]]))
+                                                          np.tile(rays[pick][order], (repeats, 1))]))
             out = subprocess.run([os.path.join(binpath, "rtrace"), "-h", "-ff", "-ovp", *rtrace_options.split(),
                                   str(octree)], input=subset.tobytes(), capture_output=True, cwd=folder,
                                  env=env, check=True).stdout
-            rgb, hits = np.split(np.frombuffer(out, np.float32).reshape(-1, 6).astype(float)[lead:][order], 2, axis=1)
-            values.append(179.0 * rgb @ RADIANCE_RGB_LUMINANCE_WEIGHTS)
+            traces = np.frombuffer(out, np.float32).reshape(-1, 6).astype(float)[lead:].reshape(repeats, pick.size, 6)
+            rgb, hits = np.split(traces[:, order], 2, axis=2)
+            values.extend(179.0 * rgb @ RADIANCE_RGB_LUMINANCE_WEIGHTS)
+            hits = hits[0]
     values = np.array(values)
-    return pick, values.mean(axis=0), values.std(axis=0, ddof=1) / math.sqrt(runs), hits, clock.cpu
+    return pick, values.mean(axis=0), values.std(axis=0, ddof=1) / math.sqrt(len(values)), hits, clock.cpu
 
 
 def _at_points(store, view, pick, size, *, nodes, direct_samples, luminaires):
@@ -231,8 +256,11 @@ def main(argv=None):
                              "(rounds of chains from --chains), instead of --chains and the defaults")
     parser.add_argument("--local-chains", type=int, default=262144)
     parser.add_argument("--hall-scale", type=float, default=0.5)
-    parser.add_argument("--rtrace", default=" ".join(("-ab 8 -ad 512", *RTRACE_UNBIASED, "-ds 0.02")))
-    parser.add_argument("--runs", type=int, default=2, help="reference runs (≥ 2)")
+    # -ad 16: rtrace's estimate at many ambient divisions is biased near walls (module docstring)
+    parser.add_argument("--rtrace", default=" ".join(("-ab 16 -ad 16", *RTRACE_UNBIASED, "-ds 0.02")))
+    parser.add_argument("--runs", type=int, default=2, help="reference runs")
+    parser.add_argument("--repeats", type=int, default=100,
+                        help="traces of the subset per reference run, in one rtrace process (each one draw)")
     parser.add_argument("--max-luminance", type=float, default=1000.0)
     parser.add_argument("--estimators", default="cache,points,local",
                         help="comma-separated: cache, points (needs cache), local")
@@ -244,8 +272,9 @@ def main(argv=None):
     parser.add_argument("--reference-cache", default=os.path.join(tempfile.gettempdir(), "lsadphoto_rtrace_refs"),
                         help="folder that keeps the rtrace references between runs ('' : none)")
     args = parser.parse_args(argv)
-    if args.runs < 2:
-        parser.error(f"--runs must be at least 2 (the reference's own noise), got {args.runs}")
+    if args.runs < 1 or args.repeats < 1 or args.runs * args.repeats < 2:
+        parser.error(f"--runs × --repeats must be at least 2 (the reference's own noise), got {args.runs} × "
+                     f"{args.repeats}")
     folder = Path(tempfile.mkdtemp(prefix="acc_rtrace_"))
     if args.scene == "canonical":
         rad = folder / "room.rad"
@@ -269,7 +298,7 @@ def main(argv=None):
     pose = {"position": view.position, "rotation": view.rotation}
     pick, ref, ref_sigma, ref_hits, rtrace_cpu = _reference(rad, view_options, args.size, args.pixels, args.rtrace,
                                                             seed=5, runs=args.runs,
-                                                            cache=args.reference_cache)
+                                                            cache=args.reference_cache, repeats=args.repeats)
     # Pixels whose primary rays hit the same point in both programs: at a silhouette our
     # float64 eye ray and vwrays' float32 one can hit different objects (hall: 1 pixel of
     # 256, 0.8 m apart; the others agree to 2 µm at the 95th percentile), which compares two
@@ -333,7 +362,9 @@ def main(argv=None):
              f"Reference: `rtrace {args.rtrace}` on {int(keep.sum())} random pixels inside the image circle "
              f"(of {pick.size}; {int(np.sum(ref >= args.max_luminance))} luminaire pixels above "
              f"{args.max_luminance:g} cd/m² and {int(np.sum(~same_hit & (ref < args.max_luminance)))} whose "
-             f"primary hits differ by more than 1 cm left out), {args.runs} runs, {rtrace_cpu:.0f} s CPU; its own mean "
+             f"primary hits differ by more than 1 cm left out), {args.runs} runs"
+             + (f" of {args.repeats} traces each" if args.repeats > 1 else "")
+             + f", {rtrace_cpu:.0f} s CPU; its own mean "
              f"relative standard error "
              f"{100 * float(np.mean(ref_sigma[keep] / ref[keep])):.2f} %.", "",
              "| solver | setting | CPU [s] | field-mean ratio | median pixel ratio | MARE | MARE, reference "

@@ -161,7 +161,11 @@ def radiance_programs():
 #: ``-dt 0 -dc 1``, 40.7 lx as π × the mean of rtrace's own ``-ab 0`` radiances over 4000
 #: cosine-distributed directions (the luminaires' openings, black to ambient rays, left
 #: out); over 253 pixels the indirect light per surface kind was −10 … +3.5 %
-#: off ours with the defaults, within 1.5 % with these options.
+#: off ours with the defaults, within 1.5 % with these options. Keep ``-ad`` small: with
+#: many divisions rtrace's stratified hemisphere is biased near walls (a ceiling point of the
+#: canonical room 0.3 m from the lit wall: 105.3 ± 0.4 lx at ``-ad 1``, 105.4 at ``-ad 16``,
+#: 103.9 at ``-ad 512``; docs/accuracy.md, session 15), so an exact reference takes
+#: ``-ad 16`` and many traces (benchmarks/accuracy_vs_rtrace.py ``--repeats``).
 RTRACE_UNBIASED = ("-aa", "0", "-as", "0", "-lw", "1e-9", "-dj", "0", "-dt", "0", "-dc", "1")
 
 

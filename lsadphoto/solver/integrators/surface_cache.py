@@ -39,8 +39,9 @@ further view needs only its primary rays, its direct shadow rays and the interpo
 the estimate of E_ind at every cache point is unbiased, the interpolation adds a bias of
 order spacing² × (curvature of E_ind) — largest next to concave edges; on patches, whose
 kernel average reproduces constants but not gradients, of order spacing × |∇E_ind| where the
-points lie on one side (an edge of a mesh). :func:`render_cached` estimates it per pixel
-from the cached values themselves (:meth:`~lsadphoto.solver.cache_grid.SurfaceCache.interpolate_with_bias`)
+points lie on one side (an edge of a mesh), less the part that a weighted plane fit finds
+clear of the noise (:meth:`~lsadphoto.solver.cache_grid.SurfaceCache.interpolate`).
+:func:`render_cached` estimates it per pixel from the cached values themselves (:meth:`~lsadphoto.solver.cache_grid.SurfaceCache.interpolate_with_bias`)
 and adds it to the reported uncertainty in quadrature. It is measured against per-pixel
 estimates in docs/accuracy.md; halve ``spacing`` to quarter it.
 
