@@ -248,8 +248,6 @@ class _NodeHull:
     many-luminaire table and the stream keys of their direct samples (attributes ``store``,
     ``scene``, ``engine``, ``key``)."""
 
-    hull = None
-
     def _along_curve(self, nodes):
         """``nodes`` (store indices) in the order of their positions along a Morton curve
         through the scene's bounding cube (consecutive nodes are close in space)."""
@@ -261,17 +259,10 @@ class _NodeHull:
         """True where some node lies in front of the point's tangent plane (else the far
         part is exactly 0: every pair has cos θ_x ≤ 0), by the support function of the
         nodes' convex hull."""
-        if self.hull is None:
-            from scipy.spatial import ConvexHull, QhullError
-
-            pos = self.store.position[self.store.depth > 0]
-            try:
-                self.hull = pos[ConvexHull(pos).vertices] if len(pos) > 4 else pos
-            except (QhullError, ValueError):  # flat or degenerate node sets: all of them
-                self.hull = pos
-        if self.hull.size == 0:
+        hull = self.store.surface_node_hull()
+        if hull.size == 0:
             return np.zeros(len(x), dtype=bool)
-        support = (n @ self.hull.T).max(axis=1)
+        support = (n @ hull.T).max(axis=1)
         return support > np.einsum("ij,ij->i", n, x) + self.engine.epsilon
 
     def _luminaire_table(self, near_distance):
