@@ -3,7 +3,8 @@ where that code is missing.
 
 A ``lsadphoto score`` of a 786² picture computes for about 0.1 s; importing numba,
 initialising its compiler target and loading the kernels from its cache took 1.4 s of CPU
-(docs/performance.md, "Latency of a whole score process"). So the package's kernels are
+(docs/performance.md, "Latency of a whole score process"); a further view of a stored
+simulation paid 0.8 s of its process for the same. So the package's kernels are
 written once, as numba functions decorated with :func:`njit` from this module, and compiled
 twice:
 
@@ -80,6 +81,11 @@ MODULES = (
     "lsadphoto.metrics._filters",
     "lsadphoto.metrics.quality",
     "lsadphoto.metrics.grouping_options",
+    "lsadphoto.solver.photometry.distribution",
+    "lsadphoto.solver.direct",
+    "lsadphoto.solver.cache_grid",
+    "lsadphoto.solver.integrators.surface_cache",
+    "lsadphoto.solver.integrators.eye",
 )
 #: Name of the extension module (its ``PyInit_`` symbol).
 EXTENSION = "_lsadphoto_kernels"
@@ -133,26 +139,30 @@ def _split_top(text):
     return parts
 
 
+def _spec(arg):
+    """Spec of one argument type of a numba signature string: ``(dtype, ndim, c_order)`` for
+    an array, the scalar kind for a scalar, ``("tuple", specs)`` for a ``Tuple((…))``."""
+    arg = arg.strip()
+    if arg.startswith("Tuple(("):
+        return ("tuple", tuple(_spec(a) for a in _split_top(arg[len("Tuple(("):-2])))
+    name, _, dims = arg.partition("[")
+    name = name.strip()
+    if dims:
+        axes = _split_top(dims.rstrip("]"))
+        dtype = np.dtype("bool" if name == "boolean" else name)
+        return (dtype, len(axes), axes[-1].replace(" ", "") == "::1")
+    return _SCALARS[name]
+
+
 def _argument_specs(signature):
-    """Per argument of a numba signature string ``"ret(arg, ...)"``: ``(dtype, ndim,
-    c_order)`` for an array, the scalar kind for a scalar."""
+    """Per argument of a numba signature string ``"ret(arg, ...)"``: its :func:`_spec`."""
     text = signature.strip()
     depth = 0
     for i in range(len(text) - 1, -1, -1):
         depth += {")": 1, "(": -1}.get(text[i], 0)
         if depth == 0:
             break
-    specs = []
-    for arg in _split_top(text[i + 1:-1]):
-        name, _, dims = arg.partition("[")
-        name = name.strip()
-        if dims:
-            axes = _split_top(dims.rstrip("]"))
-            dtype = np.dtype("bool" if name == "boolean" else name)
-            specs.append((dtype, len(axes), axes[-1].replace(" ", "") == "::1"))
-        else:
-            specs.append(_SCALARS[name])
-    return tuple(specs)
+    return tuple(_spec(arg) for arg in _split_top(text[i + 1:-1]))
 
 
 def _matches(specs, args):
@@ -170,6 +180,9 @@ def _matches(specs, args):
                 if not isinstance(a, (float, np.floating)):
                     return False
             else:
+                return False
+        elif spec[0] == "tuple":
+            if not (isinstance(a, tuple) and _matches(spec[1], a)):
                 return False
         else:
             dtype, ndim, c_order = spec

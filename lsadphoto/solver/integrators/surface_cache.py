@@ -78,7 +78,7 @@ import math
 import time
 
 import numpy as np
-from numba import njit
+from ..._compiled import njit
 
 from ..._validation import check_positive_int
 from ...errors import BadInputError
@@ -198,7 +198,9 @@ def _guide_table(cdf):
     return np.minimum(np.searchsorted(cdf, np.arange(n + 1) / n, side="left"), n - 1)
 
 
-@njit(**_NUMBA)
+@njit(**_NUMBA, aot="int64(float64[:, ::1], float64[:, ::1], float64, float64[::1], int64[::1], "
+                    "float64[:, ::1], float64[:, ::1], float64, float64, float64[:, ::1], int64[::1], "
+                    "float32[:, ::1], float32[:, ::1], float32[::1])")
 def _far_terms(points, normals, offset, cdf, guide, nodes, u, eps2, tiny, out, pair, o32, d32,
                t32):
     """cos θ_n·cos θ_x/r² of the pairs (point i, node drawn with u[i, j]) farther than ε,
