@@ -167,3 +167,14 @@ def test_arguments_outside_the_signatures_run_just_in_time():
         result = np.empty((1, 1))
         quad_solid_angle_grid(other, *grid[1:], result)
         assert result[0, 0] == pytest.approx(2.0 * math.pi / 3.0, rel=rel)
+
+
+def test_tuple_arguments_match_only_their_declared_types():
+    # The ahead-of-time functions read tuples of arrays (the luminaires' packed tables) without
+    # checks: a tuple with another length, dtype or memory order must go to numba instead.
+    spec = _compiled._argument_specs("void(Tuple((float64[::1], Tuple((int64[::1], boolean[::1])))), int64)")
+    good = (np.zeros(3), (np.zeros(2, dtype=np.int64), np.zeros(2, dtype=bool)))
+    assert _compiled._matches(spec, (good, 1))
+    for bad in ((np.zeros(3, dtype=np.float32), good[1]), (np.zeros(3), (good[1][0].astype(np.int32), good[1][1])),
+                (np.zeros(3),), (np.zeros((3, 2))[:, 0], good[1]), [np.zeros(3), good[1]]):
+        assert not _compiled._matches(spec, (bad, 1))
