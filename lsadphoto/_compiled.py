@@ -432,9 +432,9 @@ def cache_folder():
         base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
         root = os.path.join(base, "lsadphoto")
     digest = hashlib.sha256()
+    root = Path(__file__).parent  # the sources are read, not imported (nor their packages)
     for name in (*MODULES, __name__):
-        spec = importlib.util.find_spec(name)
-        digest.update(Path(spec.origin).read_bytes())
+        digest.update((root / (name.removeprefix("lsadphoto.").replace(".", "/") + ".py")).read_bytes())
     numba_spec = importlib.util.find_spec("numba")
     if numba_spec is None:
         return None
