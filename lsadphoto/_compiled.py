@@ -63,6 +63,7 @@ import mmap
 import os
 import platform
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -92,6 +93,7 @@ EXTENSION = "_lsadphoto_kernels"
 
 _KERNELS = []
 _STATE = {"numba": None, "library": None, "mode": os.environ.get("LSADPHOTO_KERNELS", "auto")}
+_LIBRARY_LOCK = threading.Lock()
 
 
 def _prange(*args):
@@ -432,9 +434,9 @@ def cache_folder():
         base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
         root = os.path.join(base, "lsadphoto")
     digest = hashlib.sha256()
-    root = Path(__file__).parent  # the sources are read, not imported (nor their packages)
+    package = Path(__file__).parent  # the sources are read, not imported (nor their packages)
     for name in (*MODULES, __name__):
-        digest.update((root / (name.removeprefix("lsadphoto.").replace(".", "/") + ".py")).read_bytes())
+        digest.update((package / (name.removeprefix("lsadphoto.").replace(".", "/") + ".py")).read_bytes())
     numba_spec = importlib.util.find_spec("numba")
     if numba_spec is None:
         return None
@@ -454,27 +456,34 @@ def _extension_path(folder):
 
 def _library():
     """name → ahead-of-time function, building the extension first where needed; empty
-    when ``LSADPHOTO_KERNELS=jit`` or when it cannot be built."""
-    if _STATE["library"] is not None:
-        return _STATE["library"]
-    _STATE["library"] = {}
+    when ``LSADPHOTO_KERNELS=jit`` or when it cannot be built. Thread-safe: the first
+    kernel calls of a render come from its worker threads at once, and a thread that found
+    the library still loading must wait for it, not take it as empty."""
+    if _STATE["library"] is None:
+        with _LIBRARY_LOCK:
+            if _STATE["library"] is None:
+                _STATE["library"] = _load_library()
+    return _STATE["library"]
+
+
+def _load_library():
     if _STATE["mode"] == "jit":
-        return _STATE["library"]
+        return {}
     try:
         folder = cache_folder()
     except OSError:
-        return _STATE["library"]
+        return {}
     if folder is None:
-        return _STATE["library"]
+        return {}
     path = _extension_path(folder)
     if not path.exists() and not (folder / "build.failed").exists():
         _build(folder)
-    if path.exists():
-        spec = importlib.util.spec_from_file_location(EXTENSION, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        _STATE["library"] = {k: v for k, v in vars(module).items() if "__" in k and callable(v)}
-    return _STATE["library"]
+    if not path.exists():
+        return {}
+    spec = importlib.util.spec_from_file_location(EXTENSION, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return {k: v for k, v in vars(module).items() if "__" in k and callable(v)}
 
 
 def _build(folder):

@@ -178,3 +178,26 @@ def test_tuple_arguments_match_only_their_declared_types():
     for bad in ((np.zeros(3, dtype=np.float32), good[1]), (np.zeros(3), (good[1][0].astype(np.int32), good[1][1])),
                 (np.zeros(3),), (np.zeros((3, 2))[:, 0], good[1]), [np.zeros(3), good[1]]):
         assert not _compiled._matches(spec, (bad, 1))
+
+
+def test_threads_that_load_the_library_at_once_all_get_it(monkeypatch):
+    # A render's worker threads make the first kernel calls of a process together; one that
+    # found the extension still loading once took it as empty and ran numba's JIT.
+    import threading
+
+    full = _compiled._library()
+    if not full:
+        skip_without_ahead_of_time_kernels()
+    monkeypatch.setitem(_compiled._STATE, "library", None)
+    barrier, got = threading.Barrier(4), []
+
+    def load():
+        barrier.wait()
+        got.append(len(_compiled._library()))
+
+    threads = [threading.Thread(target=load) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert got == [len(full)] * 4
