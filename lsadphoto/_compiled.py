@@ -3,7 +3,8 @@ where that code is missing.
 
 A ``lsadphoto score`` of a 786² picture computes for about 0.1 s; importing numba,
 initialising its compiler target and loading the kernels from its cache took 1.4 s of CPU
-(docs/performance.md, "Latency of a whole score process"). So the package's kernels are
+(docs/performance.md, "Latency of a whole score process"); a further view of a stored
+simulation paid 0.8 s of its process for the same. So the package's kernels are
 written once, as numba functions decorated with :func:`njit` from this module, and compiled
 twice:
 
@@ -62,6 +63,7 @@ import mmap
 import os
 import platform
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -80,12 +82,18 @@ MODULES = (
     "lsadphoto.metrics._filters",
     "lsadphoto.metrics.quality",
     "lsadphoto.metrics.grouping_options",
+    "lsadphoto.solver.photometry.distribution",
+    "lsadphoto.solver.direct",
+    "lsadphoto.solver.cache_grid",
+    "lsadphoto.solver.integrators.surface_cache",
+    "lsadphoto.solver.integrators.eye",
 )
 #: Name of the extension module (its ``PyInit_`` symbol).
 EXTENSION = "_lsadphoto_kernels"
 
 _KERNELS = []
 _STATE = {"numba": None, "library": None, "mode": os.environ.get("LSADPHOTO_KERNELS", "auto")}
+_LIBRARY_LOCK = threading.Lock()
 
 
 def _prange(*args):
@@ -133,26 +141,30 @@ def _split_top(text):
     return parts
 
 
+def _spec(arg):
+    """Spec of one argument type of a numba signature string: ``(dtype, ndim, c_order)`` for
+    an array, the scalar kind for a scalar, ``("tuple", specs)`` for a ``Tuple((…))``."""
+    arg = arg.strip()
+    if arg.startswith("Tuple(("):
+        return ("tuple", tuple(_spec(a) for a in _split_top(arg[len("Tuple(("):-2])))
+    name, _, dims = arg.partition("[")
+    name = name.strip()
+    if dims:
+        axes = _split_top(dims.rstrip("]"))
+        dtype = np.dtype("bool" if name == "boolean" else name)
+        return (dtype, len(axes), axes[-1].replace(" ", "") == "::1")
+    return _SCALARS[name]
+
+
 def _argument_specs(signature):
-    """Per argument of a numba signature string ``"ret(arg, ...)"``: ``(dtype, ndim,
-    c_order)`` for an array, the scalar kind for a scalar."""
+    """Per argument of a numba signature string ``"ret(arg, ...)"``: its :func:`_spec`."""
     text = signature.strip()
     depth = 0
     for i in range(len(text) - 1, -1, -1):
         depth += {")": 1, "(": -1}.get(text[i], 0)
         if depth == 0:
             break
-    specs = []
-    for arg in _split_top(text[i + 1:-1]):
-        name, _, dims = arg.partition("[")
-        name = name.strip()
-        if dims:
-            axes = _split_top(dims.rstrip("]"))
-            dtype = np.dtype("bool" if name == "boolean" else name)
-            specs.append((dtype, len(axes), axes[-1].replace(" ", "") == "::1"))
-        else:
-            specs.append(_SCALARS[name])
-    return tuple(specs)
+    return tuple(_spec(arg) for arg in _split_top(text[i + 1:-1]))
 
 
 def _matches(specs, args):
@@ -170,6 +182,9 @@ def _matches(specs, args):
                 if not isinstance(a, (float, np.floating)):
                     return False
             else:
+                return False
+        elif spec[0] == "tuple":
+            if not (isinstance(a, tuple) and _matches(spec[1], a)):
                 return False
         else:
             dtype, ndim, c_order = spec
@@ -419,9 +434,9 @@ def cache_folder():
         base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
         root = os.path.join(base, "lsadphoto")
     digest = hashlib.sha256()
+    package = Path(__file__).parent  # the sources are read, not imported (nor their packages)
     for name in (*MODULES, __name__):
-        spec = importlib.util.find_spec(name)
-        digest.update(Path(spec.origin).read_bytes())
+        digest.update((package / (name.removeprefix("lsadphoto.").replace(".", "/") + ".py")).read_bytes())
     numba_spec = importlib.util.find_spec("numba")
     if numba_spec is None:
         return None
@@ -441,27 +456,34 @@ def _extension_path(folder):
 
 def _library():
     """name → ahead-of-time function, building the extension first where needed; empty
-    when ``LSADPHOTO_KERNELS=jit`` or when it cannot be built."""
-    if _STATE["library"] is not None:
-        return _STATE["library"]
-    _STATE["library"] = {}
+    when ``LSADPHOTO_KERNELS=jit`` or when it cannot be built. Thread-safe: the first
+    kernel calls of a render come from its worker threads at once, and a thread that found
+    the library still loading must wait for it, not take it as empty."""
+    if _STATE["library"] is None:
+        with _LIBRARY_LOCK:
+            if _STATE["library"] is None:
+                _STATE["library"] = _load_library()
+    return _STATE["library"]
+
+
+def _load_library():
     if _STATE["mode"] == "jit":
-        return _STATE["library"]
+        return {}
     try:
         folder = cache_folder()
     except OSError:
-        return _STATE["library"]
+        return {}
     if folder is None:
-        return _STATE["library"]
+        return {}
     path = _extension_path(folder)
     if not path.exists() and not (folder / "build.failed").exists():
         _build(folder)
-    if path.exists():
-        spec = importlib.util.spec_from_file_location(EXTENSION, path)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        _STATE["library"] = {k: v for k, v in vars(module).items() if "__" in k and callable(v)}
-    return _STATE["library"]
+    if not path.exists():
+        return {}
+    spec = importlib.util.spec_from_file_location(EXTENSION, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return {k: v for k, v in vars(module).items() if "__" in k and callable(v)}
 
 
 def _build(folder):

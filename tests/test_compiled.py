@@ -115,6 +115,39 @@ def test_every_source_method_scores_without_numba(tmp_path, method):
     assert record["settings"]["source_method"] == method
 
 
+def test_a_further_view_from_a_store_renders_without_numba_and_as_just_in_time(tmp_path):
+    # `lsadphoto render STORE` runs the solver's kernels (direct light, the cache's
+    # interpolation, far node connections, luminous openings) from the ahead-of-time
+    # extension: no numba import, no kernel loading (0.8 s of a 512² view's process), and
+    # the map equal bit for bit to numba's just-in-time code.
+    from lsadphoto.io import read_map
+    from lsadphoto.solver import simulate
+    from lsadphoto.solver.examples import canonical_room
+    from lsadphoto.solver.integrators.surface_cache import build_surface_cache
+
+    room = canonical_room(size=24)
+    store = simulate(room, samples=2048, seed=5)
+    store.surface_cache = build_surface_cache(store, nodes=256, seed=5)
+    store.save(tmp_path / "room.lsad.npz")
+    view = "-vta -vp 4 2 1.2 -vd -1 0 0 -vu 0 0 1 -vh 180 -vv 180"
+    maps = []
+    for name, env in (("aot", {}), ("jit", {"LSADPHOTO_KERNELS": "jit"})):
+        out = tmp_path / f"{name}.exr"
+        done = subprocess.run([sys.executable, "-c", SCRIPT, "render", str(tmp_path / "room.lsad.npz"),
+                               "--view", view, "--size", "24x24", "-o", str(out), "--quiet"],
+                              capture_output=True, text=True, env={**os.environ, **env})
+        assert done.returncode == 0, done.stderr
+        numba_loaded = json.loads(done.stderr.strip().splitlines()[-1])
+        if name == "aot":
+            if numba_loaded:
+                skip_without_ahead_of_time_kernels()
+            assert not numba_loaded
+        maps.append(read_map(out))
+    assert maps[0].provenance["estimator"].startswith("surface cache")
+    assert np.array_equal(maps[0].luminance, maps[1].luminance, equal_nan=True)
+    assert np.array_equal(maps[0].uncertainty, maps[1].uncertainty, equal_nan=True)
+
+
 def test_arguments_outside_the_signatures_run_just_in_time():
     # quad_solid_angle_grid is compiled ahead of time for C-ordered float64 grids only. The
     # corners of a cube's face, seen from its centre, bound a sixth of the sphere: 2π/3 sr.
@@ -134,3 +167,37 @@ def test_arguments_outside_the_signatures_run_just_in_time():
         result = np.empty((1, 1))
         quad_solid_angle_grid(other, *grid[1:], result)
         assert result[0, 0] == pytest.approx(2.0 * math.pi / 3.0, rel=rel)
+
+
+def test_tuple_arguments_match_only_their_declared_types():
+    # The ahead-of-time functions read tuples of arrays (the luminaires' packed tables) without
+    # checks: a tuple with another length, dtype or memory order must go to numba instead.
+    spec = _compiled._argument_specs("void(Tuple((float64[::1], Tuple((int64[::1], boolean[::1])))), int64)")
+    good = (np.zeros(3), (np.zeros(2, dtype=np.int64), np.zeros(2, dtype=bool)))
+    assert _compiled._matches(spec, (good, 1))
+    for bad in ((np.zeros(3, dtype=np.float32), good[1]), (np.zeros(3), (good[1][0].astype(np.int32), good[1][1])),
+                (np.zeros(3),), (np.zeros((3, 2))[:, 0], good[1]), [np.zeros(3), good[1]]):
+        assert not _compiled._matches(spec, (bad, 1))
+
+
+def test_threads_that_load_the_library_at_once_all_get_it(monkeypatch):
+    # A render's worker threads make the first kernel calls of a process together; one that
+    # found the extension still loading once took it as empty and ran numba's JIT.
+    import threading
+
+    full = _compiled._library()
+    if not full:
+        skip_without_ahead_of_time_kernels()
+    monkeypatch.setitem(_compiled._STATE, "library", None)
+    barrier, got = threading.Barrier(4), []
+
+    def load():
+        barrier.wait()
+        got.append(len(_compiled._library()))
+
+    threads = [threading.Thread(target=load) for _ in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert got == [len(full)] * 4

@@ -85,6 +85,29 @@ def test_store_round_trip_renders_identically(room, store, tmp_path):
     assert np.array_equal(a.uncertainty, b.uncertainty, equal_nan=True)
 
 
+def test_surface_node_hull_is_saved_and_bounds_every_node(room, tmp_path):
+    # The hull's support function must equal the largest n·p over all surface nodes (brute
+    # force, the independent reference) in any direction: a smaller value would zero the
+    # far part of E_ind at points that do face a node. Exact up to rounding of the same
+    # products, so the tolerance is a few ulps of the room's size.
+    store = simulate(room, samples=256, seed=3)
+    hull = store.surface_node_hull()
+    nodes = store.position[store.depth > 0]
+    assert 4 <= len(hull) < len(nodes)
+    normals = np.random.default_rng(1).normal(size=(500, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    assert np.allclose((normals @ hull.T).max(axis=1), (normals @ nodes.T).max(axis=1), rtol=0, atol=1e-12)
+    path = tmp_path / "room.lsad.npz"
+    store.save(path)  # the hull travels with the store, so a further view does not recompute it
+    assert np.array_equal(load_store(path).node_hull, hull)
+    bare = tmp_path / "bare.lsad.npz"
+    simulate(room, samples=256, seed=3).save(bare)  # saved before any hull: computed on demand
+    assert load_store(bare).node_hull is None
+    assert np.array_equal(load_store(bare).surface_node_hull(), hull)
+    store.extend(simulate(room, samples=256, seed=4))  # new nodes: the hull is recomputed
+    assert store.node_hull is None
+
+
 def test_one_store_many_views(room, store):
     # view independence: a second observer needs no new simulation
     proj, _ = view_args(room)

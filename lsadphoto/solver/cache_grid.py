@@ -41,7 +41,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
+from .._compiled import njit
 
 from ..errors import BadInputError
 from .engine import engine_for
@@ -259,7 +259,9 @@ def _patch_weight(x, n, i, point, normal, clearance, j, r2):
     return q * q * (agree - _PATCH_COS) / (1.0 - _PATCH_COS) * (1.0 - tilt / _PATCH_PLANE), dx, dy, dz
 
 
-@njit(**_NUMBA)
+@njit(**_NUMBA, aot="void(float64[:, ::1], float64[:, ::1], int64[::1], float64[:, ::1], float64[:, ::1], "
+                    "float64[::1], float64[::1], int64[::1], int64[::1], float64[:, ::1], boolean, "
+                    "float64[:, ::1], float64[:, ::1], float64[::1], float64[::1])")
 def _patch_kernel(x, n, own, point, normal, clearance, radius, start, index, values, with_bias, out,
                   bias, support, lean):
     """out[i] = the kernel average of ``values`` over the patches near point i (see

@@ -76,12 +76,13 @@ import math
 import threading
 
 import numpy as np
-from numba import njit
+from .._compiled import njit
 
 from .._validation import check_positive_int
 from ._sampling import stream
 from .materials import diffuse_fresnel_factor, fresnel_weighted, shadow_transmittance, shadows_transmit
 from .photometry import pack_photometries, packed_intensity
+from .photometry.distribution import PACKED_TABLES
 from .sky import distant_illuminance, distant_uniforms
 
 __all__ = ["ALL_LUMINAIRES_UP_TO", "DIRECT_SAMPLES", "LUMINAIRE_CANDIDATES", "LUMINAIRE_DRAWS",
@@ -105,6 +106,11 @@ LUMINAIRE_CANDIDATES = 16
 REGION_CELL = 1 / 32
 
 _NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
+#: Ahead-of-time argument types (:mod:`lsadphoto._compiled`): arrays of float64 and int64 of
+#: 1, 2 and 3 dimensions (C order), and :class:`_Lights`' ``points`` and ``areas`` tuples.
+_F1, _F2, _F3, _I1, _I2 = "float64[::1]", "float64[:, ::1]", "float64[:, :, ::1]", "int64[::1]", "int64[:, ::1]"
+_POINTS = f"Tuple(({_F2}, {_F3}, {_F1}, {_F2}, {_I1}, {PACKED_TABLES}))"
+_AREAS = f"Tuple(({_I1}, {_F3}, {_F2}, {_F1}))"
 
 
 @njit(**_NUMBA)
@@ -147,7 +153,7 @@ def _triangle_projected_solid_angle(x, n, a, b, c):
     return abs(0.5 * total)
 
 
-@njit(**_NUMBA)
+@njit(**_NUMBA, aot=f"void({_F2}, {_F2}, {_F3}, {_F2}, {_F2})")
 def _projected_solid_angles(points, normals, triangles, front, out):
     """``out[i, l]`` += Π of triangle l (vertices ``triangles[l]``, front normal ``front[l]``)
     seen from point i, where i lies in front of it (one-sided emitters). Serial: callers
@@ -211,7 +217,7 @@ def _projected_solid_angle(points, normals, tris, front):
     return out
 
 
-@njit(**_NUMBA)
+@njit(**_NUMBA, aot=f"void({_F2}, {_F2}, {_F3}, {_F2}, {_F1}, {_F3}, float64, {_F3}, {_F2}, {_F2})")
 def _area_samples(x, n, tris, tri_normals, cdf, u, offset, targets, g, cosine):
     """Stratified points on a luminaire's triangles for points x (normals n): shadow-ray
     targets (the point moved ``offset`` off the emitting side), g = cos⁺θ_x·cos⁺θ_y/r²
@@ -395,7 +401,7 @@ def _unoccluded(points, areas, n_area, l, x, n):
     return luminance[l] * total
 
 
-@njit(**_NUMBA)
+@njit(**_NUMBA, aot=f"void({_F2}, {_F2}, {_POINTS}, {_AREAS}, int64, {_F2})")
 def _unoccluded_all(x, n, points, areas, n_area, out):
     """``out[i, l]`` = :func:`_unoccluded` of every luminaire l at every point i."""
     for i in range(x.shape[0]):
@@ -403,7 +409,8 @@ def _unoccluded_all(x, n, points, areas, n_area, out):
             out[i, l] = _unoccluded(points, areas, n_area, l, x[i], n[i])
 
 
-@njit(**_NUMBA)
+@njit(**_NUMBA, aot=f"Tuple((int64, {_I1}))({_F2}, {_F2}, float64, {_I1}, {_I1}, {_F1}, {_I1}, {_F2}, {_I1}, "
+           f"{_POINTS}, {_F2}, {_F2}, float32[:, ::1], float32[:, ::1], float32[::1], {_I1})")
 def _point_terms(x, n, offset, point, lum, guide, count, u, u_start, points, values, cosine, o32, d32,
                  t32, ray):
     """Terms of the estimates of point luminaires ``lum[e]`` (index among the point
@@ -510,7 +517,8 @@ def _samplers(scene):
     return samplers
 
 
-@njit(**_NUMBA)
+@njit(**_NUMBA, aot=f"void({_F2}, {_F2}, {_I1}, {_I2}, {_I1}, {_F2}, {_F2}, {_F2}, {_POINTS}, {_AREAS}, int64, "
+           f"boolean[::1], {_I2}, {_F2}, {_I2}, {_F2}, {_F2}, {_I1})")
 def _plan(x, n, row, cand, n_cand, rest_w, rest_cum, picks, points, areas, n_area, exact,
           ev_lum, ev_weight, ev_count, ev_prob, ev_guide, ev_n):
     """Which luminaires each point i evaluates, with what weight: the planning pass of
@@ -787,7 +795,7 @@ def _luminaire_draws(luminaires, n_lum):
     return None if k >= n_lum else k
 
 
-@njit(**_NUMBA)
+@njit(**_NUMBA, aot=f"void({_F3}, {_F2}, float64, {_POINTS}, {_AREAS}, int64, {_F1}, {_F2}, {_F2}, {_F2})")
 def _region_weights(q, axes, r_min2, points, areas, n_area, area_flux, area_centre, bound, rep):
     """Per region i and luminaire l: ``bound[i, l]``, the largest over the probe points
     ``q[i]`` of strength/max(r², r_min²)·max(0, cos θ_a + 0.82) (:class:`LuminaireTable`),
@@ -818,14 +826,14 @@ def _region_weights(q, axes, r_min2, points, areas, n_area, area_flux, area_cent
             rep[i, l] = _unoccluded(points, areas, n_area, l, q[i, 0], a)
 
 
-@njit(**_NUMBA)
+@njit(**_NUMBA, aot=f"void({_F2}, {_F2}, {_I1}, {_I1}, {_POINTS}, {_AREAS}, int64, {_F1})")
 def _unoccluded_pairs(x, n, point, lum, points, areas, n_area, out):
     """``out[e]`` = :func:`_unoccluded` of luminaire ``lum[e]`` at point ``point[e]``."""
     for e in range(point.size):
         out[e] = _unoccluded(points, areas, n_area, lum[e], x[point[e]], n[point[e]])
 
 
-@njit(**_NUMBA)
+@njit(**_NUMBA, aot=f"void({_F2}, {_I1}, {_F1}, {_I1}, {_F1})")
 def _pick_rows(cdf, row, u, pick, prob):
     """Inverse-CDF draw of one luminaire per point from its region's row ``cdf[row[i]]``
     (uniform ``u[i]``), with its probability."""

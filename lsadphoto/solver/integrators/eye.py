@@ -17,7 +17,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from ..._compiled import njit
 
 from ..._provenance import build_provenance
 from ...errors import BadInputError, SolverWarning
@@ -139,7 +139,9 @@ def emitted_luminance(scene, prim, towards):
     return out
 
 
-@njit(cache=True, error_model="numpy", nogil=True)
+@njit(cache=True, error_model="numpy", nogil=True,
+      aot="int64(float64[::1], float64[:, ::1], float64[::1], float64[:, ::1], float64[:, :, ::1], "
+          "float64[:, ::1], int64[::1], int64[::1], float64[::1], float64[::1])")
 def _opening_crossings(position, d, dist, centre, frame, half, ray, lum, t_out, denom_out):
     """The crossings of rays (origin ``position``, directions ``d``) with the luminous
     rectangles (``centre``, ``frame`` rows: the rectangle's axes and its normal, ``half``:

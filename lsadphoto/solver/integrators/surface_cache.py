@@ -79,7 +79,7 @@ import math
 import time
 
 import numpy as np
-from numba import njit
+from ..._compiled import njit
 
 from ..._validation import check_positive_int
 from ...errors import BadInputError
@@ -199,7 +199,9 @@ def _guide_table(cdf):
     return np.minimum(np.searchsorted(cdf, np.arange(n + 1) / n, side="left"), n - 1)
 
 
-@njit(**_NUMBA)
+@njit(**_NUMBA, aot="int64(float64[:, ::1], float64[:, ::1], float64, float64[::1], int64[::1], "
+                    "float64[:, ::1], float64[:, ::1], float64, float64, float64[:, ::1], int64[::1], "
+                    "float32[:, ::1], float32[:, ::1], float32[::1])")
 def _far_terms(points, normals, offset, cdf, guide, nodes, u, eps2, tiny, out, pair, o32, d32,
                t32):
     """cos θ_n·cos θ_x/r² of the pairs (point i, node drawn with u[i, j]) farther than ε,
@@ -249,8 +251,6 @@ class _NodeHull:
     many-luminaire table and the stream keys of their direct samples (attributes ``store``,
     ``scene``, ``engine``, ``key``)."""
 
-    hull = None
-
     def _along_curve(self, nodes):
         """``nodes`` (store indices) in the order of their positions along a Morton curve
         through the scene's bounding cube (consecutive nodes are close in space)."""
@@ -262,17 +262,10 @@ class _NodeHull:
         """True where some node lies in front of the point's tangent plane (else the far
         part is exactly 0: every pair has cos θ_x ≤ 0), by the support function of the
         nodes' convex hull."""
-        if self.hull is None:
-            from scipy.spatial import ConvexHull, QhullError
-
-            pos = self.store.position[self.store.depth > 0]
-            try:
-                self.hull = pos[ConvexHull(pos).vertices] if len(pos) > 4 else pos
-            except (QhullError, ValueError):  # flat or degenerate node sets: all of them
-                self.hull = pos
-        if self.hull.size == 0:
+        hull = self.store.surface_node_hull()
+        if hull.size == 0:
             return np.zeros(len(x), dtype=bool)
-        support = (n @ self.hull.T).max(axis=1)
+        support = (n @ hull.T).max(axis=1)
         return support > np.einsum("ij,ij->i", n, x) + self.engine.epsilon
 
     def _luminaire_table(self, near_distance):

@@ -62,14 +62,19 @@ from dataclasses import dataclass, field
 from functools import cached_property
 
 import numpy as np
-from numba import njit
+from ..._compiled import njit
 
 from ..._validation import check_array
 from ...errors import BadInputError
 from ...geometry.observer import orthonormal_pair
 
-__all__ = ["PHOTOMETRY_FORMATS", "Photometry", "local_angles", "luminaire_frame", "pack_photometries",
-           "packed_intensity"]
+__all__ = ["PACKED_TABLES", "PHOTOMETRY_FORMATS", "Photometry", "local_angles", "luminaire_frame",
+           "pack_photometries", "packed_intensity"]
+
+#: numba type of :func:`pack_photometries`' ``tables`` (for the kernels' ahead-of-time
+#: signatures, :mod:`lsadphoto._compiled`).
+PACKED_TABLES = ("Tuple((int64[::1], int64[::1], int64[::1], float64[::1], float64[::1], float64[::1], "
+                 "float64[::1], boolean[::1]))")
 
 #: Format names a :class:`Photometry` can carry: the photometric files read by
 #: :mod:`lsadphoto.solver.photometry`, and distributions made otherwise.
