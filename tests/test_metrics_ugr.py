@@ -207,6 +207,7 @@ def test_grouping_nodes_are_numbered_in_column_major_order(shape, fraction):
     # sources) from a row-major reading of the mask. Reference: numpy on the transposed mask
     # (np.flatnonzero of mask.T is the column-major order) and the 3×3 neighbourhood of each
     # pixel in the mask padded with False (the box's edge counts as outside); equal exactly.
+    # The mask pixels in row-major order (rows, columns, node numbers) against np.nonzero.
     from lsadphoto.metrics.grouping import _nodes
 
     rows, cols = shape
@@ -221,7 +222,9 @@ def test_grouping_nodes_are_numbered_in_column_major_order(shape, fraction):
         for dc in (0, 1, 2):
             inside &= padded[dr:dr + rows, dc:dc + cols]
     got = _nodes(mask)
-    for value, expected in zip(got, (node, node_rows, node_cols, ~inside[node_rows, node_cols]),
+    pixel_rows, pixel_cols = np.nonzero(mask)
+    for value, expected in zip(got, (node, node_rows, node_cols, ~inside[node_rows, node_cols],
+                                     pixel_rows, pixel_cols, node[pixel_rows, pixel_cols]),
                                strict=True):
         np.testing.assert_array_equal(value, expected)
 

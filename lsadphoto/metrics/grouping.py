@@ -136,13 +136,16 @@ _OPTIONS = {"cache": True, "error_model": "numpy", "nogil": True}
 
 
 @njit(**_OPTIONS,
-      aot="Tuple((int32[:, ::1], int64[::1], int64[::1], boolean[::1]))(boolean[:, ::1])")
+      aot=("Tuple((int32[:, ::1], int64[::1], int64[::1], boolean[::1], int64[::1], int64[::1], "
+           "int64[::1]))(boolean[:, ::1])"))
 def _nodes(mask):
     """Node number of each ``mask`` pixel in column-major order (−1 elsewhere), the nodes'
     rows and columns, and whether each node lies on the patch boundary (a pixel of its 8
-    neighbours, or the edge of the box, is not in the mask). The mask is read row by row
-    (its memory order): a node's number is its column's first number (the mask pixels of
-    the columns before it) plus the mask pixels above it in its column."""
+    neighbours, or the edge of the box, is not in the mask); and the mask pixels in
+    row-major order (``np.nonzero(mask)``): their rows, columns and node numbers. The mask
+    is read row by row (its memory order): a node's number is its column's first number
+    (the mask pixels of the columns before it) plus the mask pixels above it in its
+    column."""
     rows, cols = mask.shape
     start = np.zeros(cols + 1, np.int64)  # column-major order, like evalglare's scan
     for r in range(rows):
@@ -155,6 +158,10 @@ def _nodes(mask):
     node_rows = np.empty(n, np.int64)
     node_cols = np.empty(n, np.int64)
     boundary = np.zeros(n, np.bool_)
+    pixel_rows = np.empty(n, np.int64)
+    pixel_cols = np.empty(n, np.int64)
+    pixel_node = np.empty(n, np.int64)
+    i = 0
     for r in range(rows):
         for c in range(cols):
             if not mask[r, c]:
@@ -164,6 +171,10 @@ def _nodes(mask):
             node[r, c] = k
             node_rows[k] = r
             node_cols[k] = c
+            pixel_rows[i] = r
+            pixel_cols[i] = c
+            pixel_node[i] = k
+            i += 1
             edge = False
             for dr in range(-1, 2):
                 for dc in range(-1, 2):
@@ -171,7 +182,7 @@ def _nodes(mask):
                     if rr < 0 or rr >= rows or cc < 0 or cc >= cols or not mask[rr, cc]:
                         edge = True
             boundary[k] = edge
-    return node, node_rows, node_cols, boundary
+    return node, node_rows, node_cols, boundary, pixel_rows, pixel_cols, pixel_node
 
 
 @njit(inline="always", **_OPTIONS)
@@ -206,12 +217,12 @@ def _close(directions, a, b, chord):
 
 @njit(**_OPTIONS,
       aot=("int64(int32[:, ::1], int64[::1], int64[::1], float64[:, ::1], float64, "
-           "int64[::1], int64[::1], int64[:, ::1])"))
-def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, labels):
+           "int64[::1], int64[::1], int64[::1])"))
+def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, node_label):
     """Union–find over the nodes (``directions``: one row per node): neighbouring pixels
     (right, down, down-right, down-left) within ``chord``, and the given boundary pairs;
-    writes labels 1…n numbered in the order of each component's first node (column-major
-    scan) and returns n."""
+    writes each node's label 1…n, numbered in the order of each component's first node
+    (column-major scan), and returns n."""
     rows, cols = node.shape
     n_nodes = node_rows.size
     parent = np.arange(n_nodes)
@@ -232,7 +243,7 @@ def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, l
         if number[root] < 0:
             number[root] = n
             n += 1
-        labels[node_rows[k], node_cols[k]] = number[root] + 1
+        node_label[k] = number[root] + 1
     return n
 
 
@@ -276,25 +287,29 @@ def _close_pairs(directions, chord):
     return pair_a, pair_b
 
 
-def _link(mask, directions, separation, offset=(0, 0)):
-    """Single-linkage labels (1…n, 0 elsewhere) of ``mask`` pixels at angular ``separation``;
-    ``directions`` a map or a PixelGeometry of the whole picture, in which ``mask`` starts at
-    ``offset``: only the mask pixels' directions are read (or computed from the model)."""
-    labels = np.zeros(mask.shape, dtype=np.int64)
-    node, node_rows, node_cols, boundary = _nodes(np.ascontiguousarray(mask))
+def _link(mask, directions, separation, offset=(0, 0), pixel_directions=None):
+    """Single-linkage labels of ``mask`` pixels at angular ``separation``; ``directions`` a
+    map or a PixelGeometry of the whole picture, in which ``mask`` starts at ``offset``:
+    only the mask pixels' directions are read (or computed from the model), unless
+    ``pixel_directions`` gives them (row-major order). Returns the mask pixels in row-major
+    order (``np.nonzero(mask)``) — rows, columns, labels 1…n and directions — and n."""
+    node, node_rows, node_cols, boundary, rows, cols, order = _nodes(np.ascontiguousarray(mask))
     if node_rows.size == 0:
-        return labels, 0
+        return rows, cols, np.zeros(0, dtype=np.int64), np.empty((0, 3)), 0
     chord = float(_chord(separation))
     # The nodes' directions, read in row-major order (runs along rows) and put in node order.
-    rows, cols = np.nonzero(node >= 0)
+    if pixel_directions is None:
+        pixel_directions = directions_at(directions, rows + offset[0], cols + offset[1])
     d = np.empty((node_rows.size, 3))
-    d[node[rows, cols]] = directions_at(directions, rows + offset[0], cols + offset[1])
+    d[order] = pixel_directions
     # Boundary pixels of different patches within reach of each other (the closest pair of
     # two patches always includes a boundary pixel).
     bnodes = np.flatnonzero(boundary)
     pair_a, pair_b = _close_pairs(np.ascontiguousarray(d[bnodes]), chord)
-    n = _components(node, node_rows, node_cols, d, chord, bnodes[pair_a], bnodes[pair_b], labels)
-    return labels, n
+    node_label = np.empty(node_rows.size, dtype=np.int64)
+    n = _components(node, node_rows, node_cols, d, chord, bnodes[pair_a], bnodes[pair_b],
+                    node_label)
+    return rows, cols, node_label[order], pixel_directions, n
 
 
 @njit(**_OPTIONS,
@@ -337,15 +352,17 @@ def _describe(labels, n, luminance, directions, solid_angle, peak_flags, offset=
 
 
 def _describe_pixels(rows, cols, label, n, luminance, directions, solid_angle, peak_flags,
-                     offset=(0, 0)):
+                     offset=(0, 0), pixel_directions=None):
     """:func:`_describe` from the labelled pixels: their ``rows`` and ``cols`` in row-major
-    order and their ``label`` (1…n), without a label map."""
+    order and their ``label`` (1…n), without a label map; ``pixel_directions`` their
+    directions where the caller has them already."""
     rows, cols = np.ascontiguousarray(rows), np.ascontiguousarray(cols)
+    if pixel_directions is None:
+        pixel_directions = directions_at(directions, rows + offset[0], cols + offset[1])
     sums, lmax, lmin, count = _source_sums(
         np.asarray(label).astype(np.int64), n,
         np.asarray(luminance)[rows, cols].astype(np.float64),
-        np.ascontiguousarray(directions_at(directions, rows + offset[0], cols + offset[1]),
-                             dtype=np.float64),
+        np.ascontiguousarray(pixel_directions, dtype=np.float64),
         np.asarray(solid_angle)[rows, cols].astype(np.float64), rows, cols)
     omega, sum_lw = sums[:, 0], sums[:, 1]
     dirs = sums[:, 2:5] / np.linalg.norm(sums[:, 2:5], axis=-1, keepdims=True)
@@ -398,11 +415,9 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
     luminance = np.asarray(luminance)[box]
     solid_angle = np.asarray(solid_angle)[box]
     offset = (box[0].start, box[1].start)
-    labels, n = _link(mask, directions, separation, offset)
-    # From here on only the source pixels (row-major order) and their labels: no label
-    # maps of the box (8 bytes per pixel each, most of them 0) are made or written.
-    rows, cols = np.nonzero(mask)
-    label = labels[rows, cols]
+    # From here on only the source pixels (row-major order), their labels and directions:
+    # no label maps of the box (8 bytes per pixel each, most of them 0) are made or written.
+    rows, cols, label, pixel_directions, n = _link(mask, directions, separation, offset)
     peak_flags = [False] * n
     if peak_luminance is not None and n:
         limit = check_positive(peak_luminance, "peak_luminance")
@@ -411,20 +426,24 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
         if peak.any():
             peak_mask = np.zeros(mask.shape, dtype=bool)
             peak_mask[rows[peak], cols[peak]] = True
-            peak_labels, n_peak = _link(peak_mask, directions, separation, offset)
+            _, _, peak_label, _, n_peak = _link(peak_mask, directions, separation, offset,
+                                                pixel_directions[peak])
             rest = np.where(peak, 0, label)
             # The labels left after peak extraction, in increasing order (np.unique would
             # import numpy.ma, 0.05 s of a short process).
             kept = np.flatnonzero(np.bincount(rest[rest > 0], minlength=n + 1))
             renumber = np.zeros(n + 1, dtype=np.int64)
             renumber[kept] = np.arange(1, kept.size + 1)
-            label = np.where(peak, peak_labels[rows, cols] + kept.size, renumber[rest])
+            label = renumber[rest]
+            label[peak] = peak_label + kept.size
             n = kept.size + n_peak
             peak_flags = [False] * kept.size + [True] * n_peak
     labelled = label > 0
-    rows, cols, label = rows[labelled], cols[labelled], label[labelled]
+    if not labelled.all():
+        rows, cols, label = rows[labelled], cols[labelled], label[labelled]
+        pixel_directions = pixel_directions[labelled]
     sources = _describe_pixels(rows, cols, label, n, luminance, directions, solid_angle,
-                               peak_flags, offset) if n else []
+                               peak_flags, offset, pixel_directions) if n else []
     offset_row, offset_col = offset
     sources = [replace(s, row=s.row + offset_row, col=s.col + offset_col) for s in sources]
     labels_full[rows + offset_row, cols + offset_col] = label
