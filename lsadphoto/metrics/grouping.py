@@ -136,45 +136,29 @@ _OPTIONS = {"cache": True, "error_model": "numpy", "nogil": True}
 
 
 @njit(**_OPTIONS,
-      aot=("Tuple((int32[:, ::1], int64[::1], int64[::1], boolean[::1], int64[::1], int64[::1], "
-           "int64[::1]))(boolean[:, ::1])"))
+      aot="Tuple((int32[:, ::1], boolean[::1], int64[::1], int64[::1]))(boolean[:, ::1])")
 def _nodes(mask):
-    """Node number of each ``mask`` pixel in column-major order (−1 elsewhere), the nodes'
-    rows and columns, and whether each node lies on the patch boundary (a pixel of its 8
-    neighbours, or the edge of the box, is not in the mask); and the mask pixels in
-    row-major order (``np.nonzero(mask)``): their rows, columns and node numbers. The mask
-    is read row by row (its memory order): a node's number is its column's first number
-    (the mask pixels of the columns before it) plus the mask pixels above it in its
-    column."""
+    """Node number of each ``mask`` pixel in row-major order (the order of
+    ``np.nonzero(mask)``; −1 elsewhere), whether each node lies on the patch boundary (a
+    pixel of its 8 neighbours, or the edge of the box, is not in the mask), and the nodes'
+    rows and columns."""
     rows, cols = mask.shape
-    start = np.zeros(cols + 1, np.int64)  # column-major order, like evalglare's scan
+    n = 0
     for r in range(rows):
         for c in range(cols):
-            start[c + 1] += mask[r, c]
-    for c in range(cols):
-        start[c + 1] += start[c]
-    n = start[cols]
+            n += 1 if mask[r, c] else 0
     node = np.full((rows, cols), -1, np.int32)
     node_rows = np.empty(n, np.int64)
     node_cols = np.empty(n, np.int64)
     boundary = np.zeros(n, np.bool_)
-    pixel_rows = np.empty(n, np.int64)
-    pixel_cols = np.empty(n, np.int64)
-    pixel_node = np.empty(n, np.int64)
-    i = 0
+    k = 0
     for r in range(rows):
         for c in range(cols):
             if not mask[r, c]:
                 continue
-            k = start[c]
-            start[c] += 1
             node[r, c] = k
             node_rows[k] = r
             node_cols[k] = c
-            pixel_rows[i] = r
-            pixel_cols[i] = c
-            pixel_node[i] = k
-            i += 1
             edge = False
             for dr in range(-1, 2):
                 for dc in range(-1, 2):
@@ -182,7 +166,8 @@ def _nodes(mask):
                     if rr < 0 or rr >= rows or cc < 0 or cc >= cols or not mask[rr, cc]:
                         edge = True
             boundary[k] = edge
-    return node, node_rows, node_cols, boundary, pixel_rows, pixel_cols, pixel_node
+            k += 1
+    return node, boundary, node_rows, node_cols
 
 
 @njit(inline="always", **_OPTIONS)
@@ -221,8 +206,8 @@ def _close(directions, a, b, chord):
 def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, node_label):
     """Union–find over the nodes (``directions``: one row per node): neighbouring pixels
     (right, down, down-right, down-left) within ``chord``, and the given boundary pairs;
-    writes each node's label 1…n, numbered in the order of each component's first node
-    (column-major scan), and returns n."""
+    writes each node's label 1…n, numbered in the order of each component's first pixel in
+    a column-major scan (evalglare's scan order), and returns n."""
     rows, cols = node.shape
     n_nodes = node_rows.size
     parent = np.arange(n_nodes)
@@ -236,14 +221,26 @@ def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, n
                     _union(parent, k, m)
     for i in range(pair_a.size):
         _union(parent, pair_a[i], pair_b[i])
-    number = np.full(n_nodes, -1, np.int64)
+    # Each component's first pixel in column-major order (its smallest col·rows + row), kept
+    # at its root; the components numbered by it (pixels differ: no ties).
+    first = np.full(n_nodes, rows * cols, np.int64)
     n = 0
     for k in range(n_nodes):
         root = _find(parent, k)
-        if number[root] < 0:
-            number[root] = n
-            n += 1
-        node_label[k] = number[root] + 1
+        n += 1 if root == k else 0
+        first[root] = min(first[root], node_cols[k] * rows + node_rows[k])
+    roots = np.empty(n, np.int64)
+    j = 0
+    for k in range(n_nodes):
+        if parent[k] == k:
+            roots[j] = k
+            j += 1
+    number = np.empty(n_nodes, np.int64)
+    order = np.argsort(first[roots])
+    for i in range(n):
+        number[roots[order[i]]] = i + 1
+    for k in range(n_nodes):
+        node_label[k] = number[_find(parent, k)]
     return n
 
 
@@ -293,23 +290,21 @@ def _link(mask, directions, separation, offset=(0, 0), pixel_directions=None):
     only the mask pixels' directions are read (or computed from the model), unless
     ``pixel_directions`` gives them (row-major order). Returns the mask pixels in row-major
     order (``np.nonzero(mask)``) — rows, columns, labels 1…n and directions — and n."""
-    node, node_rows, node_cols, boundary, rows, cols, order = _nodes(np.ascontiguousarray(mask))
-    if node_rows.size == 0:
+    node, boundary, rows, cols = _nodes(np.ascontiguousarray(mask))
+    if rows.size == 0:
         return rows, cols, np.zeros(0, dtype=np.int64), np.empty((0, 3)), 0
     chord = float(_chord(separation))
-    # The nodes' directions, read in row-major order (runs along rows) and put in node order.
+    # The nodes' directions, in their (row-major) order: runs along rows.
     if pixel_directions is None:
         pixel_directions = directions_at(directions, rows + offset[0], cols + offset[1])
-    d = np.empty((node_rows.size, 3))
-    d[order] = pixel_directions
+    d = np.ascontiguousarray(pixel_directions, dtype=np.float64)
     # Boundary pixels of different patches within reach of each other (the closest pair of
     # two patches always includes a boundary pixel).
     bnodes = np.flatnonzero(boundary)
     pair_a, pair_b = _close_pairs(np.ascontiguousarray(d[bnodes]), chord)
-    node_label = np.empty(node_rows.size, dtype=np.int64)
-    n = _components(node, node_rows, node_cols, d, chord, bnodes[pair_a], bnodes[pair_b],
-                    node_label)
-    return rows, cols, node_label[order], pixel_directions, n
+    label = np.empty(rows.size, dtype=np.int64)
+    n = _components(node, rows, cols, d, chord, bnodes[pair_a], bnodes[pair_b], label)
+    return rows, cols, label, d, n
 
 
 @njit(**_OPTIONS,
