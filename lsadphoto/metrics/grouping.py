@@ -217,30 +217,39 @@ def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, n
             r2, c2 = r + dr, c + dc
             if r2 < rows and 0 <= c2 < cols:
                 m = node[r2, c2]
-                if m >= 0 and _close(directions, k, m, chord):
+                # Nodes with one parent are in one component already (inside a patch, most
+                # neighbours: their unions have linked them to its root): no test, no union.
+                if m >= 0 and parent[k] != parent[m] and _close(directions, k, m, chord):
                     _union(parent, k, m)
     for i in range(pair_a.size):
         _union(parent, pair_a[i], pair_b[i])
     # Each component's first pixel in column-major order (its smallest col·rows + row), kept
-    # at its root; the components numbered by it (pixels differ: no ties).
-    first = np.full(n_nodes, rows * cols, np.int64)
+    # at its root in ``node_label`` (scratch until the last loop). A root is its component's
+    # first node (unions keep the smaller root), so it is met before its other nodes; after
+    # _find, every node's parent is its root.
     n = 0
     for k in range(n_nodes):
         root = _find(parent, k)
-        n += 1 if root == k else 0
-        first[root] = min(first[root], node_cols[k] * rows + node_rows[k])
+        key = node_cols[k] * rows + node_rows[k]
+        if root == k:
+            n += 1
+            node_label[k] = key
+        else:
+            node_label[root] = min(node_label[root], key)
     roots = np.empty(n, np.int64)
     j = 0
     for k in range(n_nodes):
         if parent[k] == k:
             roots[j] = k
             j += 1
-    number = np.empty(n_nodes, np.int64)
-    order = np.argsort(first[roots])
+    # The components numbered by their first pixel (pixels differ: no ties), each number
+    # kept as −number in its root's parent (no further _find).
+    order = np.argsort(node_label[roots])
     for i in range(n):
-        number[roots[order[i]]] = i + 1
+        parent[roots[order[i]]] = -(i + 1)
     for k in range(n_nodes):
-        node_label[k] = number[_find(parent, k)]
+        p = parent[k]
+        node_label[k] = -p if p < 0 else -parent[p]
     return n
 
 
