@@ -317,20 +317,21 @@ def _link(mask, directions, separation, offset=(0, 0), pixel_directions=None):
 
 
 @njit(**_OPTIONS,
-      aot=("Tuple((float64[:, ::1], float64[::1], float64[::1], int64[::1]))(int64[::1], "
-           "int64, float64[::1], float64[:, ::1], float64[::1], int64[::1], int64[::1])"))
+      aot=tuple("Tuple((float64[:, ::1], float64[::1], float64[::1], int64[::1]))(int64[::1], "
+                f"int64, {L}[:, :], float64[:, ::1], float64[:, :], int64[::1], int64[::1])"
+                for L in ("float32", "float64")))
 def _source_sums(label, n, luminance, directions, solid_angle, rows, cols):
-    """Per label 1…n over the labelled pixels (``label``, L, d̂, ω, row and column of each, in
-    row-major pixel order, as np.bincount): Σω, ΣL·ω, ΣL·ω·d̂, ΣL·ω·row, ΣL·ω·col, max and
-    min L and the pixel count."""
+    """Per label 1…n over the labelled pixels (``label``, d̂, row and column of each, in
+    row-major pixel order, as np.bincount; L and ω read from their maps at those rows and
+    columns): Σω, ΣL·ω, ΣL·ω·d̂, ΣL·ω·row, ΣL·ω·col, max and min L and the pixel count."""
     sums = np.zeros((n, 7))
     lmax = np.full(n, -np.inf)
     lmin = np.full(n, np.inf)
     count = np.zeros(n, np.int64)
     for i in range(label.size):
         k = label[i] - 1
-        L = luminance[i]
-        w = solid_angle[i]
+        L = np.float64(luminance[rows[i], cols[i]])
+        w = np.float64(solid_angle[rows[i], cols[i]])
         lw = L * w
         sums[k, 0] += w
         sums[k, 1] += lw
@@ -360,14 +361,18 @@ def _describe_pixels(rows, cols, label, n, luminance, directions, solid_angle, p
     """:func:`_describe` from the labelled pixels: their ``rows`` and ``cols`` in row-major
     order and their ``label`` (1…n), without a label map; ``pixel_directions`` their
     directions where the caller has them already."""
-    rows, cols = np.ascontiguousarray(rows), np.ascontiguousarray(cols)
+    rows = np.ascontiguousarray(rows, dtype=np.int64)
+    cols = np.ascontiguousarray(cols, dtype=np.int64)
     if pixel_directions is None:
         pixel_directions = directions_at(directions, rows + offset[0], cols + offset[1])
+    # L and ω are read at the pixels inside the kernel (no copies of the source pixels').
+    luminance = np.asarray(luminance)
+    if luminance.dtype not in (np.float32, np.float64):
+        luminance = luminance.astype(np.float64)
     sums, lmax, lmin, count = _source_sums(
-        np.asarray(label).astype(np.int64), n,
-        np.asarray(luminance)[rows, cols].astype(np.float64),
+        np.ascontiguousarray(label, dtype=np.int64), n, luminance,
         np.ascontiguousarray(pixel_directions, dtype=np.float64),
-        np.asarray(solid_angle)[rows, cols].astype(np.float64), rows, cols)
+        np.asarray(solid_angle, dtype=np.float64), rows, cols)
     omega, sum_lw = sums[:, 0], sums[:, 1]
     dirs = sums[:, 2:5] / np.linalg.norm(sums[:, 2:5], axis=-1, keepdims=True)
     row_c = sums[:, 5] / sum_lw
@@ -450,5 +455,5 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
                                peak_flags, offset, pixel_directions) if n else []
     offset_row, offset_col = offset
     sources = [replace(s, row=s.row + offset_row, col=s.col + offset_col) for s in sources]
-    labels_full[rows + offset_row, cols + offset_col] = label
+    labels_full[box][rows, cols] = label  # (a view: no offset copies of rows and cols)
     return sources, labels_full
