@@ -220,8 +220,11 @@ def test_grouping_nodes_are_numbered_in_row_major_order(shape, fraction):
         for dc in (0, 1, 2):
             inside &= padded[dr:dr + rows, dc:dc + cols]
     got = _nodes(mask)
-    for value, expected in zip(got, (node, ~inside[node_rows, node_cols], node_rows, node_cols),
-                               strict=True):
+    # Runs along rows start where the pixel to the left is outside the mask (or the box).
+    left = np.pad(mask, ((0, 0), (1, 0)))[:, :-1]
+    starts = np.flatnonzero(~left[node_rows, node_cols])
+    for value, expected in zip(got, (node, ~inside[node_rows, node_cols], node_rows, node_cols,
+                                     starts), strict=True):
         np.testing.assert_array_equal(value, expected)
 
 
@@ -239,7 +242,7 @@ def test_grouping_components_are_numbered_in_column_major_order(shape, fraction,
     from lsadphoto.metrics.grouping import _components, _nodes
 
     mask = np.random.default_rng(seed).random(shape) < fraction
-    node, _, node_rows, node_cols = _nodes(mask)
+    node, _, node_rows, node_cols, _ = _nodes(mask)
     directions = np.tile([0.0, 0.0, 1.0], (node_rows.size, 1))
     label = np.empty(node_rows.size, dtype=np.int64)
     empty = np.zeros(0, dtype=np.int64)

@@ -39,7 +39,7 @@ import numpy as np
 from .._compiled import njit
 
 from .._validation import check_positive
-from ..geometry.field import directions_at
+from ..geometry.field import directions_at, directions_of_runs
 
 __all__ = ["GlareSource", "group_sources_evalglare", "position_pixel_evalglare",
            "SOURCE_POSITIONS", "DEFAULT_SEARCH_ANGLE", "DEFAULT_PEAK_LUMINANCE"]
@@ -136,12 +136,13 @@ _OPTIONS = {"cache": True, "error_model": "numpy", "nogil": True}
 
 
 @njit(**_OPTIONS,
-      aot="Tuple((int32[:, ::1], boolean[::1], int64[::1], int64[::1]))(boolean[:, ::1])")
+      aot=("Tuple((int32[:, ::1], boolean[::1], int64[::1], int64[::1], int64[::1]))"
+           "(boolean[:, ::1])"))
 def _nodes(mask):
     """Node number of each ``mask`` pixel in row-major order (the order of
     ``np.nonzero(mask)``; −1 elsewhere), whether each node lies on the patch boundary (a
-    pixel of its 8 neighbours, or the edge of the box, is not in the mask), and the nodes'
-    rows and columns."""
+    pixel of its 8 neighbours, or the edge of the box, is not in the mask), the nodes' rows
+    and columns, and the first node of each run of mask pixels along a row."""
     rows, cols = mask.shape
     n = 0
     for r in range(rows):
@@ -151,11 +152,16 @@ def _nodes(mask):
     node_rows = np.empty(n, np.int64)
     node_cols = np.empty(n, np.int64)
     boundary = np.zeros(n, np.bool_)
+    starts = np.empty(n, np.int64)  # only the runs' entries are written (and faulted in)
     k = 0
+    n_runs = 0
     for r in range(rows):
         for c in range(cols):
             if not mask[r, c]:
                 continue
+            if c == 0 or not mask[r, c - 1]:
+                starts[n_runs] = k
+                n_runs += 1
             node[r, c] = k
             node_rows[k] = r
             node_cols[k] = c
@@ -167,7 +173,7 @@ def _nodes(mask):
                         edge = True
             boundary[k] = edge
             k += 1
-    return node, boundary, node_rows, node_cols
+    return node, boundary, node_rows, node_cols, starts[:n_runs]
 
 
 @njit(inline="always", **_OPTIONS)
@@ -299,13 +305,16 @@ def _link(mask, directions, separation, offset=(0, 0), pixel_directions=None):
     only the mask pixels' directions are read (or computed from the model), unless
     ``pixel_directions`` gives them (row-major order). Returns the mask pixels in row-major
     order (``np.nonzero(mask)``) — rows, columns, labels 1…n and directions — and n."""
-    node, boundary, rows, cols = _nodes(np.ascontiguousarray(mask))
+    node, boundary, rows, cols, starts = _nodes(np.ascontiguousarray(mask))
     if rows.size == 0:
         return rows, cols, np.zeros(0, dtype=np.int64), np.empty((0, 3)), 0
     chord = float(_chord(separation))
-    # The nodes' directions, in their (row-major) order: runs along rows.
+    # The nodes' directions, in their (row-major) order: the runs along rows, from their
+    # first nodes (no arrays of every node's picture coordinates).
     if pixel_directions is None:
-        pixel_directions = directions_at(directions, rows + offset[0], cols + offset[1])
+        lengths = np.diff(np.append(starts, rows.size))
+        pixel_directions = directions_of_runs(directions, rows[starts] + offset[0],
+                                              cols[starts] + offset[1], lengths)
     d = np.ascontiguousarray(pixel_directions, dtype=np.float64)
     # Boundary pixels of different patches within reach of each other (the closest pair of
     # two patches always includes a boundary pixel).
