@@ -82,8 +82,8 @@ DIRECTION_MAP_MAX_PIXELS = 1 << 20
 #: 5 % more corner directions).
 _KERNEL_BLOCK_PIXELS = 1 << 17
 #: Blocks of rows per thread of the compiled fisheye kernel (handed out as threads come
-#: free): with one block per thread, the thread with the rows nearest a circle's centre
-#: worked about 40 % longer than the other (24 MP, session 15).
+#: free): with one block per thread, one thread worked half as long again as the other
+#: (a circle's rows hold more pixels the nearer its centre; 24 MP, session 15).
 _BLOCKS_PER_THREAD = 4
 # --- caches ---------------------------------------------------------------------------------
 
