@@ -76,6 +76,7 @@ MODULES = (
     "lsadphoto.io._rgbe",
     "lsadphoto.geometry._kernels",
     "lsadphoto.metrics.field",
+    "lsadphoto.metrics.contributions",
     "lsadphoto.metrics.score",
     "lsadphoto.metrics.grouping",
     "lsadphoto.metrics.statistics",

@@ -78,11 +78,22 @@ def test_directions_from_the_model_equal_the_map(name):
     rows, cols = cam.shape
     r, c = rng.integers(0, rows, 500), rng.integers(0, cols, 500)
     at = geometry.directions_at(r, c)
+    # Row segments (runs), some crossing the image circle, one after the other.
+    run_rows = rng.integers(0, rows, 40)
+    run_cols = rng.integers(0, cols - 30, 40)
+    lengths = rng.integers(1, 30, 40)
+    runs = geometry.directions_of_runs(run_rows, run_cols, lengths)
     sample = rng.integers(1, rows - 1, 300) * cols + rng.integers(1, cols - 1, 300)  # interior
     flat, i, step = geometry.stencil_directions(sample)  # 5 per stencil < the image: no map
     assert geometry._directions is None and step == 2
     full = geometry.directions  # the map, made now: the reference
     np.testing.assert_array_equal(at, full[r, c])
+    run_pixels = [(i, j) for i, j0, n in zip(run_rows, run_cols, lengths, strict=True)
+                  for j in range(j0, j0 + n)]
+    expected = np.array([full[i, j] for i, j in run_pixels])
+    np.testing.assert_array_equal(runs, expected)
+    np.testing.assert_array_equal(geometry.directions_of_runs(run_rows, run_cols, lengths),
+                                  expected)  # from the map, made now
     reference = full.reshape(-1, 3)
     for offset, image_offset in ((-1, -1), (1, 1), (-step, -cols), (step, cols)):
         np.testing.assert_array_equal(flat[i + offset], reference[sample + image_offset])

@@ -141,3 +141,31 @@ def test_histogram_cells_are_added_in_pixel_order():
             expected[ring, cell] += w[i]
         assert np.array_equal(outputs[4][0].view(np.uint64), expected.view(np.uint64))
         assert np.count_nonzero(expected) > 50
+
+
+def test_pixels_on_ring_edges_go_to_the_ring_they_open():
+    # Rings are σ ∈ [edge_k, edge_k+1), the last one closed (σ = 90° in the 60–90° ring):
+    # pixels exactly on an edge's cos σ, after runs of pixels of the rings on either side
+    # (the kernel keeps the last ring's interval of cos σ), against the rule applied with
+    # np.searchsorted on σ's cosines; pixel counts and Σω equal.
+    edges_deg = (0.0, 30.0, 60.0, 90.0)
+    cos_edges = np.cos(np.radians(edges_deg))
+    inner = np.cos(np.radians([15.0, 45.0, 75.0]))
+    c = []
+    for k, value in enumerate(cos_edges):
+        for run in (inner[max(k - 1, 0)], inner[min(k, 2)]):
+            c += [run] * 20 + [value]
+    # Four times over: the kernel's 16 stripes each hold runs and edges.
+    c = np.array(4 * (c + [np.cos(np.radians(100.0)), cos_edges[3], cos_edges[3]]))
+    w = np.arange(1, c.size + 1) * 1e-6
+    stats = luminance_statistics(np.full(c.size, 100.0), w, c, ring_edges_deg=edges_deg)
+    # Ring of each pixel: cos_edges[k+1] < c ≤ cos_edges[k]; the last ring also at c = cos_edges[3].
+    ring = 2 - np.searchsorted(cos_edges[::-1], c, side="left") + 1
+    ring = np.where(c == cos_edges[3], 2, ring)
+    ring = np.where((c > cos_edges[0]) | (c < cos_edges[3]), -1, ring)
+    for k in range(3):
+        assert stats["rings"][k]["n_pixels"] == np.count_nonzero(ring == k)
+        # Σω added in another order (the kernel's stripes, numpy's pairwise sum): within
+        # the bound n·2⁻⁵² of two float64 sums of n positive terms.
+        assert stats["rings"][k]["solid_angle"] == pytest.approx(float(w[ring == k].sum()),
+                                                                 rel=c.size * 2.0 ** -52)

@@ -202,28 +202,54 @@ def test_grouping_links_within_half_the_search_angle(fisheye):
 @pytest.mark.parametrize(("shape", "fraction"), [((1, 1), 0.5), ((7, 1), 0.5), ((1, 9), 0.5),
                                                ((37, 53), 0.3), ((200, 150), 0.7),
                                                ((64, 64), 0.0), ((30, 40), 1.0)])
-def test_grouping_nodes_are_numbered_in_column_major_order(shape, fraction):
-    # The grouping's nodes (numbered in evalglare's column-major scan, which orders the
-    # sources) from a row-major reading of the mask. Reference: numpy on the transposed mask
-    # (np.flatnonzero of mask.T is the column-major order) and the 3×3 neighbourhood of each
-    # pixel in the mask padded with False (the box's edge counts as outside); equal exactly.
+def test_grouping_nodes_are_numbered_in_row_major_order(shape, fraction):
+    # The grouping's nodes: the mask pixels in np.nonzero's (row-major) order, and whether
+    # each lies on its patch's boundary. Reference: np.nonzero and the 3×3 neighbourhood of
+    # each pixel in the mask padded with False (the box's edge counts as outside); equal
+    # exactly.
     from lsadphoto.metrics.grouping import _nodes
 
     rows, cols = shape
     mask = np.random.default_rng(3).random(shape) < fraction
-    flat = np.flatnonzero(mask.T)
-    node_cols, node_rows = np.divmod(flat, rows)
+    node_rows, node_cols = np.nonzero(mask)
     node = np.full(shape, -1, np.int32)
-    node[node_rows, node_cols] = np.arange(flat.size)
+    node[node_rows, node_cols] = np.arange(node_rows.size)
     padded = np.pad(mask, 1)
     inside = np.ones(shape, dtype=bool)
     for dr in (0, 1, 2):
         for dc in (0, 1, 2):
             inside &= padded[dr:dr + rows, dc:dc + cols]
     got = _nodes(mask)
-    for value, expected in zip(got, (node, node_rows, node_cols, ~inside[node_rows, node_cols]),
-                               strict=True):
+    # Runs along rows start where the pixel to the left is outside the mask (or the box).
+    left = np.pad(mask, ((0, 0), (1, 0)))[:, :-1]
+    starts = np.flatnonzero(~left[node_rows, node_cols])
+    for value, expected in zip(got, (node, ~inside[node_rows, node_cols], node_rows, node_cols,
+                                     starts), strict=True):
         np.testing.assert_array_equal(value, expected)
+
+
+@pytest.mark.parametrize(("shape", "fraction", "seed"), [((1, 1), 1.0, 0), ((9, 1), 0.5, 1),
+                                                         ((1, 9), 0.5, 2), ((37, 53), 0.3, 3),
+                                                         ((200, 150), 0.45, 4), ((64, 64), 0.0, 5)])
+def test_grouping_components_are_numbered_in_column_major_order(shape, fraction, seed):
+    # Where every neighbour is within reach (directions all equal) and no boundary pair is
+    # given, the components are the 8-connected patches of the mask, numbered in the order
+    # of their first pixel in a column-major scan (evalglare's). Reference: scipy's label
+    # of the transposed mask with the 3×3 structure (it numbers patches by their first pixel
+    # in row-major order, which of the transpose is the column-major order); equal exactly.
+    from scipy import ndimage
+
+    from lsadphoto.metrics.grouping import _components, _nodes
+
+    mask = np.random.default_rng(seed).random(shape) < fraction
+    node, _, node_rows, node_cols, _ = _nodes(mask)
+    directions = np.tile([0.0, 0.0, 1.0], (node_rows.size, 1))
+    label = np.empty(node_rows.size, dtype=np.int64)
+    empty = np.zeros(0, dtype=np.int64)
+    n = _components(node, node_rows, node_cols, directions, 0.1, empty, empty, label)
+    expected, n_expected = ndimage.label(mask.T, structure=np.ones((3, 3)))
+    assert n == n_expected
+    np.testing.assert_array_equal(label, expected.T[node_rows, node_cols])
 
 
 def test_peak_extraction_splits_the_bright_core(fisheye):

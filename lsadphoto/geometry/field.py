@@ -61,6 +61,7 @@ __all__ = [
     "clear_geometry_cache",
     "direction_map",
     "directions_at",
+    "directions_of_runs",
     "pixel_geometry",
     "quad_solid_angle_components",
     "visual_field",
@@ -80,6 +81,10 @@ DIRECTION_MAP_MAX_PIXELS = 1 << 20
 #: threads; each recomputes the row of corners above it: 21-row bands at 6000 columns,
 #: 5 % more corner directions).
 _KERNEL_BLOCK_PIXELS = 1 << 17
+#: Blocks of rows per thread of the compiled fisheye kernel (handed out as threads come
+#: free): with one block per thread, one thread worked half as long again as the other
+#: (a circle's rows hold more pixels the nearer its centre; 24 MP, session 15).
+_BLOCKS_PER_THREAD = 4
 # --- caches ---------------------------------------------------------------------------------
 
 
@@ -211,6 +216,20 @@ class PixelGeometry:
         lengths = np.diff(np.r_[starts, rows.size])
         d = self._segments(rows[starts], cols[starts], lengths)
         return d.reshape(shape + (3,))
+
+    def directions_of_runs(self, rows, cols, lengths):
+        """Directions of the row segments (``rows[k]``, ``cols[k]`` + j), j < ``lengths[k]``
+        (inside the image), one after the other, shape (Σ lengths, 3): equal to
+        :meth:`directions_at` of their pixels, without arrays of the pixels' coordinates
+        where the directions come from the model."""
+        rows = np.asarray(rows, dtype=np.int64).reshape(-1)
+        cols = np.asarray(cols, dtype=np.int64).reshape(-1)
+        lengths = np.asarray(lengths, dtype=np.int64).reshape(-1)
+        if rows.size == 0:
+            return np.empty((0, 3))
+        if self.model is None or self._directions is not None:
+            return directions_of_runs(np.asarray(self.directions), rows, cols, lengths)
+        return self._segments(rows, cols, lengths)
 
     def stencil_directions(self, index):
         """Directions around the flat pixels ``index`` (each with its four neighbours in the
@@ -347,13 +366,16 @@ def _compute_pixel_geometry(projection, field=None):
                                       mirror if mirrored else -1, mirror_cols, store,
                                       directions, solid_angle, valid, on, *field_args)
 
-        # Blocks of whole bands, one per thread where the ahead-of-time code runs them: the
-        # rows that mirror rows below them (with those), then the rest.
+        # Blocks of whole bands, a few per thread where the ahead-of-time code runs them (a
+        # circle's rows hold more pixels the nearer its centre: threads that finish early
+        # take the next block), the rows that mirror rows below them (with those), then
+        # the rest.
         workers = _kernels.fisheye_geometry.threads_for(
             model, p, table, band_rows, 0, rows, mirror, mirror_cols, store, directions,
             solid_angle, valid, on, *field_args)
+        parts = workers if workers == 1 else _BLOCKS_PER_THREAD * workers
         blocks = [(a + r0, a + r1, k == 0) for k, (a, b) in enumerate(computed)
-                  for r0, r1 in row_blocks(b - a, workers, band_rows)]
+                  for r0, r1 in row_blocks(b - a, parts, band_rows)]
         run_blocks(task, blocks, workers)
         geometry = PixelGeometry(_read_only(directions) if store else None,
                                  _read_only(solid_angle), _read_only(valid), model=compiled)
@@ -462,6 +484,20 @@ def direction_map(directions):
     """The (rows, cols, 3) direction map of a map or of a :class:`PixelGeometry` (made on
     first use where the geometry stores none)."""
     return directions.directions if isinstance(directions, PixelGeometry) else directions
+
+
+def directions_of_runs(directions, rows, cols, lengths):
+    """The directions of the row segments (``rows[k]``, ``cols[k]`` + j), j < ``lengths[k]``,
+    one after the other, of a direction map or of a :class:`PixelGeometry`
+    (:meth:`PixelGeometry.directions_of_runs`)."""
+    if isinstance(directions, PixelGeometry):
+        return directions.directions_of_runs(rows, cols, lengths)
+    rows = np.asarray(rows, dtype=np.int64).reshape(-1)
+    lengths = np.asarray(lengths, dtype=np.int64).reshape(-1)
+    pixel_rows = np.repeat(rows, lengths)
+    offsets = np.arange(pixel_rows.size) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    pixel_cols = np.repeat(np.asarray(cols, dtype=np.int64).reshape(-1), lengths) + offsets
+    return np.asarray(directions)[pixel_rows, pixel_cols]
 
 
 def directions_at(directions, rows, cols):

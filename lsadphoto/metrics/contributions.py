@@ -32,14 +32,33 @@ r_contrast, r_dgp; pictool.c: pict_get_sigma truncates its coordinates).
 import math
 
 import numpy as np
+from .._compiled import njit
 
 from .veiling import veiling_luminance_CIE146
 
 __all__ = ["source_illuminance", "glare_term_sum", "source_columns"]
 
 
+@njit(cache=True, error_model="numpy", nogil=True,
+      aot=tuple(f"void(int64[::1], boolean[::1], boolean, {L}[::1], {C}[::1], float64[::1], "
+                "float64[::1])" for L in ("float32", "float64") for C in ("float32", "float64")))
+def _source_illuminance(labels, labelled, use_labelled, luminance, cos_sigma, solid_angle, out):
+    """``out[k − 1]`` += L·cos σ·ω (float64, in that order of products) of each pixel with
+    label k ≤ out.size, in pixel order (where ``use_labelled``, of the ``labelled`` pixels
+    only: the labels elsewhere are not read)."""
+    n = out.size
+    for i in range(labels.size):
+        if use_labelled and not labelled[i]:
+            continue
+        k = labels[i]
+        if 0 < k <= n:
+            out[k - 1] += (np.float64(luminance[i]) * np.float64(cos_sigma[i])) \
+                * np.float64(solid_angle[i])
+
+
 def source_illuminance(labels, n_sources, luminance, cos_sigma, solid_angle, labelled=None):
-    """Σ L·cos σ·ω over each source's pixels [lx] (evalglare ``Eglare``), float64.
+    """Σ L·cos σ·ω over each source's pixels [lx] (evalglare ``Eglare``), float64, each
+    source's pixels added in row-major order.
 
     Parameters
     ----------
@@ -58,18 +77,21 @@ def source_illuminance(labels, n_sources, luminance, cos_sigma, solid_angle, lab
     -------
     ndarray, shape (n_sources,)
     """
-    labels = np.asarray(labels).reshape(-1)
-    # The candidate pixels in row-major order: the same pixels and order as every pixel.
-    index = np.flatnonzero(labels if labelled is None else labelled)
-    label = labels[index]
-    inside = label > 0
-    if n_sources == 0 or not inside.any():
-        return np.zeros(n_sources)
-    index, label = index[inside], label[inside]
-    e = (np.asarray(luminance).reshape(-1)[index].astype(np.float64)
-         * np.asarray(cos_sigma).reshape(-1)[index].astype(np.float64)
-         * np.asarray(solid_angle).reshape(-1)[index].astype(np.float64))
-    return np.bincount(label - 1, weights=e, minlength=n_sources)[:n_sources]
+    def flat(array, kinds=(np.float32, np.float64)):
+        array = np.asarray(array)
+        if array.dtype not in kinds:
+            array = array.astype(kinds[-1])
+        return np.ascontiguousarray(array).reshape(-1)
+
+    out = np.zeros(n_sources)
+    if n_sources == 0:
+        return out
+    labels = flat(labels, (np.int64,))
+    use = labelled is not None
+    given = flat(labelled, (np.bool_,)) if use else np.zeros(0, dtype=bool)
+    _source_illuminance(labels, given, use, flat(luminance), flat(cos_sigma),
+                        flat(solid_angle, (np.float64,)), out)
+    return out
 
 
 def glare_term_sum(luminance, solid_angle, position_index):

@@ -39,7 +39,7 @@ import numpy as np
 from .._compiled import njit
 
 from .._validation import check_positive
-from ..geometry.field import directions_at
+from ..geometry.field import directions_at, directions_of_runs
 
 __all__ = ["GlareSource", "group_sources_evalglare", "position_pixel_evalglare",
            "SOURCE_POSITIONS", "DEFAULT_SEARCH_ANGLE", "DEFAULT_PEAK_LUMINANCE"]
@@ -136,31 +136,32 @@ _OPTIONS = {"cache": True, "error_model": "numpy", "nogil": True}
 
 
 @njit(**_OPTIONS,
-      aot="Tuple((int32[:, ::1], int64[::1], int64[::1], boolean[::1]))(boolean[:, ::1])")
+      aot=("Tuple((int32[:, ::1], boolean[::1], int64[::1], int64[::1], int64[::1]))"
+           "(boolean[:, ::1])"))
 def _nodes(mask):
-    """Node number of each ``mask`` pixel in column-major order (−1 elsewhere), the nodes'
-    rows and columns, and whether each node lies on the patch boundary (a pixel of its 8
-    neighbours, or the edge of the box, is not in the mask). The mask is read row by row
-    (its memory order): a node's number is its column's first number (the mask pixels of
-    the columns before it) plus the mask pixels above it in its column."""
+    """Node number of each ``mask`` pixel in row-major order (the order of
+    ``np.nonzero(mask)``; −1 elsewhere), whether each node lies on the patch boundary (a
+    pixel of its 8 neighbours, or the edge of the box, is not in the mask), the nodes' rows
+    and columns, and the first node of each run of mask pixels along a row."""
     rows, cols = mask.shape
-    start = np.zeros(cols + 1, np.int64)  # column-major order, like evalglare's scan
+    n = 0
     for r in range(rows):
         for c in range(cols):
-            start[c + 1] += mask[r, c]
-    for c in range(cols):
-        start[c + 1] += start[c]
-    n = start[cols]
+            n += 1 if mask[r, c] else 0
     node = np.full((rows, cols), -1, np.int32)
     node_rows = np.empty(n, np.int64)
     node_cols = np.empty(n, np.int64)
     boundary = np.zeros(n, np.bool_)
+    starts = np.empty(n, np.int64)  # only the runs' entries are written (and faulted in)
+    k = 0
+    n_runs = 0
     for r in range(rows):
         for c in range(cols):
             if not mask[r, c]:
                 continue
-            k = start[c]
-            start[c] += 1
+            if c == 0 or not mask[r, c - 1]:
+                starts[n_runs] = k
+                n_runs += 1
             node[r, c] = k
             node_rows[k] = r
             node_cols[k] = c
@@ -171,7 +172,8 @@ def _nodes(mask):
                     if rr < 0 or rr >= rows or cc < 0 or cc >= cols or not mask[rr, cc]:
                         edge = True
             boundary[k] = edge
-    return node, node_rows, node_cols, boundary
+            k += 1
+    return node, boundary, node_rows, node_cols, starts[:n_runs]
 
 
 @njit(inline="always", **_OPTIONS)
@@ -206,12 +208,12 @@ def _close(directions, a, b, chord):
 
 @njit(**_OPTIONS,
       aot=("int64(int32[:, ::1], int64[::1], int64[::1], float64[:, ::1], float64, "
-           "int64[::1], int64[::1], int64[:, ::1])"))
-def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, labels):
+           "int64[::1], int64[::1], int64[::1])"))
+def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, node_label):
     """Union–find over the nodes (``directions``: one row per node): neighbouring pixels
     (right, down, down-right, down-left) within ``chord``, and the given boundary pairs;
-    writes labels 1…n numbered in the order of each component's first node (column-major
-    scan) and returns n."""
+    writes each node's label 1…n, numbered in the order of each component's first pixel in
+    a column-major scan (evalglare's scan order), and returns n."""
     rows, cols = node.shape
     n_nodes = node_rows.size
     parent = np.arange(n_nodes)
@@ -221,18 +223,39 @@ def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, l
             r2, c2 = r + dr, c + dc
             if r2 < rows and 0 <= c2 < cols:
                 m = node[r2, c2]
-                if m >= 0 and _close(directions, k, m, chord):
+                # Nodes with one parent are in one component already (inside a patch, most
+                # neighbours: their unions have linked them to its root): no test, no union.
+                if m >= 0 and parent[k] != parent[m] and _close(directions, k, m, chord):
                     _union(parent, k, m)
     for i in range(pair_a.size):
         _union(parent, pair_a[i], pair_b[i])
-    number = np.full(n_nodes, -1, np.int64)
+    # Each component's first pixel in column-major order (its smallest col·rows + row), kept
+    # at its root in ``node_label`` (scratch until the last loop). A root is its component's
+    # first node (unions keep the smaller root), so it is met before its other nodes; after
+    # _find, every node's parent is its root.
     n = 0
     for k in range(n_nodes):
         root = _find(parent, k)
-        if number[root] < 0:
-            number[root] = n
+        key = node_cols[k] * rows + node_rows[k]
+        if root == k:
             n += 1
-        labels[node_rows[k], node_cols[k]] = number[root] + 1
+            node_label[k] = key
+        else:
+            node_label[root] = min(node_label[root], key)
+    roots = np.empty(n, np.int64)
+    j = 0
+    for k in range(n_nodes):
+        if parent[k] == k:
+            roots[j] = k
+            j += 1
+    # The components numbered by their first pixel (pixels differ: no ties), each number
+    # kept as −number in its root's parent (no further _find).
+    order = np.argsort(node_label[roots])
+    for i in range(n):
+        parent[roots[order[i]]] = -(i + 1)
+    for k in range(n_nodes):
+        p = parent[k]
+        node_label[k] = -p if p < 0 else -parent[p]
     return n
 
 
@@ -276,42 +299,48 @@ def _close_pairs(directions, chord):
     return pair_a, pair_b
 
 
-def _link(mask, directions, separation, offset=(0, 0)):
-    """Single-linkage labels (1…n, 0 elsewhere) of ``mask`` pixels at angular ``separation``;
-    ``directions`` a map or a PixelGeometry of the whole picture, in which ``mask`` starts at
-    ``offset``: only the mask pixels' directions are read (or computed from the model)."""
-    labels = np.zeros(mask.shape, dtype=np.int64)
-    node, node_rows, node_cols, boundary = _nodes(np.ascontiguousarray(mask))
-    if node_rows.size == 0:
-        return labels, 0
+def _link(mask, directions, separation, offset=(0, 0), pixel_directions=None):
+    """Single-linkage labels of ``mask`` pixels at angular ``separation``; ``directions`` a
+    map or a PixelGeometry of the whole picture, in which ``mask`` starts at ``offset``:
+    only the mask pixels' directions are read (or computed from the model), unless
+    ``pixel_directions`` gives them (row-major order). Returns the mask pixels in row-major
+    order (``np.nonzero(mask)``) — rows, columns, labels 1…n and directions — and n."""
+    node, boundary, rows, cols, starts = _nodes(np.ascontiguousarray(mask))
+    if rows.size == 0:
+        return rows, cols, np.zeros(0, dtype=np.int64), np.empty((0, 3)), 0
     chord = float(_chord(separation))
-    # The nodes' directions, read in row-major order (runs along rows) and put in node order.
-    rows, cols = np.nonzero(node >= 0)
-    d = np.empty((node_rows.size, 3))
-    d[node[rows, cols]] = directions_at(directions, rows + offset[0], cols + offset[1])
+    # The nodes' directions, in their (row-major) order: the runs along rows, from their
+    # first nodes (no arrays of every node's picture coordinates).
+    if pixel_directions is None:
+        lengths = np.diff(np.append(starts, rows.size))
+        pixel_directions = directions_of_runs(directions, rows[starts] + offset[0],
+                                              cols[starts] + offset[1], lengths)
+    d = np.ascontiguousarray(pixel_directions, dtype=np.float64)
     # Boundary pixels of different patches within reach of each other (the closest pair of
     # two patches always includes a boundary pixel).
     bnodes = np.flatnonzero(boundary)
     pair_a, pair_b = _close_pairs(np.ascontiguousarray(d[bnodes]), chord)
-    n = _components(node, node_rows, node_cols, d, chord, bnodes[pair_a], bnodes[pair_b], labels)
-    return labels, n
+    label = np.empty(rows.size, dtype=np.int64)
+    n = _components(node, rows, cols, d, chord, bnodes[pair_a], bnodes[pair_b], label)
+    return rows, cols, label, d, n
 
 
 @njit(**_OPTIONS,
-      aot=("Tuple((float64[:, ::1], float64[::1], float64[::1], int64[::1]))(int64[::1], "
-           "int64, float64[::1], float64[:, ::1], float64[::1], int64[::1], int64[::1])"))
+      aot=tuple("Tuple((float64[:, ::1], float64[::1], float64[::1], int64[::1]))(int64[::1], "
+                f"int64, {L}[:, :], float64[:, ::1], float64[:, :], int64[::1], int64[::1])"
+                for L in ("float32", "float64")))
 def _source_sums(label, n, luminance, directions, solid_angle, rows, cols):
-    """Per label 1…n over the labelled pixels (``label``, L, d̂, ω, row and column of each, in
-    row-major pixel order, as np.bincount): Σω, ΣL·ω, ΣL·ω·d̂, ΣL·ω·row, ΣL·ω·col, max and
-    min L and the pixel count."""
+    """Per label 1…n over the labelled pixels (``label``, d̂, row and column of each, in
+    row-major pixel order, as np.bincount; L and ω read from their maps at those rows and
+    columns): Σω, ΣL·ω, ΣL·ω·d̂, ΣL·ω·row, ΣL·ω·col, max and min L and the pixel count."""
     sums = np.zeros((n, 7))
     lmax = np.full(n, -np.inf)
     lmin = np.full(n, np.inf)
     count = np.zeros(n, np.int64)
     for i in range(label.size):
         k = label[i] - 1
-        L = luminance[i]
-        w = solid_angle[i]
+        L = np.float64(luminance[rows[i], cols[i]])
+        w = np.float64(solid_angle[rows[i], cols[i]])
         lw = L * w
         sums[k, 0] += w
         sums[k, 1] += lw
@@ -337,16 +366,22 @@ def _describe(labels, n, luminance, directions, solid_angle, peak_flags, offset=
 
 
 def _describe_pixels(rows, cols, label, n, luminance, directions, solid_angle, peak_flags,
-                     offset=(0, 0)):
+                     offset=(0, 0), pixel_directions=None):
     """:func:`_describe` from the labelled pixels: their ``rows`` and ``cols`` in row-major
-    order and their ``label`` (1…n), without a label map."""
-    rows, cols = np.ascontiguousarray(rows), np.ascontiguousarray(cols)
+    order and their ``label`` (1…n), without a label map; ``pixel_directions`` their
+    directions where the caller has them already."""
+    rows = np.ascontiguousarray(rows, dtype=np.int64)
+    cols = np.ascontiguousarray(cols, dtype=np.int64)
+    if pixel_directions is None:
+        pixel_directions = directions_at(directions, rows + offset[0], cols + offset[1])
+    # L and ω are read at the pixels inside the kernel (no copies of the source pixels').
+    luminance = np.asarray(luminance)
+    if luminance.dtype not in (np.float32, np.float64):
+        luminance = luminance.astype(np.float64)
     sums, lmax, lmin, count = _source_sums(
-        np.asarray(label).astype(np.int64), n,
-        np.asarray(luminance)[rows, cols].astype(np.float64),
-        np.ascontiguousarray(directions_at(directions, rows + offset[0], cols + offset[1]),
-                             dtype=np.float64),
-        np.asarray(solid_angle)[rows, cols].astype(np.float64), rows, cols)
+        np.ascontiguousarray(label, dtype=np.int64), n, luminance,
+        np.ascontiguousarray(pixel_directions, dtype=np.float64),
+        np.asarray(solid_angle, dtype=np.float64), rows, cols)
     omega, sum_lw = sums[:, 0], sums[:, 1]
     dirs = sums[:, 2:5] / np.linalg.norm(sums[:, 2:5], axis=-1, keepdims=True)
     row_c = sums[:, 5] / sum_lw
@@ -398,11 +433,9 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
     luminance = np.asarray(luminance)[box]
     solid_angle = np.asarray(solid_angle)[box]
     offset = (box[0].start, box[1].start)
-    labels, n = _link(mask, directions, separation, offset)
-    # From here on only the source pixels (row-major order) and their labels: no label
-    # maps of the box (8 bytes per pixel each, most of them 0) are made or written.
-    rows, cols = np.nonzero(mask)
-    label = labels[rows, cols]
+    # From here on only the source pixels (row-major order), their labels and directions:
+    # no label maps of the box (8 bytes per pixel each, most of them 0) are made or written.
+    rows, cols, label, pixel_directions, n = _link(mask, directions, separation, offset)
     peak_flags = [False] * n
     if peak_luminance is not None and n:
         limit = check_positive(peak_luminance, "peak_luminance")
@@ -411,21 +444,25 @@ def group_sources_evalglare(luminance, directions, solid_angle, source_mask, *,
         if peak.any():
             peak_mask = np.zeros(mask.shape, dtype=bool)
             peak_mask[rows[peak], cols[peak]] = True
-            peak_labels, n_peak = _link(peak_mask, directions, separation, offset)
+            _, _, peak_label, _, n_peak = _link(peak_mask, directions, separation, offset,
+                                                pixel_directions[peak])
             rest = np.where(peak, 0, label)
             # The labels left after peak extraction, in increasing order (np.unique would
             # import numpy.ma, 0.05 s of a short process).
             kept = np.flatnonzero(np.bincount(rest[rest > 0], minlength=n + 1))
             renumber = np.zeros(n + 1, dtype=np.int64)
             renumber[kept] = np.arange(1, kept.size + 1)
-            label = np.where(peak, peak_labels[rows, cols] + kept.size, renumber[rest])
+            label = renumber[rest]
+            label[peak] = peak_label + kept.size
             n = kept.size + n_peak
             peak_flags = [False] * kept.size + [True] * n_peak
     labelled = label > 0
-    rows, cols, label = rows[labelled], cols[labelled], label[labelled]
+    if not labelled.all():
+        rows, cols, label = rows[labelled], cols[labelled], label[labelled]
+        pixel_directions = pixel_directions[labelled]
     sources = _describe_pixels(rows, cols, label, n, luminance, directions, solid_angle,
-                               peak_flags, offset) if n else []
+                               peak_flags, offset, pixel_directions) if n else []
     offset_row, offset_col = offset
     sources = [replace(s, row=s.row + offset_row, col=s.col + offset_col) for s in sources]
-    labels_full[rows + offset_row, cols + offset_col] = label
+    labels_full[box][rows, cols] = label  # (a view: no offset copies of rows and cols)
     return sources, labels_full

@@ -71,6 +71,17 @@ class SourceSelection:
     settings: dict = field(default_factory=dict)
 
 
+def _above(luminance, threshold, field_mask, *, strict=True):
+    """``field_mask & (luminance > threshold)`` (``>=`` unless ``strict``), the threshold
+    compared as a float64 number (numpy would round a Python float to a float32 picture's
+    precision before comparing); one boolean map, written in place (no temporary of the
+    picture's size)."""
+    compare = np.greater if strict else np.greater_equal
+    out = compare(luminance, np.float64(threshold))
+    out &= field_mask
+    return out
+
+
 def task_luminance(luminance, directions, solid_angle, task_direction, opening_angle):
     """ω-weighted mean luminance [cd·m⁻²] inside a cone around ``task_direction``.
 
@@ -130,8 +141,7 @@ def select_source_pixels(luminance, solid_angle, cos_sigma, *, method="fixed", v
     SourceSelection
     """
     check_choice(method, "glare-source method", SOURCE_METHODS)
-    # Thresholds compared as float64 numbers (numpy would round a Python float to a float32
-    # picture's precision before comparing).
+    # Thresholds compared as float64 numbers (_above).
     if field_mask is None:
         field_mask = evaluated_field(luminance, solid_angle, cos_sigma)
     elif np.shape(field_mask) != np.shape(luminance):
@@ -140,13 +150,13 @@ def select_source_pixels(luminance, solid_angle, cos_sigma, *, method="fixed", v
         if method == "fixed":
             threshold = check_positive(DEFAULT_SOURCE_THRESHOLD if value is None else value,
                                        "source threshold")
-            return SourceSelection(field_mask & (luminance > np.float64(threshold)), threshold,
+            return SourceSelection(_above(luminance, threshold, field_mask), threshold,
                                    {"method": method, "threshold": threshold})
         if method == "mean":
             factor = check_positive(DEFAULT_TASK_FACTOR if value is None else value, "factor")
             mean = mean_luminance(luminance, solid_angle, cos_sigma)
             threshold = factor * mean
-            mask = field_mask & (luminance > np.float64(threshold)) if np.isfinite(threshold) else \
+            mask = _above(luminance, threshold, field_mask) if np.isfinite(threshold) else \
                 np.zeros_like(field_mask)
             return SourceSelection(mask, threshold, {"method": method, "factor": factor,
                                                      "mean_luminance": mean})
@@ -159,7 +169,7 @@ def select_source_pixels(luminance, solid_angle, cos_sigma, *, method="fixed", v
             if not np.isfinite(l_task):
                 raise BadInputError("the task cone holds no valid pixel")
             threshold = factor * l_task
-            return SourceSelection(field_mask & (luminance > np.float64(threshold)), threshold,
+            return SourceSelection(_above(luminance, threshold, field_mask), threshold,
                                    {"method": method, "factor": factor,
                                     "task_luminance": l_task,
                                     "task_opening_deg": float(np.degrees(task_opening))})
@@ -184,7 +194,7 @@ def _contrast_sources(luminance, solid_angle, cos_sigma, field_mask, *, n_thresh
     mask = np.zeros_like(field_mask)
     for iteration in range(1, _MAX_CONTRAST_ITERATIONS + 1):
         threshold = l_b + n * delta
-        new_mask = field_mask & (luminance >= np.float64(threshold))
+        new_mask = _above(luminance, threshold, field_mask, strict=False)
         if np.array_equal(new_mask, mask) and iteration > 1:
             break
         mask = new_mask

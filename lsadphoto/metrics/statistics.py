@@ -88,6 +88,9 @@ def _accumulate(luminance, solid_angle, cos_sigma, cos_edges, n_stripes, origin,
     n_rings = cos_edges.size - 1
     n_groups = n_rings + 1
     step = (n + n_stripes - 1) // n_stripes
+    decreasing = True
+    for r in range(n_rings):
+        decreasing &= cos_edges[r] > cos_edges[r + 1]
     for k in prange(n_stripes):
         # Accumulate locally (no false sharing of the small output rows between threads).
         k_count = np.zeros(n_groups, np.int64)
@@ -102,13 +105,23 @@ def _accumulate(luminance, solid_angle, cos_sigma, cos_edges, n_stripes, origin,
         g = n_rings
         count_g, w_g, lw_g, zero_g = k_count[g], k_sums[0, g], k_sums[1, g], k_sums[2, g]
         low_g, high_g = k_low[g], k_high[g]
+        # The last ring found, as its open-closed interval of cos σ (cos_edges[r + 1],
+        # cos_edges[r]]: where the edges decrease, a pixel inside it is in that ring
+        # (:func:`_group`), without the search over the edges (neighbouring pixels mostly
+        # share a ring).
+        ring, ring_lo, ring_hi = n_rings, np.inf, -np.inf
         for i in range(k * step, min(n, (k + 1) * step)):
             L = np.float64(luminance[i])
             w = np.float64(solid_angle[i])
             c = np.float64(cos_sigma[i])
             if not ((np.abs(L) < np.inf) & (w > 0) & (c >= 0)):
                 continue
-            group = _group(c, cos_edges, n_rings)
+            if ring_lo < c <= ring_hi:
+                group = ring
+            else:
+                group = _group(c, cos_edges, n_rings)
+                if group < n_rings and decreasing:
+                    ring, ring_lo, ring_hi = group, cos_edges[group + 1], cos_edges[group]
             if group != g:
                 k_count[g], k_sums[0, g], k_sums[1, g], k_sums[2, g] = count_g, w_g, lw_g, zero_g
                 k_low[g], k_high[g] = low_g, high_g
