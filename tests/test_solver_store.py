@@ -106,6 +106,12 @@ def test_surface_node_hull_is_saved_and_bounds_every_node(room, tmp_path):
     assert np.array_equal(load_store(bare).surface_node_hull(), hull)
     store.extend(simulate(room, samples=256, seed=4))  # new nodes: the hull is recomputed
     assert store.node_hull is None
+    with np.load(path) as data:  # a hull that is no list of 3-D points: a one-line refusal
+        arrays = {k: data[k] for k in data.files}
+    arrays["node_hull"] = hull[:, :2]
+    np.savez(tmp_path / "odd.lsad.npz", **arrays)
+    with pytest.raises(UnsupportedFileError, match="node hull"):
+        load_store(tmp_path / "odd.lsad.npz")
 
 
 def test_one_store_many_views(room, store):

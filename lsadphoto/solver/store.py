@@ -272,8 +272,11 @@ def load_store(path):
                                     if name != "clearance" or "cache_clearance" in arrays})
     except KeyError as exc:
         raise UnsupportedFileError(f"{path}: LSAD store lacks {exc.args[0]!r}") from None
+    hull = arrays.get("node_hull")
+    if hull is not None and (hull.ndim != 2 or hull.shape[1:] != (3,) or hull.dtype.kind != "f"):
+        raise UnsupportedFileError(f"{path}: the store's node hull is not an array of 3-D points "
+                                   f"(shape {hull.shape}, {hull.dtype})")
     return LsadStore(scene, **nodes, chains=meta["chains"], batches=meta["batches"],
                      seed=meta["seed"], near_field=meta["near_field"],
                      fresnel_rule=meta.get("fresnel_rule", "reciprocal"),
-                     provenance=meta.get("provenance", {}), surface_cache=cache,
-                     node_hull=arrays.get("node_hull"))
+                     provenance=meta.get("provenance", {}), surface_cache=cache, node_hull=hull)
