@@ -103,12 +103,14 @@ _ON_SURFACE_OFFSETS = 10
 _ON_SURFACE_FRACTION = 0.01
 
 
-def warn_odd_view(scene, engine, prim, dist, lum_b, position, *, stacklevel=3):
+def warn_odd_view(scene, engine, prim, dist, lum_b, position, *, openings=None, stacklevel=3):
     """Warn about views that are legal but probably wrong (an eye on or in a wall).
 
     An eye within a few ray offsets of a surface (in the plane of a wall) makes the rays
     that start there ambiguous in float32; an eye outside a closed room or inside a solid
-    sees only surfaces that no light reaches, so the whole view is black. ``stacklevel``
+    sees only surfaces that no light reaches, so the whole view is black: no value of
+    ``lum_b`` (valid pixels × batches) is positive and no luminous opening
+    (:func:`luminous_openings`, ``openings``: finite where one is seen) is in view. ``stacklevel``
     is :func:`warnings.warn`'s as seen from this function (3: the caller of the estimator
     that calls it).
     """
@@ -120,7 +122,7 @@ def warn_odd_view(scene, engine, prim, dist, lum_b, position, *, stacklevel=3):
                       f"hit within {_ON_SURFACE_OFFSETS * engine.epsilon:.2g} m): move it into "
                       "the room", SolverWarning, stacklevel=stacklevel)
     elif (scene.total_flux > 0 and np.any(scene.triangle_reflectance[prim[hit]] > 0)
-          and not np.any(lum_b > 0)):
+          and not (openings is not None and np.isfinite(openings).any()) and not np.any(lum_b > 0)):
         # (a view that hits nothing, e.g. out of an open model into the sky, or only black
         # surfaces, is legal and black)
         warnings.warn(f"{where} sees surfaces but no light at all: is it outside the room "
