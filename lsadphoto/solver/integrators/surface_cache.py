@@ -313,15 +313,19 @@ class _IndirectEstimator(_NodeHull):
         # draw from its own 1/k of the coefficient mass, in space order: a spatially
         # stratified sample; unbiased, each draw being exact for its stratum).
         self.tables, self.totals, self.packed = [], [], []
-        for pool in self._pools_along_curve(surface, self.groups):
-            c = store.coefficient[pool]
+        pools = self._pools_along_curve(surface, self.groups)
+        ranked = np.concatenate(pools)
+        # The nodes of each pool in Morton order, position and normal in one row.
+        rows = np.hstack([store.position[ranked], store.normal[ranked]]).astype(np.float64, copy=False)
+        coefficient = store.coefficient[ranked]
+        end = np.cumsum([pool.size for pool in pools])
+        for a, b in zip(end - [pool.size for pool in pools], end):
+            c = coefficient[a:b]
             total = float(c.sum())
             self.totals.append(total)
             cdf = np.cumsum(c) / total if total > 0 else None
             self.tables.append(None if cdf is None else (cdf, _guide_table(cdf)))
-            # The nodes of the pool in Morton order, position and normal in one row.
-            self.packed.append(np.ascontiguousarray(
-                np.hstack([store.position[pool], store.normal[pool]]), dtype=np.float64))
+            self.packed.append(rows[a:b])
         self.draws = max(1, int(nodes) // self.groups)
         self.chains_per_group = store.chains / self.groups
         self.near_rays = int(near_rays)
