@@ -103,31 +103,62 @@ def cells_over_contrast(mean, se, contrast, *, slack=0.0):
     return (spread - slack * noise > contrast * mean[rows, hi]) & (spread > (3.0 + slack) * noise)
 
 
-def _second_difference(values, m, base, i, j, along):
-    """Second differences f(c − e) − 2 f(c) + f(c + e) [lx] of the values (per group) of
-    level-m grids (first vertex ``base``) along grid direction ``along`` (0: i, 1: j, 2:
+@njit(inline="always", **_NUMBA)
+def _grid_vertex(m, i, j):
+    """:func:`grid_index` of scalars, inside the kernels."""
+    return i * (m + 1) - i * (i - 1) // 2 + j
+
+
+@njit(inline="always", **_NUMBA)
+def _second_difference(values, m, base, i, j, along, g):
+    """Second difference f(c − e) − 2 f(c) + f(c + e) [lx] of group ``g``'s values of a
+    level-m grid (first vertex ``base``) along grid direction ``along`` (0: i, 1: j, 2:
     (1, −1)), averaged over the two stencils centred on the ends of the cell edge that
     starts at vertex (i, j) in that direction, each moved to the nearest stencil that lies
     in the grid (m ≥ 2): e·H·e of the field's Hessian H over the edge vector e where the
     field is quadratic."""
     total = 0.0
-    for end in (0, 1):
+    for end in range(2):
         if along == 0:  # edge (i, j)–(i + 1, j)
-            jc = np.minimum(j, m - 2)
-            ic = np.clip(i + end, 1, m - 1 - jc)
-            lo, hi = grid_index(m, ic - 1, jc), grid_index(m, ic + 1, jc)
+            jc = min(j, m - 2)
+            ic = min(max(i + end, 1), m - 1 - jc)
+            lo, hi = _grid_vertex(m, ic - 1, jc), _grid_vertex(m, ic + 1, jc)
         elif along == 1:  # edge (i, j)–(i, j + 1)
-            ic = np.minimum(i, m - 2)
-            jc = np.clip(j + end, 1, m - 1 - ic)
-            lo, hi = grid_index(m, ic, jc - 1), grid_index(m, ic, jc + 1)
+            ic = min(i, m - 2)
+            jc = min(max(j + end, 1), m - 1 - ic)
+            lo, hi = _grid_vertex(m, ic, jc - 1), _grid_vertex(m, ic, jc + 1)
         else:  # edge (i + 1, j)–(i, j + 1), on the line i + j = s
-            sc = np.clip(i + j + 1, 2, m)
-            ic = np.clip(i + end, 1, sc - 1)
+            sc = min(max(i + j + 1, 2), m)
+            ic = min(max(i + end, 1), sc - 1)
             jc = sc - ic
-            lo, hi = grid_index(m, ic + 1, jc - 1), grid_index(m, ic - 1, jc + 1)
-        mid = grid_index(m, ic, jc)
-        total = total + (values[base + lo] - 2.0 * values[base + mid] + values[base + hi])
+            lo, hi = _grid_vertex(m, ic + 1, jc - 1), _grid_vertex(m, ic - 1, jc + 1)
+        mid = _grid_vertex(m, ic, jc)
+        total = total + (values[base + lo, g] - 2.0 * values[base + mid, g] + values[base + hi, g])
     return 0.5 * total
+
+
+@njit(**_NUMBA, aot="void(float64[:, ::1], int64[::1], int64[::1], int64[::1], int64[::1], boolean[::1], "
+                    "float64[:, ::1], float64[:, ::1])")
+def _grid_bias_kernel(values, m, base, i, j, upper, w, out):
+    """``out[p]`` = ½ Σ_(a<b) w_a·w_b·q_ab per group at the points p of level ≥ 2 cells (the
+    others keep theirs): q_ab the :func:`_second_difference` along the cell's edge P_aP_b —
+    a lower cell's P0P1 along i from (i, j) and P0P2 along j from (i, j), an upper cell's
+    P0P1 along j from (i + 1, j) and P0P2 along i from (i, j + 1), both cells' P1P2 along
+    (1, −1) from (i, j)."""
+    for p in range(m.size):
+        mp = m[p]
+        if mp < 2:
+            continue
+        w01, w02, w12 = w[p, 0] * w[p, 1], w[p, 0] * w[p, 2], w[p, 1] * w[p, 2]
+        for g in range(values.shape[1]):
+            if upper[p]:
+                q01 = _second_difference(values, mp, base[p], i[p] + 1, j[p], 1, g)
+                q02 = _second_difference(values, mp, base[p], i[p], j[p] + 1, 0, g)
+            else:
+                q01 = _second_difference(values, mp, base[p], i[p], j[p], 0, g)
+                q02 = _second_difference(values, mp, base[p], i[p], j[p], 1, g)
+            q12 = _second_difference(values, mp, base[p], i[p], j[p], 2, g)
+            out[p, g] = 0.5 * (w01 * q01 + w02 * q02 + w12 * q12)
 
 
 def _barycentric(tri, x):
@@ -615,23 +646,9 @@ class SurfaceCache:
         leading error with its order p = 2. Level-1 grids (no stencil) give 0.
         """
         m, base, i, j, upper = cells
-        v = self.values
-        out = np.zeros((len(m), v.shape[1]))
-        ok = np.flatnonzero(m >= 2)
-        if not ok.size:
-            return out
-        m, base, i, j, upper, w = m[ok], base[ok], i[ok], j[ok], upper[ok], weight[ok]
-        # edges P0P1, P0P2, P1P2: lower cell along i from (i, j), along j from (i, j); upper
-        # cell along j from (i + 1, j), along i from (i, j + 1); both along (1, −1) from (i, j)
-        q01, q02 = np.empty((2, len(m), v.shape[1]))
-        lo, hi = np.flatnonzero(~upper), np.flatnonzero(upper)
-        q01[lo] = _second_difference(v, m[lo], base[lo], i[lo], j[lo], 0)
-        q02[lo] = _second_difference(v, m[lo], base[lo], i[lo], j[lo], 1)
-        q01[hi] = _second_difference(v, m[hi], base[hi], i[hi] + 1, j[hi], 1)
-        q02[hi] = _second_difference(v, m[hi], base[hi], i[hi], j[hi] + 1, 0)
-        q12 = _second_difference(v, m, base, i, j, 2)
-        out[ok] = 0.5 * (w[:, :1] * w[:, 1:2] * q01 + w[:, :1] * w[:, 2:] * q02
-                         + w[:, 1:2] * w[:, 2:] * q12)
+        out = np.zeros((len(m), self.values.shape[1]))
+        _grid_bias_kernel(self.values, *(np.ascontiguousarray(a, dtype=np.int64) for a in (m, base, i, j)),
+                          np.ascontiguousarray(upper, dtype=bool), np.ascontiguousarray(weight, dtype=np.float64), out)
         return out
 
     def _borderline_bias(self, scene, prim, x, side, normal, index, value):
