@@ -110,30 +110,35 @@ def _grid_vertex(m, i, j):
 
 
 @njit(inline="always", **_NUMBA)
-def _second_difference(values, m, base, i, j, along, g):
-    """Second difference f(c − e) − 2 f(c) + f(c + e) [lx] of group ``g``'s values of a
-    level-m grid (first vertex ``base``) along grid direction ``along`` (0: i, 1: j, 2:
-    (1, −1)), averaged over the two stencils centred on the ends of the cell edge that
-    starts at vertex (i, j) in that direction, each moved to the nearest stencil that lies
-    in the grid (m ≥ 2): e·H·e of the field's Hessian H over the edge vector e where the
-    field is quadratic."""
+def _stencil(m, i, j, along, end):
+    """Vertices (c − e, c, c + e) of the second-difference stencil of a level-m grid (m ≥ 2)
+    along grid direction ``along`` (0: i, 1: j, 2: (1, −1)) centred on end ``end`` (0 or 1)
+    of the cell edge that starts at vertex (i, j) in that direction, moved to the nearest
+    stencil that lies in the grid."""
+    if along == 0:  # edge (i, j)–(i + 1, j)
+        jc = min(j, m - 2)
+        ic = min(max(i + end, 1), m - 1 - jc)
+        lo, hi = _grid_vertex(m, ic - 1, jc), _grid_vertex(m, ic + 1, jc)
+    elif along == 1:  # edge (i, j)–(i, j + 1)
+        ic = min(i, m - 2)
+        jc = min(max(j + end, 1), m - 1 - ic)
+        lo, hi = _grid_vertex(m, ic, jc - 1), _grid_vertex(m, ic, jc + 1)
+    else:  # edge (i + 1, j)–(i, j + 1), on the line i + j = s
+        sc = min(max(i + j + 1, 2), m)
+        ic = min(max(i + end, 1), sc - 1)
+        jc = sc - ic
+        lo, hi = _grid_vertex(m, ic + 1, jc - 1), _grid_vertex(m, ic - 1, jc + 1)
+    return lo, _grid_vertex(m, ic, jc), hi
+
+
+@njit(inline="always", **_NUMBA)
+def _second_difference(v, a, b):
+    """½ Σ over the two stencils ``a``, ``b`` (:func:`_stencil`, rows of ``v``) of the second
+    differences f(c − e) − 2 f(c) + f(c + e), per column of ``v``: e·H·e of the field's
+    Hessian H over the edge vector e where the field is quadratic."""
     total = 0.0
-    for end in range(2):
-        if along == 0:  # edge (i, j)–(i + 1, j)
-            jc = min(j, m - 2)
-            ic = min(max(i + end, 1), m - 1 - jc)
-            lo, hi = _grid_vertex(m, ic - 1, jc), _grid_vertex(m, ic + 1, jc)
-        elif along == 1:  # edge (i, j)–(i, j + 1)
-            ic = min(i, m - 2)
-            jc = min(max(j + end, 1), m - 1 - ic)
-            lo, hi = _grid_vertex(m, ic, jc - 1), _grid_vertex(m, ic, jc + 1)
-        else:  # edge (i + 1, j)–(i, j + 1), on the line i + j = s
-            sc = min(max(i + j + 1, 2), m)
-            ic = min(max(i + end, 1), sc - 1)
-            jc = sc - ic
-            lo, hi = _grid_vertex(m, ic + 1, jc - 1), _grid_vertex(m, ic - 1, jc + 1)
-        mid = _grid_vertex(m, ic, jc)
-        total = total + (values[base + lo, g] - 2.0 * values[base + mid, g] + values[base + hi, g])
+    total = total + (v[a[0]] - 2.0 * v[a[1]] + v[a[2]])
+    total = total + (v[b[0]] - 2.0 * v[b[1]] + v[b[2]])
     return 0.5 * total
 
 
@@ -141,23 +146,28 @@ def _second_difference(values, m, base, i, j, along, g):
                     "float64[:, ::1], float64[:, ::1])")
 def _grid_bias_kernel(values, m, base, i, j, upper, w, out):
     """``out[p]`` = ½ Σ_(a<b) w_a·w_b·q_ab per group at the points p of level ≥ 2 cells (the
-    others keep theirs): q_ab the :func:`_second_difference` along the cell's edge P_aP_b —
-    a lower cell's P0P1 along i from (i, j) and P0P2 along j from (i, j), an upper cell's
-    P0P1 along j from (i + 1, j) and P0P2 along i from (i, j + 1), both cells' P1P2 along
-    (1, −1) from (i, j)."""
+    others keep theirs): q_ab the :func:`_second_difference` of the values along the cell's
+    edge P_aP_b (:func:`_stencil`) — a lower cell's P0P1 along i from (i, j) and P0P2 along j
+    from (i, j), an upper cell's P0P1 along j from (i + 1, j) and P0P2 along i from
+    (i, j + 1), both cells' P1P2 along (1, −1) from (i, j)."""
     for p in range(m.size):
-        mp = m[p]
+        mp, ip, jp = m[p], i[p], j[p]
         if mp < 2:
             continue
+        if upper[p]:
+            e01, i01, j01, e02, i02, j02 = 1, ip + 1, jp, 0, ip, jp + 1
+        else:
+            e01, i01, j01, e02, i02, j02 = 0, ip, jp, 1, ip, jp
+        s01a, s01b = _stencil(mp, i01, j01, e01, 0), _stencil(mp, i01, j01, e01, 1)
+        s02a, s02b = _stencil(mp, i02, j02, e02, 0), _stencil(mp, i02, j02, e02, 1)
+        s12a, s12b = _stencil(mp, ip, jp, 2, 0), _stencil(mp, ip, jp, 2, 1)
         w01, w02, w12 = w[p, 0] * w[p, 1], w[p, 0] * w[p, 2], w[p, 1] * w[p, 2]
+        v = values[base[p]:]
         for g in range(values.shape[1]):
-            if upper[p]:
-                q01 = _second_difference(values, mp, base[p], i[p] + 1, j[p], 1, g)
-                q02 = _second_difference(values, mp, base[p], i[p], j[p] + 1, 0, g)
-            else:
-                q01 = _second_difference(values, mp, base[p], i[p], j[p], 0, g)
-                q02 = _second_difference(values, mp, base[p], i[p], j[p], 1, g)
-            q12 = _second_difference(values, mp, base[p], i[p], j[p], 2, g)
+            col = v[:, g]
+            q01 = _second_difference(col, s01a, s01b)
+            q02 = _second_difference(col, s02a, s02b)
+            q12 = _second_difference(col, s12a, s12b)
             out[p, g] = 0.5 * (w01 * q01 + w02 * q02 + w12 * q12)
 
 
