@@ -92,7 +92,7 @@ from ..materials import diffuse_fresnel_factor, fresnel_weighted, shadow_transmi
 from ..sky import DISTANT_RAYS_PER_DIRECT_SAMPLE, background_luminance, distant_reflection, stratified
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance, luminance_map_from_batches,
-                  luminous_openings, near_step, primary_rays, run_chunks, warn_odd_view)
+                  luminous_openings, near_step, pixel_solid_angles, primary_rays, run_chunks, warn_odd_view)
 
 __all__ = ["CACHE_NODES", "GLOSSY_RAYS", "RELATIVE_CACHE_SPACING", "build_surface_cache",
            "indirect_illuminance", "render_cached"]
@@ -897,11 +897,16 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     est = None if scene.lambertian else _MaterialIndirectEstimator(
         store, engine, nodes=nodes, near_distance=near_distance,
         direct_samples=direct_samples, luminaires=luminaires, seed=seed, key=1, connections=False)
-    # E_ind at the pixels the cache does not resolve (Notes)
-    at_pixel = None if not scene.lambertian else _IndirectEstimator(
-        store, engine, nodes=nodes, near_distance=near_distance,
-        direct_samples=cache.provenance.get("direct_samples", DIRECT_SAMPLES), seed=seed, key=2,
-        near_rays=PIXEL_NEAR_RAYS)
+
+    def meanwhile():
+        """What the chunks do not need, made while they run: the estimator of E_ind at the
+        pixels the cache does not resolve (Notes) and the pixels' solid angles."""
+        at_pixel = None if not scene.lambertian else _IndirectEstimator(
+            store, engine, nodes=nodes, near_distance=near_distance,
+            direct_samples=cache.provenance.get("direct_samples", DIRECT_SAMPLES), seed=seed, key=2,
+            near_rays=PIXEL_NEAR_RAYS)
+        return at_pixel, pixel_solid_angles(projection, valid)
+
     # the pixels that take E_ind from records (Notes): their point, normal, nearest surface [m],
     # stream block, triangle side and ρ/π
     own = np.zeros(valid.size, dtype=bool)
@@ -946,7 +951,8 @@ def render_cached(store, projection, *, position, rotation, cache=None,
             bias_var[c.index[refl]] = b.var(axis=1, ddof=1) / G
         return c.index, out
 
-    run_chunks(work, range(0, hit.size, chunk), lum_b, int(workers), progress, t0, hit.size)
+    at_pixel, omega = run_chunks(work, range(0, hit.size, chunk), lum_b, int(workers), progress, t0, hit.size,
+                                 meanwhile=meanwhile)
     rows = np.flatnonzero(own)
     records = 0
     if rows.size:
@@ -959,7 +965,7 @@ def render_cached(store, projection, *, position, rotation, cache=None,
         projection, valid, lum_b, model=store,
         estimator="surface cache (direct per pixel, indirect interpolated" + (")" if est is None else
                                                                               "; glossy by sampled rays)"),
-        openings=openings, shared_variance=direct_var, bias=bias, bias_variance=bias_var,
+        openings=openings, shared_variance=direct_var, bias=bias, bias_variance=bias_var, solid_angles=omega,
         extra={"chains": int(store.chains), "nodes": int(store.nodes),
                "direct_samples": int(direct_samples), "luminaire_draws": luminaires, "seed": int(seed),
                "simulation_seed": int(store.seed),
