@@ -704,7 +704,9 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
             u[m] = stream(seed, "direct", purpose_key, j).random((int(m.sum()), n_lum, s, 3))
         guide = np.zeros((P, n_lum))
         _unoccluded_all(x, n, lights.points, lights.areas, lights.n_area, guide)
-        point, lum = np.nonzero((guide > 0) | ~lights.exact[None, :])
+        # the pairs luminaire by luminaire (each luminaire's uniforms one block of rows); a
+        # point's terms still add in luminaire order
+        lum, point = np.nonzero(((guide > 0) | ~lights.exact[None, :]).T)
         e, v = _estimates(scene, lights, engine, x, n, origins, point, lum, guide[point, lum],
                           u[point, lum].reshape(-1, 3), np.full(len(point), s, dtype=np.int64), fresnel,
                           fresnel_rule)
@@ -787,7 +789,11 @@ def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count
     for li in np.unique(lum[~is_point]):
         sel = np.flatnonzero(lum == li)
         p = point[sel]
-        u3 = u[u_start[sel, None] + np.arange(int(count[sel[0]]))]
+        c = int(count[sel[0]])
+        if sel[-1] - sel[0] + 1 == sel.size:  # consecutive pairs: their rows are one block
+            u3 = u[u_start[sel[0]]:u_start[sel[0]] + sel.size * c].reshape(sel.size, c, 3)
+        else:
+            u3 = u[u_start[sel, None] + np.arange(c)]
         e[sel], v[sel] = _area_estimate(scene, samplers[li], x[p], n[p], origins[p], u3, engine,
                                         unoccluded=guide[sel], fresnel=None if fresnel is None else fresnel_weighted(
                                             fresnel[p], rule=rule, direct=scene.light_source_at(np.full(p.size, li), x[p])))
