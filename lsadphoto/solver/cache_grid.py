@@ -510,11 +510,12 @@ class SurfaceCache:
         """Number of cache points."""
         return len(self.values)
 
-    def _cells(self, scene, prim, x, side, *, refined=True):
+    def _cells(self, scene, prim, x, side):
         """Indices of the three grid points around points ``x`` on grid triangles ``prim``
         (level ≥ 1; side 0 front, 1 back) and their linear-interpolation weights, each (n, 3),
-        and the cells as (level, first vertex, i, j, upper) of the grid they lie in (the
-        triangle's, or with ``refined`` a refined cell's level-``refine`` grid)."""
+        the cells as (level, first vertex, i, j, upper) of the grid they lie in (the
+        triangle's, or a refined cell's level-``refine`` grid), and the indices and weights
+        on the triangle's own grid (equal but where the cell is refined)."""
         b1, b2 = _barycentric(scene.triangles[prim], x)
         m = self.level[prim]
         base = self.offset[prim, side]
@@ -523,7 +524,8 @@ class SurfaceCache:
         k0, k1, k2, w1, w2, key, (i, j, upper) = _cell(m, b1, b2)
         index = np.stack([base + k0, base + k1, base + k2], axis=1)
         weight = np.stack([1.0 - w1 - w2, w1, w2], axis=1)
-        if refined and self.refined_key.size:
+        coarse = index, weight
+        if self.refined_key.size:
             global_key = 2 * base + key  # base + index(i, j) doubled, plus upper
             pos = np.minimum(np.searchsorted(self.refined_key, global_key), self.refined_key.size - 1)
             fine = self.refined_key[pos] == global_key
@@ -531,10 +533,11 @@ class SurfaceCache:
                 r = self.refine
                 f0, f1, f2, v1, v2, _, (fi, fj, fu) = _cell(r, w1[fine], w2[fine])
                 start = self.refined_offset[pos[fine]]
+                index, weight = index.copy(), weight.copy()
                 index[fine] = np.stack([start + f0, start + f1, start + f2], axis=1)
                 weight[fine] = np.stack([1.0 - v1 - v2, v1, v2], axis=1)
                 m[fine], base[fine], i[fine], j[fine], upper[fine] = r, start, fi, fj, fu
-        return index, weight, (m, base, i, j, upper)
+        return index, weight, (m, base, i, j, upper), coarse
 
     def interpolate(self, scene, prim, x, side):
         """E_ind per group [lx] at points ``x`` on triangles ``prim``, side 0 (front) or 1.
@@ -599,7 +602,7 @@ class SurfaceCache:
         lean = np.zeros(len(prim))
         grid = np.flatnonzero(m >= 1)
         if grid.size:
-            index, weight, cells = self._cells(scene, prim[grid], x[grid], side[grid])
+            index, weight, cells, coarse = self._cells(scene, prim[grid], x[grid], side[grid])
             normal = np.where((side[grid] == 0)[:, None], 1.0, -1.0) * scene.normals[prim[grid]]
             weight = self._seen(scene, x[grid], normal, index, weight)
             value[grid] = np.einsum("nk,nkg->ng", weight, self.values[index])
@@ -609,8 +612,7 @@ class SurfaceCache:
                 b = self._grid_bias(weight, cells)
                 if self.refined_key.size:  # added to the magnitude of the groups' mean
                     sign = np.where(b.mean(axis=1) < 0, -1.0, 1.0)[:, None]
-                    b = b + sign * self._borderline_bias(scene, prim[grid], x[grid], side[grid], normal, index,
-                                                         value[grid])
+                    b = b + sign * self._borderline_bias(scene, x[grid], normal, index, coarse, value[grid])
                 bias[grid] = b
         small = np.flatnonzero(m == 0)
         if small.size:
@@ -661,17 +663,18 @@ class SurfaceCache:
                           np.ascontiguousarray(upper, dtype=bool), np.ascontiguousarray(weight, dtype=np.float64), out)
         return out
 
-    def _borderline_bias(self, scene, prim, x, side, normal, index, value):
+    def _borderline_bias(self, scene, x, normal, index, coarse, value):
         """|fine − coarse| [lx] per group, shape (n, groups), at points ``x`` whose
         interpolation ``value`` (corner indices ``index``) is a refined cell's whose corner
-        values on the triangle's own grid pass the refinement test by less than
+        values on the triangle's own grid (``coarse``: indices and weights there,
+        :meth:`_cells`) pass the refinement test by less than
         :data:`BORDERLINE_SLACK` standard errors (:func:`cells_over_contrast`); 0 elsewhere.
         The build's refinement follows the noise of those corner values, so an independent
         cache leaves such a cell unrefined as often as not and interpolates it on the coarse
         grid, which all its groups share: the difference between the two interpolations is
         an error that one cache's groups do not see (docs/accuracy.md, session 12)."""
         out = np.zeros_like(value)
-        own, own_weight, _ = self._cells(scene, prim, x, side, refined=False)
+        own, own_weight = coarse
         fine = np.flatnonzero(np.any(own != index, axis=1))
         contrast = self.provenance.get("refine_contrast")
         if not fine.size or contrast is None:
