@@ -313,7 +313,10 @@ def _area_estimate(scene, sampler, x, n, origins, u, engine, unoccluded=None, fr
     lit = np.flatnonzero(pi_l > 0)
     if lit.size == 0:
         return E, var
-    targets, g, cosine = sampler.sample(x[lit], n[lit], u[lit], engine.epsilon)
+    if lit.size == P:  # (every point, as where the caller passes only lit pairs: no copies)
+        targets, g, cosine = sampler.sample(x, n, u, engine.epsilon)
+    else:
+        targets, g, cosine = sampler.sample(x[lit], n[lit], u[lit], engine.epsilon)
     seen = np.zeros_like(g)
     lost = None  # F_j·V_j·g_j: the Fresnel part of each sample (Fresnel-weighted points)
     cand = np.flatnonzero(g.ravel() > 0)
