@@ -229,7 +229,7 @@ def test_interpolation_reproduces_linear_fields_in_plain_and_refined_cells():
     t, x = _random_surface_points(scene, np.arange(len(scene.triangles)), 5000, 0)
     got = cache.interpolate(scene, t, x, np.zeros(len(t), int))
     assert np.allclose(got[:, 0], f(x), rtol=0, atol=1e-3)
-    index, _, _ = cache._cells(scene, t, x, np.zeros(len(t), int))
+    index, _, _, _ = cache._cells(scene, t, x, np.zeros(len(t), int))
     assert np.any(index >= cache.refined_offset.min())  # refined cells were used
 
 
