@@ -84,6 +84,7 @@ MODULES = (
     "lsadphoto.metrics.quality",
     "lsadphoto.metrics.grouping_options",
     "lsadphoto.solver.photometry.distribution",
+    "lsadphoto.solver.engine",
     "lsadphoto.solver.direct",
     "lsadphoto.solver.cache_grid",
     "lsadphoto.solver.integrators.surface_cache",

@@ -32,7 +32,7 @@ from lsadphoto.solver import (
 from lsadphoto.solver.direct import direct_illuminance, projected_solid_angle
 from lsadphoto.solver.examples import canonical_room, canonical_room_toml
 from lsadphoto.solver.cache_grid import SurfaceCache
-from lsadphoto.solver.engine import engine_for
+from lsadphoto.solver.engine import RayEngine, engine_for
 from lsadphoto.solver.integrators.eye import primary_rays
 from lsadphoto.solver.integrators.surface_cache import (
     build_surface_cache,
@@ -79,6 +79,36 @@ def test_projected_solid_angle_clips_at_the_horizon():
     r2 = xs ** 2 + 1 + zs ** 2
     integrand = zs * 1.0 / r2 ** 2  # cos θ_x = z/r, cos θ_y = 1/r
     assert pi_ == pytest.approx(integrand.mean() * 2.0, rel=1e-4)
+
+
+def test_projected_solid_angle_of_a_triangle_that_starts_below_the_horizon():
+    # Lambert's formula streams the clipped polygon's vertices; here the first vertex lies
+    # below the point's horizon, so the polygon starts at a crossing. The vertical triangle
+    # (0, 1, −1), (2, 1, 1), (0, 1, 1) (front normal −y, towards the point at the origin):
+    # above the horizon it covers 0 < z < 1, 0 < x < z + 1 on the plane y = 1. Checked against
+    # midpoint quadrature of cos⁺θ_x·cos θ_y/r² over that region (400² cells, O(h²) < 1e-4).
+    tri = np.array([[[0, 1, -1], [2, 1, 1], [0, 1, 1]]], dtype=float)
+    pi_ = projected_solid_angle([[0, 0, 0]], [[0, 0, 1]], tri).sum()
+    n = 400
+    u = (np.arange(n) + 0.5) / n
+    xs, zs = np.meshgrid(2 * u, u)  # cells over the box 0 < x < 2, 0 < z < 1
+    inside = xs < zs + 1  # the triangle: x < z + 1 (its hypotenuse from (0, −1) to (2, 1))
+    r2 = xs ** 2 + 1 + zs ** 2
+    integrand = np.where(inside, zs / r2 ** 2, 0.0)
+    assert pi_ == pytest.approx(integrand.mean() * 2.0, rel=1e-4)
+
+
+def test_visibility_of_segments():
+    # RayEngine.visible: a segment through a wall is blocked, one beside it is not, one that
+    # ends on the wall is shortened by ε and visible, a zero-length one counts as visible.
+    engine = RayEngine(quad([1, -1, -1], [1, 1, -1], [1, 1, 1], [1, -1, 1]), epsilon=1e-5)
+    origins = np.array([[0, 0, 0], [0, 0, 0], [0, 0, 0], [0.5, 0.5, 0.5]], dtype=float)
+    targets = np.array([[2, 0, 0], [2, 3, 0], [1, 0.2, 0.1], [0.5, 0.5, 0.5]], dtype=float)
+    assert engine.visible(origins, targets).tolist() == [False, True, True, True]
+    # many segments at once, alternately through the wall and beside it
+    k = 1001
+    ends = np.where((np.arange(k) % 2 == 0)[:, None], [[2.0, 0.0, 0.0]], [[0.5, 0.0, 0.0]])
+    assert engine.visible(np.zeros((k, 3)), ends).tolist() == [i % 2 == 1 for i in range(k)]
 
 
 def test_direct_light_of_a_half_occluded_luminaire():
@@ -199,7 +229,7 @@ def test_interpolation_reproduces_linear_fields_in_plain_and_refined_cells():
     t, x = _random_surface_points(scene, np.arange(len(scene.triangles)), 5000, 0)
     got = cache.interpolate(scene, t, x, np.zeros(len(t), int))
     assert np.allclose(got[:, 0], f(x), rtol=0, atol=1e-3)
-    index, _, _ = cache._cells(scene, t, x, np.zeros(len(t), int))
+    index, _, _, _ = cache._cells(scene, t, x, np.zeros(len(t), int))
     assert np.any(index >= cache.refined_offset.min())  # refined cells were used
 
 
@@ -820,3 +850,32 @@ def test_floor_under_a_low_bench_takes_its_indirect_light_at_the_pixel():
     again = render(store, proj, estimator="cache", seed=15, chunk_pixels=512, workers=2, **pose)
     assert np.array_equal(again.luminance, lmap.luminance, equal_nan=True)
     assert np.array_equal(again.uncertainty, lmap.uncertainty, equal_nan=True)
+
+
+def test_node_pools_follow_the_morton_curve_of_each_group():
+    # _pools_along_curve against the definition, bit by bit: pool g holds the nodes of
+    # batches ≡ g (mod groups) in the order of their cells' Morton codes (bit b of the cell
+    # index along axis a at bit 3b + a, 2¹⁰ cells per axis of the scene's bounding cube),
+    # equal codes in the nodes' order (a stable sort).
+    from types import SimpleNamespace
+
+    from lsadphoto.solver.integrators.surface_cache import _NodeHull
+
+    rng = np.random.default_rng(5)
+    n = 3000
+    position = rng.uniform([0, 0, 0], [6, 4, 3], size=(n, 3))
+    position[n // 2:n // 2 + 40] = position[7]  # equal codes
+    batch = rng.integers(0, 37, size=n).astype(np.int16)
+    scene = SimpleNamespace(triangles=np.array([[[0, 0, 0], [6, 0, 0], [0, 4, 3]]], dtype=float))
+    hull = SimpleNamespace(scene=scene, store=SimpleNamespace(position=position, batch=batch))
+    nodes = np.sort(rng.choice(n, size=2500, replace=False))
+    pools = _NodeHull._pools_along_curve(hull, nodes, 16)
+
+    def code(p):
+        q = [min(max(int((p[a] - 0.0) / 6.0 * 1024), 0), 1023) for a in range(3)]
+        return sum(((q[a] >> b) & 1) << (3 * b + a) for b in range(10) for a in range(3))
+
+    for g in range(16):
+        members = [i for i in nodes if batch[i] % 16 == g]
+        expected = sorted(members, key=lambda i: code(position[i]))  # Python's sort is stable
+        assert pools[g].tolist() == expected

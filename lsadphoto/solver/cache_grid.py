@@ -103,31 +103,72 @@ def cells_over_contrast(mean, se, contrast, *, slack=0.0):
     return (spread - slack * noise > contrast * mean[rows, hi]) & (spread > (3.0 + slack) * noise)
 
 
-def _second_difference(values, m, base, i, j, along):
-    """Second differences f(c − e) − 2 f(c) + f(c + e) [lx] of the values (per group) of
-    level-m grids (first vertex ``base``) along grid direction ``along`` (0: i, 1: j, 2:
-    (1, −1)), averaged over the two stencils centred on the ends of the cell edge that
-    starts at vertex (i, j) in that direction, each moved to the nearest stencil that lies
-    in the grid (m ≥ 2): e·H·e of the field's Hessian H over the edge vector e where the
-    field is quadratic."""
+@njit(inline="always", **_NUMBA)
+def _grid_vertex(m, i, j):
+    """:func:`grid_index` of scalars, inside the kernels."""
+    return i * (m + 1) - i * (i - 1) // 2 + j
+
+
+@njit(inline="always", **_NUMBA)
+def _stencil(m, i, j, along, end):
+    """Vertices (c − e, c, c + e) of the second-difference stencil of a level-m grid (m ≥ 2)
+    along grid direction ``along`` (0: i, 1: j, 2: (1, −1)) centred on end ``end`` (0 or 1)
+    of the cell edge that starts at vertex (i, j) in that direction, moved to the nearest
+    stencil that lies in the grid."""
+    if along == 0:  # edge (i, j)–(i + 1, j)
+        jc = min(j, m - 2)
+        ic = min(max(i + end, 1), m - 1 - jc)
+        lo, hi = _grid_vertex(m, ic - 1, jc), _grid_vertex(m, ic + 1, jc)
+    elif along == 1:  # edge (i, j)–(i, j + 1)
+        ic = min(i, m - 2)
+        jc = min(max(j + end, 1), m - 1 - ic)
+        lo, hi = _grid_vertex(m, ic, jc - 1), _grid_vertex(m, ic, jc + 1)
+    else:  # edge (i + 1, j)–(i, j + 1), on the line i + j = s
+        sc = min(max(i + j + 1, 2), m)
+        ic = min(max(i + end, 1), sc - 1)
+        jc = sc - ic
+        lo, hi = _grid_vertex(m, ic + 1, jc - 1), _grid_vertex(m, ic - 1, jc + 1)
+    return lo, _grid_vertex(m, ic, jc), hi
+
+
+@njit(inline="always", **_NUMBA)
+def _second_difference(v, a, b):
+    """½ Σ over the two stencils ``a``, ``b`` (:func:`_stencil`, rows of ``v``) of the second
+    differences f(c − e) − 2 f(c) + f(c + e), per column of ``v``: e·H·e of the field's
+    Hessian H over the edge vector e where the field is quadratic."""
     total = 0.0
-    for end in (0, 1):
-        if along == 0:  # edge (i, j)–(i + 1, j)
-            jc = np.minimum(j, m - 2)
-            ic = np.clip(i + end, 1, m - 1 - jc)
-            lo, hi = grid_index(m, ic - 1, jc), grid_index(m, ic + 1, jc)
-        elif along == 1:  # edge (i, j)–(i, j + 1)
-            ic = np.minimum(i, m - 2)
-            jc = np.clip(j + end, 1, m - 1 - ic)
-            lo, hi = grid_index(m, ic, jc - 1), grid_index(m, ic, jc + 1)
-        else:  # edge (i + 1, j)–(i, j + 1), on the line i + j = s
-            sc = np.clip(i + j + 1, 2, m)
-            ic = np.clip(i + end, 1, sc - 1)
-            jc = sc - ic
-            lo, hi = grid_index(m, ic + 1, jc - 1), grid_index(m, ic - 1, jc + 1)
-        mid = grid_index(m, ic, jc)
-        total = total + (values[base + lo] - 2.0 * values[base + mid] + values[base + hi])
+    total = total + (v[a[0]] - 2.0 * v[a[1]] + v[a[2]])
+    total = total + (v[b[0]] - 2.0 * v[b[1]] + v[b[2]])
     return 0.5 * total
+
+
+@njit(**_NUMBA, aot="void(float64[:, ::1], int64[::1], int64[::1], int64[::1], int64[::1], boolean[::1], "
+                    "float64[:, ::1], float64[:, ::1])")
+def _grid_bias_kernel(values, m, base, i, j, upper, w, out):
+    """``out[p]`` = ½ Σ_(a<b) w_a·w_b·q_ab per group at the points p of level ≥ 2 cells (the
+    others keep theirs): q_ab the :func:`_second_difference` of the values along the cell's
+    edge P_aP_b (:func:`_stencil`) — a lower cell's P0P1 along i from (i, j) and P0P2 along j
+    from (i, j), an upper cell's P0P1 along j from (i + 1, j) and P0P2 along i from
+    (i, j + 1), both cells' P1P2 along (1, −1) from (i, j)."""
+    for p in range(m.size):
+        mp, ip, jp = m[p], i[p], j[p]
+        if mp < 2:
+            continue
+        if upper[p]:
+            e01, i01, j01, e02, i02, j02 = 1, ip + 1, jp, 0, ip, jp + 1
+        else:
+            e01, i01, j01, e02, i02, j02 = 0, ip, jp, 1, ip, jp
+        s01a, s01b = _stencil(mp, i01, j01, e01, 0), _stencil(mp, i01, j01, e01, 1)
+        s02a, s02b = _stencil(mp, i02, j02, e02, 0), _stencil(mp, i02, j02, e02, 1)
+        s12a, s12b = _stencil(mp, ip, jp, 2, 0), _stencil(mp, ip, jp, 2, 1)
+        w01, w02, w12 = w[p, 0] * w[p, 1], w[p, 0] * w[p, 2], w[p, 1] * w[p, 2]
+        v = values[base[p]:]
+        for g in range(values.shape[1]):
+            col = v[:, g]
+            q01 = _second_difference(col, s01a, s01b)
+            q02 = _second_difference(col, s02a, s02b)
+            q12 = _second_difference(col, s12a, s12b)
+            out[p, g] = 0.5 * (w01 * q01 + w02 * q02 + w12 * q12)
 
 
 def _barycentric(tri, x):
@@ -469,11 +510,12 @@ class SurfaceCache:
         """Number of cache points."""
         return len(self.values)
 
-    def _cells(self, scene, prim, x, side, *, refined=True):
+    def _cells(self, scene, prim, x, side):
         """Indices of the three grid points around points ``x`` on grid triangles ``prim``
         (level ≥ 1; side 0 front, 1 back) and their linear-interpolation weights, each (n, 3),
-        and the cells as (level, first vertex, i, j, upper) of the grid they lie in (the
-        triangle's, or with ``refined`` a refined cell's level-``refine`` grid)."""
+        the cells as (level, first vertex, i, j, upper) of the grid they lie in (the
+        triangle's, or a refined cell's level-``refine`` grid), and the indices and weights
+        on the triangle's own grid (equal but where the cell is refined)."""
         b1, b2 = _barycentric(scene.triangles[prim], x)
         m = self.level[prim]
         base = self.offset[prim, side]
@@ -482,7 +524,8 @@ class SurfaceCache:
         k0, k1, k2, w1, w2, key, (i, j, upper) = _cell(m, b1, b2)
         index = np.stack([base + k0, base + k1, base + k2], axis=1)
         weight = np.stack([1.0 - w1 - w2, w1, w2], axis=1)
-        if refined and self.refined_key.size:
+        coarse = index, weight
+        if self.refined_key.size:
             global_key = 2 * base + key  # base + index(i, j) doubled, plus upper
             pos = np.minimum(np.searchsorted(self.refined_key, global_key), self.refined_key.size - 1)
             fine = self.refined_key[pos] == global_key
@@ -490,10 +533,11 @@ class SurfaceCache:
                 r = self.refine
                 f0, f1, f2, v1, v2, _, (fi, fj, fu) = _cell(r, w1[fine], w2[fine])
                 start = self.refined_offset[pos[fine]]
+                index, weight = index.copy(), weight.copy()
                 index[fine] = np.stack([start + f0, start + f1, start + f2], axis=1)
                 weight[fine] = np.stack([1.0 - v1 - v2, v1, v2], axis=1)
                 m[fine], base[fine], i[fine], j[fine], upper[fine] = r, start, fi, fj, fu
-        return index, weight, (m, base, i, j, upper)
+        return index, weight, (m, base, i, j, upper), coarse
 
     def interpolate(self, scene, prim, x, side):
         """E_ind per group [lx] at points ``x`` on triangles ``prim``, side 0 (front) or 1.
@@ -558,7 +602,7 @@ class SurfaceCache:
         lean = np.zeros(len(prim))
         grid = np.flatnonzero(m >= 1)
         if grid.size:
-            index, weight, cells = self._cells(scene, prim[grid], x[grid], side[grid])
+            index, weight, cells, coarse = self._cells(scene, prim[grid], x[grid], side[grid])
             normal = np.where((side[grid] == 0)[:, None], 1.0, -1.0) * scene.normals[prim[grid]]
             weight = self._seen(scene, x[grid], normal, index, weight)
             value[grid] = np.einsum("nk,nkg->ng", weight, self.values[index])
@@ -568,8 +612,7 @@ class SurfaceCache:
                 b = self._grid_bias(weight, cells)
                 if self.refined_key.size:  # added to the magnitude of the groups' mean
                     sign = np.where(b.mean(axis=1) < 0, -1.0, 1.0)[:, None]
-                    b = b + sign * self._borderline_bias(scene, prim[grid], x[grid], side[grid], normal, index,
-                                                         value[grid])
+                    b = b + sign * self._borderline_bias(scene, x[grid], normal, index, coarse, value[grid])
                 bias[grid] = b
         small = np.flatnonzero(m == 0)
         if small.size:
@@ -615,36 +658,23 @@ class SurfaceCache:
         leading error with its order p = 2. Level-1 grids (no stencil) give 0.
         """
         m, base, i, j, upper = cells
-        v = self.values
-        out = np.zeros((len(m), v.shape[1]))
-        ok = np.flatnonzero(m >= 2)
-        if not ok.size:
-            return out
-        m, base, i, j, upper, w = m[ok], base[ok], i[ok], j[ok], upper[ok], weight[ok]
-        # edges P0P1, P0P2, P1P2: lower cell along i from (i, j), along j from (i, j); upper
-        # cell along j from (i + 1, j), along i from (i, j + 1); both along (1, −1) from (i, j)
-        q01, q02 = np.empty((2, len(m), v.shape[1]))
-        lo, hi = np.flatnonzero(~upper), np.flatnonzero(upper)
-        q01[lo] = _second_difference(v, m[lo], base[lo], i[lo], j[lo], 0)
-        q02[lo] = _second_difference(v, m[lo], base[lo], i[lo], j[lo], 1)
-        q01[hi] = _second_difference(v, m[hi], base[hi], i[hi] + 1, j[hi], 1)
-        q02[hi] = _second_difference(v, m[hi], base[hi], i[hi], j[hi] + 1, 0)
-        q12 = _second_difference(v, m, base, i, j, 2)
-        out[ok] = 0.5 * (w[:, :1] * w[:, 1:2] * q01 + w[:, :1] * w[:, 2:] * q02
-                         + w[:, 1:2] * w[:, 2:] * q12)
+        out = np.zeros((len(m), self.values.shape[1]))
+        _grid_bias_kernel(self.values, *(np.ascontiguousarray(a, dtype=np.int64) for a in (m, base, i, j)),
+                          np.ascontiguousarray(upper, dtype=bool), np.ascontiguousarray(weight, dtype=np.float64), out)
         return out
 
-    def _borderline_bias(self, scene, prim, x, side, normal, index, value):
+    def _borderline_bias(self, scene, x, normal, index, coarse, value):
         """|fine − coarse| [lx] per group, shape (n, groups), at points ``x`` whose
         interpolation ``value`` (corner indices ``index``) is a refined cell's whose corner
-        values on the triangle's own grid pass the refinement test by less than
+        values on the triangle's own grid (``coarse``: indices and weights there,
+        :meth:`_cells`) pass the refinement test by less than
         :data:`BORDERLINE_SLACK` standard errors (:func:`cells_over_contrast`); 0 elsewhere.
         The build's refinement follows the noise of those corner values, so an independent
         cache leaves such a cell unrefined as often as not and interpolates it on the coarse
         grid, which all its groups share: the difference between the two interpolations is
         an error that one cache's groups do not see (docs/accuracy.md, session 12)."""
         out = np.zeros_like(value)
-        own, own_weight, _ = self._cells(scene, prim, x, side, refined=False)
+        own, own_weight = coarse
         fine = np.flatnonzero(np.any(own != index, axis=1))
         contrast = self.provenance.get("refine_contrast")
         if not fine.size or contrast is None:

@@ -114,42 +114,60 @@ _AREAS = f"Tuple(({_I1}, {_F3}, {_F2}, {_F1}))"
 
 
 @njit(**_NUMBA)
+def _lambert_edge(px, py, pz, qx, qy, qz, n):
+    """One edge's term of Lambert's polygon formula, γ·(p × q)·n/|p × q| (γ the angle
+    between the vertex directions p and q); 0 for a vertex at the point or a degenerate edge,
+    which subtend no angle."""
+    cx = py * qz - pz * qy
+    cy = pz * qx - px * qz
+    cz = px * qy - py * qx
+    norm = math.sqrt(cx * cx + cy * cy + cz * cz)
+    if norm == 0.0:
+        return 0.0
+    return math.atan2(norm, px * qx + py * qy + pz * qz) * (cx * n[0] + cy * n[1] + cz * n[2]) / norm
+
+
+@njit(**_NUMBA)
 def _triangle_projected_solid_angle(x, n, a, b, c):
-    """Π [sr] of triangle a, b, c seen from x (normal n), clipped to the half-space n·v ≥ 0."""
-    verts = np.empty((3, 3))
-    for k in range(3):
-        src = a if k == 0 else (b if k == 1 else c)
-        for i in range(3):
-            verts[k, i] = src[i] - x[i]
-    clipped = np.empty((4, 3))
+    """Π [sr] of triangle a, b, c seen from x (normal n), clipped to the half-space n·v ≥ 0.
+
+    The clipped polygon's vertices (Sutherland–Hodgman: each edge's start where above the
+    horizon, then its crossing of the horizon) are taken one by one and each edge's term
+    added as its end comes, the closing edge last: no arrays, so no allocation per call."""
+    total = 0.0
     m = 0
+    fx = fy = fz = 0.0  # the polygon's first vertex
+    lx = ly = lz = 0.0  # its last vertex so far
     for k in range(3):
-        p = verts[k]
-        q = verts[(k + 1) % 3]
-        hp = p[0] * n[0] + p[1] * n[1] + p[2] * n[2]
-        hq = q[0] * n[0] + q[1] * n[1] + q[2] * n[2]
+        if k == 0:
+            p, q = a, b
+        elif k == 1:
+            p, q = b, c
+        else:
+            p, q = c, a
+        px, py, pz = p[0] - x[0], p[1] - x[1], p[2] - x[2]
+        qx, qy, qz = q[0] - x[0], q[1] - x[1], q[2] - x[2]
+        hp = px * n[0] + py * n[1] + pz * n[2]
+        hq = qx * n[0] + qy * n[1] + qz * n[2]
         if hp >= 0.0:
-            clipped[m] = p
+            if m == 0:
+                fx, fy, fz = px, py, pz
+            else:
+                total += _lambert_edge(lx, ly, lz, px, py, pz, n)
+            lx, ly, lz = px, py, pz
             m += 1
         if (hp > 0.0 and hq < 0.0) or (hp < 0.0 and hq > 0.0):
             t = hp / (hp - hq)
-            for i in range(3):
-                clipped[m, i] = p[i] + t * (q[i] - p[i])
+            vx, vy, vz = px + t * (qx - px), py + t * (qy - py), pz + t * (qz - pz)
+            if m == 0:
+                fx, fy, fz = vx, vy, vz
+            else:
+                total += _lambert_edge(lx, ly, lz, vx, vy, vz, n)
+            lx, ly, lz = vx, vy, vz
             m += 1
     if m < 3:
         return 0.0
-    total = 0.0
-    for k in range(m):
-        p = clipped[k]
-        q = clipped[(k + 1) % m]
-        cx = p[1] * q[2] - p[2] * q[1]
-        cy = p[2] * q[0] - p[0] * q[2]
-        cz = p[0] * q[1] - p[1] * q[0]
-        norm = math.sqrt(cx * cx + cy * cy + cz * cz)
-        if norm == 0.0:
-            continue  # a vertex at x or a degenerate edge subtends no angle
-        gamma = math.atan2(norm, p[0] * q[0] + p[1] * q[1] + p[2] * q[2])
-        total += gamma * (cx * n[0] + cy * n[1] + cz * n[2]) / norm
+    total += _lambert_edge(lx, ly, lz, fx, fy, fz, n)
     return abs(0.5 * total)
 
 
@@ -295,7 +313,10 @@ def _area_estimate(scene, sampler, x, n, origins, u, engine, unoccluded=None, fr
     lit = np.flatnonzero(pi_l > 0)
     if lit.size == 0:
         return E, var
-    targets, g, cosine = sampler.sample(x[lit], n[lit], u[lit], engine.epsilon)
+    if lit.size == P:  # (every point, as where the caller passes only lit pairs: no copies)
+        targets, g, cosine = sampler.sample(x, n, u, engine.epsilon)
+    else:
+        targets, g, cosine = sampler.sample(x[lit], n[lit], u[lit], engine.epsilon)
     seen = np.zeros_like(g)
     lost = None  # F_j·V_j·g_j: the Fresnel part of each sample (Fresnel-weighted points)
     cand = np.flatnonzero(g.ravel() > 0)
@@ -686,7 +707,9 @@ def direct_illuminance(scene, engine, points, normals, *, samples=DIRECT_SAMPLES
             u[m] = stream(seed, "direct", purpose_key, j).random((int(m.sum()), n_lum, s, 3))
         guide = np.zeros((P, n_lum))
         _unoccluded_all(x, n, lights.points, lights.areas, lights.n_area, guide)
-        point, lum = np.nonzero((guide > 0) | ~lights.exact[None, :])
+        # the pairs luminaire by luminaire (each luminaire's uniforms one block of rows); a
+        # point's terms still add in luminaire order
+        lum, point = np.nonzero(((guide > 0) | ~lights.exact[None, :]).T)
         e, v = _estimates(scene, lights, engine, x, n, origins, point, lum, guide[point, lum],
                           u[point, lum].reshape(-1, 3), np.full(len(point), s, dtype=np.int64), fresnel,
                           fresnel_rule)
@@ -769,7 +792,11 @@ def _estimates(scene, lights, engine, x, n, origins, point, lum, guide, u, count
     for li in np.unique(lum[~is_point]):
         sel = np.flatnonzero(lum == li)
         p = point[sel]
-        u3 = u[u_start[sel, None] + np.arange(int(count[sel[0]]))]
+        c = int(count[sel[0]])
+        if sel[-1] - sel[0] + 1 == sel.size:  # consecutive pairs: their rows are one block
+            u3 = u[u_start[sel[0]]:u_start[sel[0]] + sel.size * c].reshape(sel.size, c, 3)
+        else:
+            u3 = u[u_start[sel, None] + np.arange(c)]
         e[sel], v[sel] = _area_estimate(scene, samplers[li], x[p], n[p], origins[p], u3, engine,
                                         unoccluded=guide[sel], fresnel=None if fresnel is None else fresnel_weighted(
                                             fresnel[p], rule=rule, direct=scene.light_source_at(np.full(p.size, li), x[p])))

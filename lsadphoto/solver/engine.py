@@ -15,7 +15,11 @@ Wald, I. et al. (2014). Embree: a kernel framework for efficient CPU ray tracing
 Trans. Graph.* 33(4), 143. PITFALLS.md (embreex 4.4 throughput).
 """
 
+import math
+
 import numpy as np
+
+from .._compiled import njit
 
 __all__ = ["RELATIVE_EPSILON", "RayEngine", "engine_for"]
 
@@ -73,18 +77,15 @@ class RayEngine:
         The segment is shortened by ``epsilon`` at the target end; offset the origin
         yourself. Zero-length segments count as visible.
         """
-        o = np.asarray(origins, dtype=np.float64).reshape(-1, 3)
-        t = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
-        v = t - o
-        length = np.sqrt(np.einsum("ij,ij->i", v, v))
-        ok = length > self.epsilon
+        o = np.ascontiguousarray(origins, dtype=np.float64).reshape(-1, 3)
+        t = np.ascontiguousarray(targets, dtype=np.float64).reshape(-1, 3)
+        index = np.empty(len(o), dtype=np.int64)
+        o32, d32 = np.empty((len(o), 3), dtype=np.float32), np.empty((len(o), 3), dtype=np.float32)
+        t32 = np.empty(len(o), dtype=np.float32)
+        m = _segments(o, t, self.epsilon, index, o32, d32, t32)
         out = np.ones(len(o), dtype=bool)
-        if not ok.any():
-            return out
-        idx = np.flatnonzero(ok)
-        d = v[idx] / length[idx, None]
-        tmax = (length[idx] - self.epsilon).astype(np.float32)
-        out[idx] = ~self.occluded(o[idx].astype(np.float32), d.astype(np.float32), tmax)
+        if m:
+            out[index[:m]] = ~self.occluded(o32[:m], d32[:m], t32[:m])
         return out
 
     def occluded(self, origins, directions, tmax):
@@ -98,6 +99,29 @@ class RayEngine:
                                   query="OCCLUDED")
             hit[s:s + _RAY_BATCH] = np.asarray(res) >= 0
         return hit
+
+
+@njit(cache=True, error_model="numpy", nogil=True,
+      aot="int64(float64[:, ::1], float64[:, ::1], float64, int64[::1], float32[:, ::1], float32[:, ::1], "
+          "float32[::1])")
+def _segments(origins, targets, epsilon, index, o32, d32, t32):
+    """The float32 rays of the segments from ``origins`` to ``targets`` longer than
+    ``epsilon``: returns their number m, their rows in ``index[:m]``, and origin, unit
+    direction and length less ``epsilon`` in ``o32``, ``d32``, ``t32`` [:m] (computed in
+    float64, rounded once)."""
+    m = 0
+    for i in range(origins.shape[0]):
+        vx = targets[i, 0] - origins[i, 0]
+        vy = targets[i, 1] - origins[i, 1]
+        vz = targets[i, 2] - origins[i, 2]
+        length = math.sqrt(vx * vx + vy * vy + vz * vz)
+        if length > epsilon:
+            index[m] = i
+            o32[m, 0], o32[m, 1], o32[m, 2] = origins[i, 0], origins[i, 1], origins[i, 2]
+            d32[m, 0], d32[m, 1], d32[m, 2] = vx / length, vy / length, vz / length
+            t32[m] = length - epsilon
+            m += 1
+    return m
 
 
 def engine_for(scene):

@@ -27,7 +27,7 @@ from .._sampling import cosine_directions
 from ..sky import background_luminance
 
 __all__ = ["PIXEL_BLOCK", "ChunkHits", "check_pose", "chunk_hits", "chunk_size", "emitted_luminance", "luminance_map_from_batches",
-           "luminous_openings", "near_step", "primary_rays", "run_chunks", "view_pose",
+           "luminous_openings", "near_step", "pixel_solid_angles", "primary_rays", "run_chunks", "view_pose",
            "warn_odd_view"]
 
 #: Pixels per random-stream block of a render; pixel chunks are whole blocks.
@@ -103,12 +103,14 @@ _ON_SURFACE_OFFSETS = 10
 _ON_SURFACE_FRACTION = 0.01
 
 
-def warn_odd_view(scene, engine, prim, dist, lum_b, position, *, stacklevel=3):
+def warn_odd_view(scene, engine, prim, dist, lum_b, position, *, openings=None, stacklevel=3):
     """Warn about views that are legal but probably wrong (an eye on or in a wall).
 
     An eye within a few ray offsets of a surface (in the plane of a wall) makes the rays
     that start there ambiguous in float32; an eye outside a closed room or inside a solid
-    sees only surfaces that no light reaches, so the whole view is black. ``stacklevel``
+    sees only surfaces that no light reaches, so the whole view is black: no value of
+    ``lum_b`` (valid pixels × batches) is positive and no luminous opening
+    (:func:`luminous_openings`, ``openings``: finite where one is seen) is in view. ``stacklevel``
     is :func:`warnings.warn`'s as seen from this function (3: the caller of the estimator
     that calls it).
     """
@@ -120,7 +122,7 @@ def warn_odd_view(scene, engine, prim, dist, lum_b, position, *, stacklevel=3):
                       f"hit within {_ON_SURFACE_OFFSETS * engine.epsilon:.2g} m): move it into "
                       "the room", SolverWarning, stacklevel=stacklevel)
     elif (scene.total_flux > 0 and np.any(scene.triangle_reflectance[prim[hit]] > 0)
-          and not np.any(lum_b > 0)):
+          and not (openings is not None and np.isfinite(openings).any()) and not np.any(lum_b > 0)):
         # (a view that hits nothing, e.g. out of an open model into the sky, or only black
         # surfaces, is legal and black)
         warnings.warn(f"{where} sees surfaces but no light at all: is it outside the room "
@@ -237,11 +239,13 @@ def near_step(scene, engine, x, nx, u, near_distance, rho_prev):
 
 
 
-def run_chunks(work, starts, lum_b, workers, progress, t0, total):
+def run_chunks(work, starts, lum_b, workers, progress, t0, total, *, meanwhile=None):
     """Run ``work(start) -> (pixel indices, values)`` for every chunk, in threads if asked.
 
     Each chunk draws only from its own pixel blocks' streams, so the result is the same
-    for any number of workers (and any completion order).
+    for any number of workers (and any completion order). ``meanwhile()``, if given, runs on
+    the calling thread while the workers run the chunks (serial work that the chunks do not
+    need, which would otherwise wait for them); its result is returned.
     """
     starts = list(starts)
     done = 0
@@ -255,15 +259,24 @@ def run_chunks(work, starts, lum_b, workers, progress, t0, total):
             progress(frac, elapsed * (1 - frac) / frac if frac > 0 else float("nan"))
 
     if workers <= 1 or len(starts) <= 1:
+        extra = meanwhile() if meanwhile is not None else None
         for start in starts:
             h, values = work(start)
             lum_b[h] = values
             report(h.size)
-        return
+        return extra
     with ThreadPoolExecutor(max_workers=workers) as pool:
-        for h, values in pool.map(work, starts):
+        results = pool.map(work, starts)  # every chunk is submitted here
+        extra = meanwhile() if meanwhile is not None else None
+        for h, values in results:
             lum_b[h] = values
             report(h.size)
+    return extra
+
+
+def pixel_solid_angles(projection, valid):
+    """Solid angles [sr] of the pixels ``valid`` (flat indices) of ``projection``."""
+    return projection.solid_angles(*np.unravel_index(valid, projection.shape))
 
 
 def view_pose(position, rotation):
@@ -279,14 +292,15 @@ def view_pose(position, rotation):
 
 def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, extra, elapsed,
                                pose, openings=None, shared_variance=None, bias=None,
-                               bias_variance=None):
+                               bias_variance=None, solid_angles=None):
     """The LuminanceMap of per-batch pixel values ``lum_b`` (valid pixels × batches).
 
     ``model`` is the store or scene rendered (its scene's name is recorded); ``pose`` =
     (position, rotation) of the camera: recorded as ``provenance["view_pose"]``
     (:func:`view_pose`), so the Radiance HDR writer gives the rendered view's ``VIEW=`` line.
 
-    ``shared_variance`` (per valid pixel) is the variance of a component that all batches
+    ``solid_angles`` [sr] (per valid pixel; default :func:`pixel_solid_angles`) may come
+    precomputed. ``shared_variance`` (per valid pixel) is the variance of a component that all batches
     share (added to the batches' squared standard error; independent between pixels).
 
     ``bias`` (per valid pixel, signed, cd·m⁻²) is an estimated systematic error of the
@@ -322,8 +336,7 @@ def luminance_map_from_batches(projection, valid, lum_b, *, model, estimator, ex
     unc = np.full(rows * cols, np.nan)
     lum[valid] = mean
     unc[valid] = se
-    r, c = np.unravel_index(valid, (rows, cols))
-    omega = projection.solid_angles(r, c)
+    omega = pixel_solid_angles(projection, valid) if solid_angles is None else solid_angles
     field_b = (omega[:, None] * lum_b).sum(axis=0) / omega.sum()
     field_mean = float(field_b.mean())
     field_se = float(math.sqrt(field_b.var(ddof=1) / B + (omega ** 2 * shared).sum() / omega.sum() ** 2))

@@ -362,8 +362,7 @@ def render_local_estimate(store, projection, *, position, rotation, seed=0, near
     run_chunks(work, range(0, hit.size, chunk), lum_b, workers, progress, t0, hit.size)
     openings = luminous_openings(scene, position, d, dist)
     # stacklevel 4: the warning points at the caller of lsadphoto.solver.render
-    warn_odd_view(scene, engine, prim, dist, np.where(np.isfinite(openings)[:, None], 1.0, lum_b),
-                  position, stacklevel=4)
+    warn_odd_view(scene, engine, prim, dist, lum_b, position, openings=openings, stacklevel=4)
     return luminance_map_from_batches(
         projection, valid, lum_b, model=store, estimator="double local estimate",
         openings=openings,

@@ -127,8 +127,7 @@ def render_path_traced(scene, projection, *, position, rotation, samples=64, see
 
     run_chunks(work, range(0, hit.size, chunk), lum_b, workers, progress, t0, hit.size)
     openings = luminous_openings(scene, position, d, dist)
-    warn_odd_view(scene, engine, prim, dist, np.where(np.isfinite(openings)[:, None], 1.0, lum_b),
-                  position)
+    warn_odd_view(scene, engine, prim, dist, lum_b, position, openings=openings)
     return luminance_map_from_batches(
         projection, valid, lum_b, model=scene, estimator="path tracing (NEE)",
         openings=openings,

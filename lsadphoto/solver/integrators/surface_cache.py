@@ -92,7 +92,7 @@ from ..materials import diffuse_fresnel_factor, fresnel_weighted, shadow_transmi
 from ..sky import DISTANT_RAYS_PER_DIRECT_SAMPLE, background_luminance, distant_reflection, stratified
 from ..store import KIND_COSINE, LsadStore
 from .eye import (check_pose, chunk_hits, chunk_size, emitted_luminance, luminance_map_from_batches,
-                  luminous_openings, near_step, primary_rays, run_chunks, warn_odd_view)
+                  luminous_openings, near_step, pixel_solid_angles, primary_rays, run_chunks, warn_odd_view)
 
 __all__ = ["CACHE_NODES", "GLOSSY_RAYS", "RELATIVE_CACHE_SPACING", "build_surface_cache",
            "indirect_illuminance", "render_cached"]
@@ -181,15 +181,18 @@ PIXEL_RECORD = 0.25
 _NUMBA = {"cache": True, "error_model": "numpy", "nogil": True}
 
 
-def _morton_order(positions, lo, size, bits=10):
-    """Order of points along a Morton (Z-order) curve of their cell in a 2¹⁰-per-axis grid
-    of the cube [lo, lo + size]³: consecutive points are close in space."""
-    q = np.clip(((positions - lo) / size * (1 << bits)).astype(np.int64), 0, (1 << bits) - 1)
-    code = np.zeros(len(positions), dtype=np.int64)
-    for b in range(bits):
-        for axis in range(3):
-            code |= ((q[:, axis] >> b) & 1) << (3 * b + axis)
-    return np.argsort(code, kind="stable")
+def _morton_codes(positions, lo, size):
+    """Morton (Z-order) codes of points' cells in a 2¹⁰-per-axis grid of the cube
+    [lo, lo + size]³: bit b of the cell's index along axis a is bit 3b + a of the code, so
+    that points of consecutive codes are close in space. Each 10-bit index is spread to
+    every third bit by four shift-and-mask steps (Morton 1966; the masks keep the bits that
+    each step has moved into place)."""
+    q = np.clip(((positions - lo) / size * 1024).astype(np.int64), 0, 1023)
+    q = (q | (q << 16)) & 0x030000FF
+    q = (q | (q << 8)) & 0x0300F00F
+    q = (q | (q << 4)) & 0x030C30C3
+    q = (q | (q << 2)) & 0x09249249
+    return q[:, 0] | (q[:, 1] << 1) | (q[:, 2] << 2)
 
 
 def _guide_table(cdf):
@@ -251,12 +254,19 @@ class _NodeHull:
     many-luminaire table and the stream keys of their direct samples (attributes ``store``,
     ``scene``, ``engine``, ``key``)."""
 
-    def _along_curve(self, nodes):
-        """``nodes`` (store indices) in the order of their positions along a Morton curve
-        through the scene's bounding cube (consecutive nodes are close in space)."""
+    def _pools_along_curve(self, nodes, groups):
+        """``nodes`` (store indices) in ``groups`` pools — pool g holds those of the batches
+        b ≡ g (mod groups): independent chains — each in the order of its nodes' positions
+        along a Morton curve through the scene's bounding cube (consecutive nodes are close
+        in space; equal codes in ``nodes``' order)."""
         corners = self.scene.triangles.reshape(-1, 3)
-        return nodes[_morton_order(self.store.position[nodes], corners.min(axis=0),
-                                   float(np.ptp(corners, axis=0).max()) or 1.0)]
+        code = _morton_codes(self.store.position[nodes], corners.min(axis=0),
+                             float(np.ptp(corners, axis=0).max()) or 1.0)
+        group = (self.store.batch[nodes] % groups).astype(np.int64)
+        order = np.argsort(group << 30 | code, kind="stable")  # codes have 30 bits
+        bounds = np.searchsorted(group[order], np.arange(groups + 1))
+        ranked = nodes[order]
+        return [ranked[bounds[g]:bounds[g + 1]] for g in range(groups)]
 
     def _facing_nodes(self, x, n):
         """True where some node lies in front of the point's tangent plane (else the far
@@ -297,25 +307,25 @@ class _IndirectEstimator(_NodeHull):
         self.key = key
         surface = np.flatnonzero(store.depth > 0)
         self.groups = min(GROUPS, store.batches)
-        # Group g takes the surface nodes of batches b ≡ g (mod groups): independent chains.
-        group_of = store.batch[surface] % self.groups
-        self.pools = [surface[group_of == g] for g in range(self.groups)]
         # Nodes are drawn in proportion to their coefficient c (importance sampling: the
         # estimate Σc/k·Σ_draws g·V has no variance from the spread of chain weights), with
         # the k draws of a point stratified along a Morton curve through the pool (each
         # draw from its own 1/k of the coefficient mass, in space order: a spatially
         # stratified sample; unbiased, each draw being exact for its stratum).
         self.tables, self.totals, self.packed = [], [], []
-        for pool in self.pools:
-            pool = self._along_curve(pool)
-            c = store.coefficient[pool]
+        pools = self._pools_along_curve(surface, self.groups)
+        ranked = np.concatenate(pools)
+        # The nodes of each pool in Morton order, position and normal in one row.
+        rows = np.hstack([store.position[ranked], store.normal[ranked]]).astype(np.float64, copy=False)
+        coefficient = store.coefficient[ranked]
+        end = np.cumsum([pool.size for pool in pools])
+        for a, b in zip(end - [pool.size for pool in pools], end):
+            c = coefficient[a:b]
             total = float(c.sum())
             self.totals.append(total)
             cdf = np.cumsum(c) / total if total > 0 else None
             self.tables.append(None if cdf is None else (cdf, _guide_table(cdf)))
-            # The nodes of the pool in Morton order, position and normal in one row.
-            self.packed.append(np.ascontiguousarray(
-                np.hstack([store.position[pool], store.normal[pool]]), dtype=np.float64))
+            self.packed.append(rows[a:b])
         self.draws = max(1, int(nodes) // self.groups)
         self.chains_per_group = store.chains / self.groups
         self.near_rays = int(near_rays)
@@ -887,11 +897,16 @@ def render_cached(store, projection, *, position, rotation, cache=None,
     est = None if scene.lambertian else _MaterialIndirectEstimator(
         store, engine, nodes=nodes, near_distance=near_distance,
         direct_samples=direct_samples, luminaires=luminaires, seed=seed, key=1, connections=False)
-    # E_ind at the pixels the cache does not resolve (Notes)
-    at_pixel = None if not scene.lambertian else _IndirectEstimator(
-        store, engine, nodes=nodes, near_distance=near_distance,
-        direct_samples=cache.provenance.get("direct_samples", DIRECT_SAMPLES), seed=seed, key=2,
-        near_rays=PIXEL_NEAR_RAYS)
+
+    def meanwhile():
+        """What the chunks do not need, made while they run: the estimator of E_ind at the
+        pixels the cache does not resolve (Notes) and the pixels' solid angles."""
+        at_pixel = None if not scene.lambertian else _IndirectEstimator(
+            store, engine, nodes=nodes, near_distance=near_distance,
+            direct_samples=cache.provenance.get("direct_samples", DIRECT_SAMPLES), seed=seed, key=2,
+            near_rays=PIXEL_NEAR_RAYS)
+        return at_pixel, pixel_solid_angles(projection, valid)
+
     # the pixels that take E_ind from records (Notes): their point, normal, nearest surface [m],
     # stream block, triangle side and ρ/π
     own = np.zeros(valid.size, dtype=bool)
@@ -936,7 +951,8 @@ def render_cached(store, projection, *, position, rotation, cache=None,
             bias_var[c.index[refl]] = b.var(axis=1, ddof=1) / G
         return c.index, out
 
-    run_chunks(work, range(0, hit.size, chunk), lum_b, int(workers), progress, t0, hit.size)
+    at_pixel, omega = run_chunks(work, range(0, hit.size, chunk), lum_b, int(workers), progress, t0, hit.size,
+                                 meanwhile=meanwhile)
     rows = np.flatnonzero(own)
     records = 0
     if rows.size:
@@ -944,13 +960,12 @@ def render_cached(store, projection, *, position, rotation, cache=None,
                                         own_side[rows], own_block[rows], workers=int(workers))
         lum_b[rows] += own_k[rows, None] * e_ind
     openings = luminous_openings(scene, position, d, dist)
-    warn_odd_view(scene, engine, prim, dist, np.where(np.isfinite(openings)[:, None], 1.0, lum_b),
-                  position)
+    warn_odd_view(scene, engine, prim, dist, lum_b, position, openings=openings)
     return luminance_map_from_batches(
         projection, valid, lum_b, model=store,
         estimator="surface cache (direct per pixel, indirect interpolated" + (")" if est is None else
                                                                               "; glossy by sampled rays)"),
-        openings=openings, shared_variance=direct_var, bias=bias, bias_variance=bias_var,
+        openings=openings, shared_variance=direct_var, bias=bias, bias_variance=bias_var, solid_angles=omega,
         extra={"chains": int(store.chains), "nodes": int(store.nodes),
                "direct_samples": int(direct_samples), "luminaire_draws": luminaires, "seed": int(seed),
                "simulation_seed": int(store.seed),
@@ -1092,9 +1107,7 @@ class _MaterialIndirectEstimator(_NodeHull):
         self.near_rays = int(near_rays)
         surface = np.flatnonzero(store.depth > 0) if connections else np.zeros(0, np.int64)
         self.pools, self.cdfs, self.totals = [], [], []
-        for g in range(G):
-            pool = surface[store.batch[surface] % G == g]
-            pool = self._along_curve(pool)
+        for pool in self._pools_along_curve(surface, G):
             w = store.coefficient[pool]
             total = float(w.sum())
             self.pools.append(pool)
@@ -1109,11 +1122,11 @@ class _MaterialIndirectEstimator(_NodeHull):
         # draws are stratified over it): the glossy part's next-event estimate (no ray can
         # hit a point)
         point = np.flatnonzero((store.depth == 0) & (store.kind != KIND_COSINE))
-        self.point_pools = [self._along_curve(point[store.batch[point] % G == g]) for g in range(G)]
+        self.point_pools = self._pools_along_curve(point, G)
         # area-luminaire emission points per group, and each luminaire's emission-point
         # density per unit area (Φ_l/Φ)/A_l (the glossy part's next-event estimate)
         emit = np.flatnonzero((store.depth == 0) & (store.kind == KIND_COSINE) & (store.triangle >= 0))
-        self.emit_pools = [self._along_curve(emit[store.batch[emit] % G == g]) for g in range(G)]
+        self.emit_pools = self._pools_along_curve(emit, G)
         self.sampler = EmissionSampler(scene) if point.size or emit.size else None
         self.area_density = np.array([lum.flux / (scene.total_flux * scene.areas[lum.triangles].sum())
                                       for lum in scene.area_luminaires])
