@@ -428,12 +428,19 @@ def _numba():
 
 # --- the ahead-of-time extension --------------------------------------------------------------
 
-def cache_folder():
-    """Folder of the ahead-of-time extension for these sources, versions and CPU."""
+def cache_root():
+    """The package's cache folder: ``$LSADPHOTO_CACHE_DIR``, else
+    ``$XDG_CACHE_HOME/lsadphoto``, else ``~/.cache/lsadphoto`` (the ahead-of-time kernels
+    under ``kernels/``, the geometry maps under ``geometry/``)."""
     root = os.environ.get("LSADPHOTO_CACHE_DIR")
     if not root:
         base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
         root = os.path.join(base, "lsadphoto")
+    return Path(root)
+
+
+def cache_folder():
+    """Folder of the ahead-of-time extension for these sources, versions and CPU."""
     digest = hashlib.sha256()
     package = Path(__file__).parent  # the sources are read, not imported (nor their packages)
     for name in (*MODULES, __name__):
@@ -448,7 +455,7 @@ def cache_folder():
             digest.update(next((line for line in info if line.startswith(b"flags")), b""))
     except OSError:
         digest.update(platform.processor().encode())
-    return Path(root) / "kernels" / digest.hexdigest()[:24]
+    return cache_root() / "kernels" / digest.hexdigest()[:24]
 
 
 def _extension_path(folder):
