@@ -274,12 +274,17 @@ def threads():
 _MADV_POPULATE_WRITE = 23
 #: Smaller arrays are left to the page faults (and ctypes unimported).
 _POPULATE_MIN_BYTES = 4 << 20
+#: Pages faulted in per ``madvise`` call: one call over a few hundred MB of a file mapping
+#: whose blocks were reserved (``posix_fallocate``: the geometry cache, lsadphoto.geometry.
+#: _map_cache) took 0.7–0.85 s of system time on this project's machine, the same range in
+#: 16 MB calls 0.06 s (anonymous memory: the same either way; docs/performance.md, session 16).
+_POPULATE_CHUNK_BYTES = 16 << 20
 _LIBC = {}
 
 
 def populate(*arrays):
-    """Fault the pages of each contiguous array in for writing, with one
-    ``madvise(MADV_POPULATE_WRITE)`` per array, before a kernel writes it: on this project's
+    """Fault the pages of each contiguous array in for writing, with
+    ``madvise(MADV_POPULATE_WRITE)`` (in 16 MB calls), before a kernel writes it: on this project's
     virtual machine that takes about a fifth less system time than faulting fresh memory
     page by page (docs/performance.md, session 10). Called by the thread that then writes
     the block, so that blocks are faulted in on all threads at once. Does nothing to arrays
@@ -300,8 +305,8 @@ def populate(*arrays):
         page = mmap.PAGESIZE
         start = -(-array.ctypes.data // page) * page  # whole pages inside the array
         end = (array.ctypes.data + array.nbytes) // page * page
-        if end > start:
-            _LIBC["madvise"](start, end - start, _MADV_POPULATE_WRITE)
+        for a in range(start, end, _POPULATE_CHUNK_BYTES):
+            _LIBC["madvise"](a, min(end, a + _POPULATE_CHUNK_BYTES) - a, _MADV_POPULATE_WRITE)
 
 
 def row_blocks(rows, parts, multiple=1):
