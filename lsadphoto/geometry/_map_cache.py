@@ -95,6 +95,7 @@ SEAL_AFTER_SECONDS = 60.0
 _STALE_SECONDS = 3600.0
 _OFF = {"0", "off", "no", "false"}
 _SOURCES_DIGEST = []
+_EXTENSION_KEY = []
 
 
 def cache_directory():
@@ -133,9 +134,10 @@ def _kernels_key():
     from .. import _compiled
 
     library = _compiled._library()
-    folder = _compiled.cache_folder()
-    return {"extension": None if folder is None else folder.name,
-            "compiled": "ahead-of-time" if library else "jit"}
+    if not _EXTENSION_KEY:  # the hash of the kernel sources, once per process (6 ms)
+        folder = _compiled.cache_folder()
+        _EXTENSION_KEY.append(None if folder is None else folder.name)
+    return {"extension": _EXTENSION_KEY[0], "compiled": "ahead-of-time" if library else "jit"}
 
 
 def key_text(projection_key, shape, axes, method):
