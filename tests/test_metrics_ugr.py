@@ -260,7 +260,7 @@ def test_close_pairs_are_every_close_pair_in_search_order(m, spread, chord, seed
     # Reference: every pair a < b of the directions within the chord, by brute force, in
     # the order of one search of the sorted cube keys per neighbouring cube (dx, dy, dz
     # nested), the order in which the pairs reach the union-find. The last case puts many
-    # directions in one cube (hundreds of pairs per node: the output arrays grow).
+    # directions in one cube (hundreds of pairs per node).
     from lsadphoto.metrics.grouping import _close, _close_pairs
 
     rng = np.random.default_rng(seed)

@@ -263,9 +263,7 @@ def _components(node, node_rows, node_cols, directions, chord, pair_a, pair_b, n
 def _close_pairs(directions, chord):
     """Index pairs (a < b) of the rows of ``directions`` (n, 3) that are :func:`_close`: each
     direction falls in a cube of side ``chord``, and only the 27 cubes around a pixel's can
-    hold its partners (a grid hash). The three cubes along z of each (x, y) neighbour have
-    consecutive keys: one search and one scan of the sorted keys visit them in order (the
-    pairs in the order of one search per cube, in one pass into arrays that grow)."""
+    hold its partners (a grid hash; one pass counts, one fills)."""
     m = directions.shape[0]
     cell = np.empty((m, 3), np.int64)
     for a in range(m):
@@ -276,34 +274,29 @@ def _close_pairs(directions, chord):
     order = np.argsort(key)
     sorted_key = key[order]
     count = 0
-    pair_a = np.empty(max(16, m), np.int64)
-    pair_b = np.empty(max(16, m), np.int64)
-    for a in range(m):
-        for dx in range(-1, 2):
-            for dy in range(-1, 2):
-                first = ((cell[a, 0] + dx + 1) * span + cell[a, 1] + dy + 1) * span + cell[a, 2]
-                s = np.searchsorted(sorted_key, first)  # the cube dz = −1, then 0 and +1
-                end = s
-                while end < m and sorted_key[end] <= first + 2:
-                    end += 1
-                while count + (end - s) > pair_a.size:  # room for every candidate
-                    pair_a = _grown(pair_a, count)
-                    pair_b = _grown(pair_b, count)
-                for t in range(s, end):
-                    b = order[t]
-                    if b > a and _close(directions, a, b, chord):
-                        pair_a[count] = a
-                        pair_b[count] = b
-                        count += 1
-    return pair_a[:count], pair_b[:count]
-
-
-@njit(**_OPTIONS)
-def _grown(values, n):
-    """An array twice the size of ``values`` holding its first ``n`` entries."""
-    out = np.empty(2 * values.size, np.int64)
-    out[:n] = values[:n]
-    return out
+    pair_a = np.empty(0, np.int64)
+    pair_b = np.empty(0, np.int64)
+    for fill in (False, True):
+        if fill:
+            pair_a = np.empty(count, np.int64)
+            pair_b = np.empty(count, np.int64)
+            count = 0
+        for a in range(m):
+            for dx in range(-1, 2):
+                for dy in range(-1, 2):
+                    for dz in range(-1, 2):
+                        near = (((cell[a, 0] + dx + 1) * span + cell[a, 1] + dy + 1) * span
+                                + cell[a, 2] + dz + 1)
+                        s = np.searchsorted(sorted_key, near)
+                        while s < m and sorted_key[s] == near:
+                            b = order[s]
+                            s += 1
+                            if b > a and _close(directions, a, b, chord):
+                                if fill:
+                                    pair_a[count] = a
+                                    pair_b[count] = b
+                                count += 1
+    return pair_a, pair_b
 
 
 def _link(mask, directions, separation, offset=(0, 0), pixel_directions=None):
