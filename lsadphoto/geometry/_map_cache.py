@@ -48,7 +48,7 @@ it; a folder path moves it (default ``geometry/`` in :func:`lsadphoto._compiled.
 cache_root`). ``LSADPHOTO_GEOMETRY_CACHE_MB`` bounds the folder's size (default
 :data:`DEFAULT_BUDGET_MB`): after each write the least recently used files beyond it are
 deleted. Only pictures above :data:`MIN_PIXELS` are cached (below it the maps cost a few
-hundredths of a second).
+hundredths of a second), and only on POSIX systems (file mappings with ``mmap``'s ``prot``).
 """
 
 import contextlib
@@ -95,6 +95,9 @@ SEAL_AFTER_SECONDS = 60.0
 _STALE_SECONDS = 3600.0
 _OFF = {"0", "off", "no", "false"}
 _SOURCES_DIGEST = []
+#: The file mappings and reads used here (``mmap``'s ``prot``, ``os.pread``) are POSIX's:
+#: elsewhere the maps are computed in memory.
+_POSIX = hasattr(mmap, "PROT_READ") and hasattr(os, "pread") and hasattr(os, "pwrite")
 _EXTENSION_KEY = []
 
 
@@ -361,7 +364,7 @@ def cached_geometry_and_field(projection_key, shape, axes, method, compute):
     memory where the cache is off, the picture small or the file cannot be written.
     Returns what ``compute`` returns."""
     folder = cache_directory()
-    if folder is None or math.prod(shape) <= MIN_PIXELS:
+    if folder is None or math.prod(shape) <= MIN_PIXELS or not _POSIX:
         return compute(_in_memory)
     try:
         key = key_text(projection_key, shape, axes, method)
