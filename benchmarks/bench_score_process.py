@@ -22,7 +22,7 @@ Usage::
 
     python benchmarks/bench_score_process.py [--sizes 786,1572,4899] [--runs 5]
         [--evalglare-runs-large 1] [--large-mp 10] [--scene disks|window] [--stages 3]
-        [--kernels auto,jit] [--before TREE]
+        [--kernels auto,cold,nocache,jit] [--before TREE]
 
 ``--before TREE`` adds the same command run from another source tree (an earlier commit,
 unpacked with ``git archive``), interleaved with the others: before and after in one run.
@@ -31,6 +31,14 @@ unpacked with ``git archive``), interleaved with the others: before and after in
 ``lsadphoto._compiled``): ``auto`` (the default: ahead of time) and ``jit`` (numba only, its
 parallel code, as every process ran before the ahead-of-time build); their runs interleave
 with evalglare's.
+
+The geometry cache (``lsadphoto.geometry._map_cache``): every process of this benchmark
+uses a cache folder of its own run, empty at the start, so the untimed first run of a
+variant writes the camera's maps and the timed runs of ``auto`` (and ``jit``) read them:
+**warm**, a survey's second and later photos of one camera. ``--kernels auto,cold`` adds
+the **cold** process, the first photo of a camera: each of its runs starts with an empty
+cache folder, computes the maps into a new cache file and flushes it to disk (the folder
+is deleted after the run); ``nocache`` runs with ``LSADPHOTO_GEOMETRY_CACHE=off``.
 
 The package's modules are byte-compiled first (``compileall``), as an installed package
 has them: with ``PYTHONDONTWRITEBYTECODE`` set and no ``__pycache__``, every process would
@@ -101,27 +109,49 @@ def _evalglare_command(path):
 BEFORE = {"tree": None}
 
 
-def _env(kernels):
+#: The geometry cache folder of the benchmark's processes (lsadphoto.geometry._map_cache):
+#: a folder of this run, not the user's cache, so that every run starts without one.
+GEOMETRY_CACHE = {"folder": None}
+
+
+def _env(kernels, cold_folder=None):
     """Environment of a variant: ``LSADPHOTO_KERNELS=kernels``, or for ``before`` the tree
-    of ``--before`` (default kernels)."""
+    of ``--before`` (default kernels); ``cold`` and ``nocache`` run the default kernels with
+    an empty geometry cache folder (``cold_folder``) and without the cache. Every variant
+    but ``nocache`` uses the run's geometry cache folder (``warm`` after the untimed
+    first run)."""
+    env = dict(os.environ)
+    if GEOMETRY_CACHE["folder"] is not None:
+        env["LSADPHOTO_GEOMETRY_CACHE"] = GEOMETRY_CACHE["folder"]
     if kernels is None:
-        return None
+        return env
     if kernels == "before":
         path = os.pathsep.join([BEFORE["tree"], *filter(None, [os.environ.get("PYTHONPATH")])])
-        return {**os.environ, "PYTHONPATH": path}
-    return {**os.environ, "LSADPHOTO_KERNELS": kernels}
+        return {**env, "PYTHONPATH": path}
+    if kernels == "cold":
+        return {**env, "LSADPHOTO_GEOMETRY_CACHE": cold_folder}
+    if kernels == "nocache":
+        return {**env, "LSADPHOTO_GEOMETRY_CACHE": "off"}
+    return {**env, "LSADPHOTO_KERNELS": kernels}
 
 
 def timed(command, kernels=None):
     """(wall [s], CPU of the child [s], stdout) of one fresh process (``LSADPHOTO_KERNELS``
-    set to ``kernels`` where given)."""
+    set to ``kernels`` where given; ``cold``: with an empty geometry cache, deleted after)."""
+    import shutil
+
+    cold_folder = tempfile.mkdtemp(prefix="lsadphoto-cold-cache-") if kernels == "cold" else None
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     # From this folder: ``python -c`` puts the working folder first on sys.path, so from a
     # source tree's root it would import that tree's package whatever PYTHONPATH says.
-    done = subprocess.run(command, capture_output=True, text=True, check=True, env=_env(kernels),
-                          cwd=HERE)
-    wall = time.perf_counter() - t0
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, check=True,
+                              env=_env(kernels, cold_folder), cwd=HERE)
+    finally:
+        wall = time.perf_counter() - t0
+        if cold_folder is not None:
+            shutil.rmtree(cold_folder, ignore_errors=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return wall, cpu, done.stdout
@@ -207,12 +237,17 @@ def _child_stages(path):
 
 def stage_table(path, repeat, kernels=None):
     """Median per-stage [wall, cpu] over ``repeat`` fresh processes, and the process wall."""
+    import shutil
+
     runs = []
     for _ in range(repeat):
+        cold = tempfile.mkdtemp(prefix="lsadphoto-cold-cache-") if kernels == "cold" else None
         t0 = time.perf_counter()
         done = subprocess.run([sys.executable, str(Path(__file__).resolve()), "--child", str(path)],
-                              capture_output=True, text=True, check=True, env=_env(kernels))
+                              capture_output=True, text=True, check=True, env=_env(kernels, cold))
         wall = time.perf_counter() - t0
+        if cold is not None:
+            shutil.rmtree(cold, ignore_errors=True)
         stages = json.loads(done.stderr.strip().splitlines()[-1])
         stages["interpreter start-up and exit"] = [wall - stages["total inside"][0], math.nan]
         stages["process"] = [wall, math.nan]
@@ -266,7 +301,10 @@ def main():
     parser.add_argument("--evalglare-runs-large", type=int, default=1)
     parser.add_argument("--stages", type=int, default=3, help="processes timed stage by stage")
     parser.add_argument("--kernels", default="auto",
-                        help="LSADPHOTO_KERNELS values to compare, comma-separated (auto, jit)")
+                        help="variants to compare, comma-separated: LSADPHOTO_KERNELS values "
+                        "(auto, jit; with the geometry cache warm), cold (an empty geometry "
+                        "cache in every process: its first process on a camera), nocache "
+                        "(LSADPHOTO_GEOMETRY_CACHE=off)")
     parser.add_argument("--before", help="another lsadphoto source tree (e.g. an earlier "
                         "commit's `git archive`): its processes interleave as variant `before`")
     parser.add_argument("--child", help=argparse.SUPPRESS)
@@ -292,6 +330,7 @@ def main():
           f"system time of the process (all threads)")
     rows = []
     with tempfile.TemporaryDirectory() as folder:
+        GEOMETRY_CACHE["folder"] = os.path.join(folder, "geometry-cache")
         for size in (int(s) for s in args.sizes.split(",")):
             peer_runs = args.runs if size * size / 1e6 <= args.large_mp else args.evalglare_runs_large
             for r in bench(size, args.scene, folder, args.runs, peer_runs, variants):

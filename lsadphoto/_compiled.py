@@ -275,12 +275,17 @@ def threads():
 _MADV_POPULATE_WRITE = 23
 #: Smaller arrays are left to the page faults (and ctypes unimported).
 _POPULATE_MIN_BYTES = 4 << 20
+#: Pages faulted in per ``madvise`` call: one call over a few hundred MB of a file mapping
+#: whose blocks were reserved (``posix_fallocate``: the geometry cache, lsadphoto.geometry.
+#: _map_cache) took 0.7–0.85 s of system time on this project's machine, the same range in
+#: 16 MB calls 0.06 s (anonymous memory: the same either way; docs/performance.md, session 16).
+_POPULATE_CHUNK_BYTES = 16 << 20
 _LIBC = {}
 
 
 def populate(*arrays):
-    """Fault the pages of each contiguous array in for writing, with one
-    ``madvise(MADV_POPULATE_WRITE)`` per array, before a kernel writes it: on this project's
+    """Fault the pages of each contiguous array in for writing, with
+    ``madvise(MADV_POPULATE_WRITE)`` (in 16 MB calls), before a kernel writes it: on this project's
     virtual machine that takes about a fifth less system time than faulting fresh memory
     page by page (docs/performance.md, session 10). Called by the thread that then writes
     the block, so that blocks are faulted in on all threads at once. Does nothing to arrays
@@ -301,8 +306,8 @@ def populate(*arrays):
         page = mmap.PAGESIZE
         start = -(-array.ctypes.data // page) * page  # whole pages inside the array
         end = (array.ctypes.data + array.nbytes) // page * page
-        if end > start:
-            _LIBC["madvise"](start, end - start, _MADV_POPULATE_WRITE)
+        for a in range(start, end, _POPULATE_CHUNK_BYTES):
+            _LIBC["madvise"](a, min(end, a + _POPULATE_CHUNK_BYTES) - a, _MADV_POPULATE_WRITE)
 
 
 def row_blocks(rows, parts, multiple=1):
@@ -429,12 +434,19 @@ def _numba():
 
 # --- the ahead-of-time extension --------------------------------------------------------------
 
-def cache_folder():
-    """Folder of the ahead-of-time extension for these sources, versions and CPU."""
+def cache_root():
+    """The package's cache folder: ``$LSADPHOTO_CACHE_DIR``, else
+    ``$XDG_CACHE_HOME/lsadphoto``, else ``~/.cache/lsadphoto`` (the ahead-of-time kernels
+    under ``kernels/``, the geometry maps under ``geometry/``)."""
     root = os.environ.get("LSADPHOTO_CACHE_DIR")
     if not root:
         base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
         root = os.path.join(base, "lsadphoto")
+    return Path(root)
+
+
+def cache_folder():
+    """Folder of the ahead-of-time extension for these sources, versions and CPU."""
     digest = hashlib.sha256()
     package = Path(__file__).parent  # the sources are read, not imported (nor their packages)
     for name in (*MODULES, __name__):
@@ -449,7 +461,7 @@ def cache_folder():
             digest.update(next((line for line in info if line.startswith(b"flags")), b""))
     except OSError:
         digest.update(platform.processor().encode())
-    return Path(root) / "kernels" / digest.hexdigest()[:24]
+    return cache_root() / "kernels" / digest.hexdigest()[:24]
 
 
 def _extension_path(folder):

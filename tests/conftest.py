@@ -90,6 +90,20 @@ def refused_raw_samples():
     return [p for p in _sample_files() if REFUSED_FOLDER in p.parts]
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _geometry_cache_of_the_session(tmp_path_factory):
+    """The geometry maps' disk cache (lsadphoto.geometry._map_cache) in a folder of this
+    test session, not the user's cache (the score processes the tests start inherit it)."""
+    import os
+
+    if "LSADPHOTO_GEOMETRY_CACHE" in os.environ:  # the user's choice (e.g. off) stands
+        yield
+        return
+    os.environ["LSADPHOTO_GEOMETRY_CACHE"] = str(tmp_path_factory.mktemp("geometry-cache"))
+    yield
+    del os.environ["LSADPHOTO_GEOMETRY_CACHE"]
+
+
 @pytest.fixture
 def camera():
     return SyntheticCamera(width=256, height=192)

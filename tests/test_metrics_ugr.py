@@ -252,6 +252,41 @@ def test_grouping_components_are_numbered_in_column_major_order(shape, fraction,
     np.testing.assert_array_equal(label, expected.T[node_rows, node_cols])
 
 
+@pytest.mark.parametrize(("m", "spread", "chord", "seed"), [(0, 0.1, 0.05, 0), (1, 0.1, 0.05, 1),
+                                                             (400, 0.05, 0.02, 2),
+                                                             (1500, 0.3, 0.04, 3),
+                                                             (300, 0.001, 0.01, 4)])
+def test_close_pairs_are_every_close_pair_in_search_order(m, spread, chord, seed):
+    # Reference: every pair a < b of the directions within the chord, by brute force, in
+    # the order of one search of the sorted cube keys per neighbouring cube (dx, dy, dz
+    # nested), the order in which the pairs reach the union-find. The last case puts many
+    # directions in one cube (hundreds of pairs per node).
+    from lsadphoto.metrics.grouping import _close, _close_pairs
+
+    rng = np.random.default_rng(seed)
+    d = np.array([0.2, -0.3, 0.93]) + spread * rng.standard_normal((m, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d = np.ascontiguousarray(d)
+    got = _close_pairs(d, chord)
+    close = _close.py_func if hasattr(_close, "py_func") else _close
+    cell = np.floor((d + 1.0) / chord).astype(np.int64)
+    span = int(math.floor(2.0 / chord)) + 3
+    key = ((cell[:, 0] + 1) * span + cell[:, 1] + 1) * span + cell[:, 2] + 1
+    order = np.argsort(key)  # the kernel's sort (numba's quicksort: ties may order otherwise)
+    expected = [(a, b) for a in range(m) for dx in (-1, 0, 1) for dy in (-1, 0, 1)
+                for dz in (-1, 0, 1)
+                for b in sorted(order[key[order] == ((cell[a, 0] + dx + 1) * span + cell[a, 1]
+                                                      + dy + 1) * span + cell[a, 2] + dz + 1])
+                if b > a and close(d, a, b, chord)]
+    within = np.sqrt(np.sum((d[:, None, :] - d[None, :, :]) ** 2, axis=-1)) <= chord
+    brute = {(a, b) for a, b in zip(*np.nonzero(np.triu(within, 1)), strict=True)}
+    brute = {(int(a), int(b)) for a, b in brute}
+    assert set(zip(got[0].tolist(), got[1].tolist(), strict=True)) == set(expected) == brute
+    # The order, up to the order within one cube (ties of the sort).
+    assert sorted(zip(got[0].tolist(), got[1].tolist(), strict=True)) == sorted(expected)
+    assert got[0].tolist() == [a for a, _ in expected]
+
+
 def test_peak_extraction_splits_the_bright_core(fisheye):
     cam, d, w = fisheye
     centre = _up_direction(0.5)

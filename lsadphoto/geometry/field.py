@@ -329,24 +329,37 @@ def _mirror_cols(cx):
     return int(twice) if twice == math.floor(twice) and abs(twice) < 2.0 ** 52 else -1
 
 
-def _compute_pixel_geometry(projection, field=None):
+def _allocate(name, shape, dtype):
+    return np.empty(shape, dtype=dtype)
+
+
+def _compute_pixel_geometry(projection, field=None, allocate=_allocate, stored=False):
     """The :class:`PixelGeometry` of ``projection``; with ``field`` = (axes, method), for a
     fisheye model, also the visual field's position index and cos σ from the same pass:
-    (geometry, (P, cos σ))."""
+    (geometry, (P, cos σ)). The fisheye models' solid angle, validity, position index and
+    cos σ maps are ``allocate(name, shape, dtype)`` (names of :data:`._map_cache.MAPS`);
+    where ``stored``, they hold the maps already (read from the disk cache) and nothing
+    is computed."""
     from . import _kernels
 
     rows, cols = projection.shape
-    solid_angle = np.empty((rows, cols))
-    valid = np.empty((rows, cols), dtype=bool)
     compiled = _fisheye_kernel_parameters(projection)
     if compiled is not None:
         model, p, table = compiled
+        solid_angle = allocate("solid_angle", (rows, cols), np.float64)
+        valid = allocate("valid", (rows, cols), np.bool_)
         band_rows = max(1, min(rows, _KERNEL_BLOCK_PIXELS // max(cols, 1)))
         store = rows * cols <= DIRECTION_MAP_MAX_PIXELS
         directions = np.empty((rows, cols, 3) if store else (1, 1, 3))
-        field_args = _field_arguments(field, (rows, cols))
+        field_args = _field_arguments(field, (rows, cols), allocate)
         position, cos_sigma = field_args[-2:]
         on = field is not None
+        if stored:
+            geometry = PixelGeometry(_read_only(directions) if store else None,
+                                     _read_only(solid_angle), _read_only(valid),
+                                     model=compiled)
+            return geometry if field is None else (geometry, (_read_only(position),
+                                                              _read_only(cos_sigma)))
 
         mirror, computed = _mirror_rows(p[1], rows)
         mirror_cols = _mirror_cols(p[0])
@@ -385,6 +398,8 @@ def _compute_pixel_geometry(projection, field=None):
 
     # Other models: their own (numpy) directions on the corner and centre grids, in blocks on
     # threads; the solid-angle kernel releases the GIL.
+    solid_angle = np.empty((rows, cols))
+    valid = np.empty((rows, cols), dtype=bool)
     directions = np.empty((rows, cols, 3))
     centre_cols = np.arange(cols, dtype=float)
     corner_cols = np.arange(cols + 1, dtype=float) - 0.5
@@ -423,14 +438,14 @@ def _field_constants(axes, method):
     return v, u, h, _kernels.POSITION_INDEX_METHODS.index(method), POSITION_INDEX_CAP
 
 
-def _field_arguments(field, shape):
-    """:func:`_field_constants` of ``field`` = (axes, method) and fresh P and cos σ maps of
-    ``shape``; placeholders for None."""
+def _field_arguments(field, shape, allocate=_allocate):
+    """:func:`_field_constants` of ``field`` = (axes, method) and the P and cos σ maps of
+    ``shape`` from ``allocate``; placeholders for None."""
     if field is None:
         unused = np.empty((1, 1), dtype=np.float32)
         return np.zeros(3), np.zeros(3), np.zeros(3), 0, 0.0, unused, unused
-    return (*_field_constants(*field), np.empty(shape, dtype=np.float32),
-            np.empty(shape, dtype=np.float32))
+    return (*_field_constants(*field), allocate("position_index", shape, np.float32),
+            allocate("cos_sigma", shape, np.float32))
 
 
 def pixel_geometry(projection):
@@ -626,8 +641,14 @@ def visual_field(projection, frame, *, position_index_method="evalglare"):
         if (_GEOMETRY_CACHE.get(geometry_key) is None and rows * cols > DIRECTION_MAP_MAX_PIXELS
                 and _fisheye_kernel_parameters(projection) is not None):
             # No geometry yet and no map to store: the geometry and this field in one pass,
-            # which computes each centre direction once (the same values).
-            geometry, maps = _compute_pixel_geometry(projection, (axes, position_index_method))
+            # which computes each centre direction once (the same values), or their maps
+            # from the disk cache of an earlier process (_map_cache).
+            from ._map_cache import cached_geometry_and_field
+
+            geometry, maps = cached_geometry_and_field(
+                geometry_key, (rows, cols), axes, position_index_method,
+                lambda allocate, stored=False: _compute_pixel_geometry(
+                    projection, (axes, position_index_method), allocate, stored))
             _GEOMETRY_CACHE.put(geometry_key, geometry)
             cached = VisualField(geometry, axes, position_index_method, maps)
         else:

@@ -637,6 +637,9 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
         n_thresholds=n_thresholds, size_arcmin=size_arcmin, field_mask=valid)
     settings["source_selection"] = dict(selection.settings)
     mask = np.asarray(selection.mask, dtype=bool)
+    # Every field sum at once, on a thread of its own while the sources are grouped (it
+    # needs the selection, not the groups): the same call on the same arrays.
+    pending_sums = background(lambda: field_sums(luminance, omega, vf.cos_sigma, pindex, mask))
     groups, labels = group_sources_evalglare(luminance, geometry, omega, mask,
                                              search_angle=search_angle,
                                              peak_luminance=peak_luminance)
@@ -669,8 +672,8 @@ def score_map(lmap, *, line_of_sight=None, up=None, source_method="fixed",
     s_l = np.array([s.luminance for s in sources])
     s_w = np.array([s.solid_angle for s in sources])
     s_p = np.array([s.position_index for s in sources])
-    # Every field sum at once; the indices are functions of these sums and the sources.
-    sums = field_sums(luminance, omega, vf.cos_sigma, pindex, mask)
+    # The indices are functions of the field sums and the sources.
+    sums = pending_sums.result()
 
     def indices(field, source_luminance):
         quantities = field.quantities(background_method)
