@@ -51,10 +51,16 @@ cache; ``points``: the same direct light and the cache's own unbiased estimator 
 indirect light evaluated at the subset's hit points, no interpolation — what separates the
 interpolation's error from the rest; ``local``: the per-pixel double local estimate) the
 table gives, over the subset:
-the field-mean ratio, the mean absolute relative per-pixel error (MARE) raw and with the
-reference's own noise removed in quadrature, our self-reported per-pixel error (for the cache
-with its noise part and its estimated interpolation bias), and the share
-of pixels with |z| ≤ 3, z = (ours − reference)/√(σ_ours² + σ_ref²). Pixels brighter than
+the field-mean ratio, the mean absolute relative per-pixel error (MARE) raw, with its standard
+error over the subset (the standard deviation of the pixels' |relative error| over √pixels: a
+few noisy pixels carry much of the sum, so on the hall's 126 pixels it is ≈ 0.2 points), and
+with the reference's own noise removed in quadrature; the MARE that the uncertainties imply,
+√(2/π)·mean(√(σ_ours² + σ_ref²)/reference) (what a ``--target-error`` render bounds, there
+without the reference's part: :data:`~lsadphoto.solver.rendering.TARGET_MEASURE`; comparable
+with the raw MARE — their ratio is how far the reported σ under- or over-states the error);
+our self-reported per-pixel error (for the cache with its noise part and its estimated
+interpolation bias); and the share of pixels with |z| ≤ 3, z = (ours − reference)/√(σ_ours² +
+σ_ref²), with the number beyond. Pixels brighter than
 ``--max-luminance`` (the luminaires' openings, whose edges one ray per pixel resolves
 differently in the two programs) are left out, and so are pixels whose primary hit points
 differ by more than 1 cm (a silhouette that the two ray casters' eye rays, float64 and
@@ -66,7 +72,9 @@ Run (2-core machine)::
     python benchmarks/accuracy_vs_rtrace.py --scene hall --size 128 --hall-scale 0.35 --repeats 200
 
 (the references: 96 s and 381 s of rtrace CPU; ``--rtrace "-ab 8 -ad 512 …" --runs 8
---repeats 1`` gives the earlier sessions' references).
+--repeats 1`` gives the earlier sessions' references). ``--seed 2``, ``--seed 3`` repeat our side
+with independent streams against the same reference pixels: one seed's count beyond 3σ is a
+draw (the canonical room: 0–8 of 247 over 24 seeds, docs/accuracy.md session 16).
 
 Writes a Markdown fragment with the command to ``--output``. The references are kept in
 ``--reference-cache`` (default: a folder in the system's temporary directory), keyed by the
@@ -200,11 +208,11 @@ def _reference(rad, view_options, size, pixels, rtrace_options, seed, runs=2, ca
     return pick, values.mean(axis=0), values.std(axis=0, ddof=1) / math.sqrt(len(values)), hits, clock.cpu
 
 
-def _at_points(store, view, pick, size, *, nodes, direct_samples, luminaires):
+def _at_points(store, view, pick, size, *, nodes, direct_samples, luminaires, seed):
     """Our luminance [cd·m⁻²] and its standard error at the pixels ``pick`` without the
     cache's interpolation: E_dir per pixel as render_cached (``direct_samples``), E_ind by the
     cache's estimator (:func:`indirect_illuminance`, ``nodes`` draws) at each hit, ``luminaires``
-    as :func:`direct_illuminance`'s; a map-like record (NaN elsewhere)."""
+    as :func:`direct_illuminance`'s, the streams of ``seed``; a map-like record (NaN elsewhere)."""
     scene = store.scene
     engine = engine_for(scene)
     valid, prim, dist, d = primary_rays(scene, engine, view.projection, view.position, view.rotation)
@@ -217,8 +225,8 @@ def _at_points(store, view, pick, size, *, nodes, direct_samples, luminaires):
     x = view.position + d[row[use]] * dist[row[use], None]
     n = scene.normals[t[use]]
     n = np.where((np.einsum("ij,ij->i", n, d[row[use]]) < 0)[:, None], n, -n)
-    e_dir, var = direct_illuminance(scene, engine, x, n, samples=direct_samples, luminaires=luminaires, seed=1)
-    e_ind = indirect_illuminance(store, x, n, nodes=nodes, seed=1, key=9)
+    e_dir, var = direct_illuminance(scene, engine, x, n, samples=direct_samples, luminaires=luminaires, seed=seed)
+    e_ind = indirect_illuminance(store, x, n, nodes=nodes, seed=seed, key=9)
     lum, unc = np.full(size * size, np.nan), np.full(size * size, np.nan)
     k = rho[use] / math.pi
     lum[pick[use]] = k * (e_dir + e_ind.mean(axis=1))
@@ -232,16 +240,19 @@ def _row(label, setting, lmap, pick, ref, ref_sigma, keep, cpu):
     r, rs = ref[keep], ref_sigma[keep]
     rel = np.abs(ours / r - 1)
     raw = float(np.mean(rel))
+    raw_se = float(np.std(rel, ddof=1)) / math.sqrt(rel.size) if rel.size > 1 else float("nan")
     ref_mae = 0.798 * float(np.mean(rs / r))  # E|z| of a unit Gaussian: MAEs add in quadrature
     corrected = math.sqrt(max(raw * raw - ref_mae * ref_mae, 0.0))
+    implied = math.sqrt(2 / math.pi) * float(np.mean(np.sqrt(sigma ** 2 + rs ** 2) / r))
     z = (ours - r) / np.sqrt(sigma ** 2 + rs ** 2)
     p = lmap.provenance
     parts = (f" (noise {100 * p['pixel_relative_noise_median']:.2f} %, bias "
              f"{100 * p['pixel_relative_bias_median']:.2f} % / p95 {100 * p['pixel_relative_bias_p95']:.2f} %)"
              if "pixel_relative_bias_median" in p else "")
     return (f"| {label} | {setting} | {cpu:.0f} | {ours.mean() / r.mean():.4f} | {np.median(ours / r):.4f} | "
-            f"{100 * raw:.2f} % | {100 * corrected:.2f} % | {100 * float(np.median(sigma / ours)):.2f} %{parts} | "
-            f"{100 * float(np.mean(np.abs(z) <= 3)):.1f} % |")
+            f"{100 * raw:.2f} ± {100 * raw_se:.2f} % | {100 * corrected:.2f} % | {100 * implied:.2f} % | "
+            f"{100 * float(np.median(sigma / ours)):.2f} %{parts} | "
+            f"{100 * float(np.mean(np.abs(z) <= 3)):.1f} % ({int(np.sum(np.abs(z) > 3))} beyond) |")
 
 
 def main(argv=None):
@@ -254,6 +265,9 @@ def main(argv=None):
                         help="cache: render the scene by render(..., estimator='cache', target_error=E), "
                              "as `lsadphoto render SCENE --estimator cache --target-error E` does "
                              "(rounds of chains from --chains), instead of --chains and the defaults")
+    parser.add_argument("--seed", type=int, default=1,
+                        help="seed of our simulation, cache and render (the local estimate takes seed + 1); the "
+                             "reference's pixels stay the same, so runs with seeds 1, 2, 3 are paired")
     parser.add_argument("--local-chains", type=int, default=262144)
     parser.add_argument("--hall-scale", type=float, default=0.5)
     # -ad 16: rtrace's estimate at many ambient divisions is biased near walls (module docstring)
@@ -317,12 +331,12 @@ def main(argv=None):
         knobs = {"cache_nodes": CACHE_NODES, "direct_samples": DIRECT_SAMPLES, "luminaire_draws": "auto"}
         with Clock() as clock:
             if args.target_error is None:
-                store = simulate(scene, samples=args.chains, seed=1)
-                lmap = render_cached(store, view.projection, seed=1, workers=workers, **pose)
+                store = simulate(scene, samples=args.chains, seed=args.seed)
+                lmap = render_cached(store, view.projection, seed=args.seed, workers=workers, **pose)
                 setting = f"{args.chains} chains, defaults"
             else:
                 lmap = render(scene, view.projection, estimator="cache", samples=args.chains,
-                              target_error=args.target_error, seed=1, workers=workers, **pose)
+                              target_error=args.target_error, seed=args.seed, workers=workers, **pose)
                 last = lmap.provenance["rounds"][-1]
                 knobs = {key: last[key] for key in knobs}
                 setting = (f"target error {args.target_error:g}: "
@@ -336,18 +350,18 @@ def main(argv=None):
         per_pixel["cache"] = lmap
         if "points" in estimators:
             if args.target_error is not None:  # the last round's store: the same streams, one run
-                store = simulate(scene, samples=lmap.provenance["rounds"][-1]["chains"], seed=1)
+                store = simulate(scene, samples=lmap.provenance["rounds"][-1]["chains"], seed=args.seed)
             with Clock() as clock:
                 at_points = _at_points(store, view, pick, args.size, nodes=knobs["cache_nodes"],
                                        direct_samples=knobs["direct_samples"],
-                                       luminaires=knobs["luminaire_draws"])
+                                       luminaires=knobs["luminaire_draws"], seed=args.seed)
             rows.append(("ours, cache's estimator at the hits (no interpolation)",
                          f"the same store, {pick.size} points", at_points, clock.cpu))
             per_pixel["points"] = at_points
     if "local" in estimators:
         with Clock() as clock:
-            store = simulate(scene, samples=args.local_chains, seed=2)
-            lmap = render(store, view.projection, seed=2, workers=workers, **pose)
+            store = simulate(scene, samples=args.local_chains, seed=args.seed + 1)
+            lmap = render(store, view.projection, seed=args.seed + 1, workers=workers, **pose)
         if keep is None:
             keep = np.isfinite(lmap.luminance.ravel()[pick]) & (ref < args.max_luminance) & same_hit
         rows.append(("ours, double local estimate", f"{args.local_chains} chains, nodes per pixel auto",
@@ -367,9 +381,10 @@ def main(argv=None):
              + f", {rtrace_cpu:.0f} s CPU; its own mean "
              f"relative standard error "
              f"{100 * float(np.mean(ref_sigma[keep] / ref[keep])):.2f} %.", "",
-             "| solver | setting | CPU [s] | field-mean ratio | median pixel ratio | MARE | MARE, reference "
-             "noise removed | self-reported per-pixel error (median) | pixels with |z| ≤ 3 |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| solver | setting | CPU [s] | field-mean ratio | median pixel ratio | MARE (± its standard error) | "
+             "MARE, reference noise removed | MARE that σ and σ_ref imply | self-reported per-pixel error (median) | "
+             "pixels with |z| ≤ 3 |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     lines += [_row(label, setting, lmap, pick, ref, ref_sigma, keep, cpu) for label, setting, lmap, cpu in rows]
     text = "\n".join(lines) + "\n"
     print(text)

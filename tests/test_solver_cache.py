@@ -638,6 +638,32 @@ def test_patch_kernel_lean_marks_pixels_beyond_their_points():
     assert np.all(lean >= 0) and np.all(lean <= support * (1 + 1e-12))
 
 
+
+def test_cells_of_a_thin_grid_triangle_are_no_longer_than_the_grid_cell_edge():
+    # A grid's level follows the triangle's area (√(2A)/m ≈ spacing), so the cells of a thin
+    # triangle were up to 3 spacings long: on the station hall's end walls (slivers fanned
+    # under the vault) 2.4 m tall cells, across which E_ind rises and falls, put pixels 12–15 %
+    # low at a reported 0.5 % (docs/accuracy.md, session 16). The level now also keeps every
+    # cell edge within GRID_CELL_EDGE spacings, which the area rule already gives a
+    # rectangle's halves (the room's walls: 1.47 spacings, their level unchanged). Here a
+    # 3.6 m × 0.3 m sliver on the floor (area rule: level 4, cells 0.9 m = 2.8 spacings long)
+    # and the room's own triangles, against those bounds.
+    from lsadphoto.solver.integrators.surface_cache import GRID_CELL_EDGE, RELATIVE_CACHE_SPACING
+
+    room = _canonical_room_with({"type": "polygon", "material": "wall", "vertices": [
+        [1.0, 1.0, 0.01], [4.6, 1.0, 0.01], [1.0, 1.3, 0.01]]})
+    cache = build_surface_cache(simulate(room, samples=512, seed=1), nodes=16, refine=1, patch_refine=0, seed=2)
+    spacing = RELATIVE_CACHE_SPACING * room.size
+    tris = room.triangles
+    longest = np.linalg.norm(tris - np.roll(tris, 1, axis=1), axis=2).max(axis=1)
+    grid = np.flatnonzero(cache.level >= 1)
+    sliver = int(np.flatnonzero(np.all(np.isclose(tris[:, :, 2], 0.01), axis=1))[0])
+    by_area = np.ceil(np.maximum(np.sqrt(2 * room.areas), longest / 3) / spacing).astype(int)
+    assert sliver in grid and longest[sliver] / by_area[sliver] > 2.5 * spacing
+    assert np.all(longest[grid] / cache.level[grid] <= GRID_CELL_EDGE * spacing)
+    rest = grid[grid != sliver]
+    assert np.array_equal(cache.level[rest], by_area[rest])
+
 def _canonical_room_with(surface):
     """The canonical room (its TOML with an 8 × 8 px view) with one more surface (a TOML surface table)."""
     import tomllib

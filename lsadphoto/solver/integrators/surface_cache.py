@@ -99,6 +99,13 @@ __all__ = ["CACHE_NODES", "GLOSSY_RAYS", "RELATIVE_CACHE_SPACING", "build_surfac
 
 #: Default cache spacing as a fraction of the scene's bounding-box diagonal.
 RELATIVE_CACHE_SPACING = 1 / 24
+#: Longest edge of a grid triangle's cells, in spacings: what the area rule of
+#: :func:`_cache_points` gives a rectangle's halves (the canonical room's walls: 1.47), here also
+#: on thin triangles, whose cells that rule alone let grow to 3 spacings along their length —
+#: on the station hall's end walls (slivers fanned under the vault) cells 2.4 m tall, across
+#: which E_ind rises and falls (35 → 45 → 38 lx) and pixels came out 12–15 % low with a
+#: reported 0.5 % (docs/accuracy.md, session 16).
+GRID_CELL_EDGE = 1.5
 #: Default node draws per cache point (over all batch groups).
 CACHE_NODES = 8192
 #: Independent groups of node draws (the per-pixel standard error comes from their spread).
@@ -472,10 +479,13 @@ def _cache_points(scene, spacing, inset, reflecting):
                         np.linalg.norm(tris[:, 2] - tris[:, 1], axis=1),
                         np.linalg.norm(tris[:, 0] - tris[:, 2], axis=1)], axis=1).max(axis=1)
     # The level gives sub-triangles of about spacing²/2 in area (√(2A)/m ≈ spacing; for an
-    # equilateral triangle of edge a, √(2A) = 0.93a), with sub-edges no longer than 3 ×
-    # spacing along thin triangles.
+    # equilateral triangle of edge a, √(2A) = 0.93a); a triangle with an edge longer than 3 ×
+    # spacing has a grid even where it is thin, and no cell edge longer than GRID_CELL_EDGE ×
+    # spacing.
     extent = np.maximum(np.sqrt(2.0 * scene.areas), longest / 3.0)
-    level = np.where(extent < spacing, 0, np.ceil(extent / spacing)).astype(np.int64)
+    level = np.where(extent < spacing, 0,
+                     np.maximum(np.ceil(extent / spacing), np.ceil(longest / (GRID_CELL_EDGE * spacing)))
+                     ).astype(np.int64)
     level[~reflecting] = -1
     offset = np.full((T, 2), -1, dtype=np.int64)
     pts, nrm, owner = [], [], []
