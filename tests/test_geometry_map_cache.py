@@ -168,15 +168,22 @@ def test_a_damaged_file_is_ignored_and_rebuilt(how, monkeypatch, tmp_path, compu
     assert computed == [True, False]  # ... and the rebuilt file read
 
 
-def test_an_unflushed_file_of_an_earlier_boot_is_not_read(monkeypatch, tmp_path, computed):
-    """A file renamed into place but never flushed may be in part after a crash: it is
-    read only in the boot that wrote it, unless it was sealed (flushed)."""
-    camera = CAMERAS["equidistant"]
+def _written_in_boot_1(monkeypatch, tmp_path, camera, computed):
+    """The maps of ``camera`` computed without the cache, and its cache file written (not
+    flushed) in a boot "boot-1"; ``computed`` cleared before the write."""
     reference = _reference(monkeypatch, camera)
     computed.clear()
     monkeypatch.setattr(_map_cache, "_boot_id", lambda: "boot-1")
     _maps(camera)
     (path,) = _files(tmp_path / "cache")
+    return reference, path
+
+
+def test_an_unflushed_file_of_an_earlier_boot_is_not_read(monkeypatch, tmp_path, computed):
+    """A file renamed into place but never flushed may be in part after a crash: it is
+    read only in the boot that wrote it, unless it was sealed (flushed)."""
+    camera = CAMERAS["equidistant"]
+    reference, path = _written_in_boot_1(monkeypatch, tmp_path, camera, computed)
     assert path.read_bytes()[_map_cache._SEAL_AT] == 0  # written unflushed
     _maps(camera)
     assert computed == [True, False]  # same boot: read
@@ -188,11 +195,7 @@ def test_an_unflushed_file_of_an_earlier_boot_is_not_read(monkeypatch, tmp_path,
 def test_an_old_file_is_sealed_by_a_reader_and_then_read_after_a_reboot(monkeypatch, tmp_path,
                                                                         computed):
     camera = CAMERAS["equidistant"]
-    reference = _reference(monkeypatch, camera)
-    computed.clear()
-    monkeypatch.setattr(_map_cache, "_boot_id", lambda: "boot-1")
-    _maps(camera)
-    (path,) = _files(tmp_path / "cache")
+    reference, path = _written_in_boot_1(monkeypatch, tmp_path, camera, computed)
     _maps(camera)  # younger than SEAL_AFTER_SECONDS: left unsealed
     _map_cache.wait_for_seals()
     assert path.read_bytes()[_map_cache._SEAL_AT] == 0
