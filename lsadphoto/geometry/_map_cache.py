@@ -359,17 +359,18 @@ def _evict(folder, *, keep):
 def cached_geometry_and_field(projection_key, shape, axes, method, compute):
     """The maps of ``compute(allocate)`` — a function that computes the solid angle,
     validity, position index and cos σ maps of a picture of ``shape`` into arrays it gets
-    from ``allocate(name, shape, dtype)`` (:data:`MAPS`'s names) — from the cache file of
+    from ``allocate(name, shape, dtype)`` (:data:`MAPS`'s names), and called without
+    ``allocate`` into arrays of its own in memory — from the cache file of
     this key where there is a whole one, else computed into a new cache file; computed in
     memory where the cache is off, the picture small or the file cannot be written.
     Returns what ``compute`` returns."""
     folder = cache_directory()
     if folder is None or math.prod(shape) <= MIN_PIXELS or not _POSIX:
-        return compute(_in_memory)
+        return compute()
     try:
         key = key_text(projection_key, shape, axes, method)
     except (OSError, ValueError):
-        return compute(_in_memory)
+        return compute()
     path = folder / (hashlib.sha256(key.encode("utf-8")).hexdigest()[:32] + ".maps")
     maps = _load(path, key, shape)
     if maps is not None:
@@ -380,7 +381,7 @@ def cached_geometry_and_field(projection_key, shape, axes, method, compute):
     try:
         pending = _PendingWrite(path, key, shape)
     except (OSError, LsadError):
-        return compute(_in_memory)
+        return compute()
     try:
         result = compute(lambda name, shape_, dtype: _stored(pending.arrays, name, shape_,
                                                              dtype))
@@ -389,10 +390,6 @@ def cached_geometry_and_field(projection_key, shape, axes, method, compute):
         raise
     pending.finish()
     return result
-
-
-def _in_memory(name, shape, dtype):
-    return np.empty(shape, dtype=dtype)
 
 
 def _stored(maps, name, shape, dtype):

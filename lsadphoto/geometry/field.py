@@ -647,7 +647,7 @@ def visual_field(projection, frame, *, position_index_method="evalglare"):
 
             geometry, maps = cached_geometry_and_field(
                 geometry_key, (rows, cols), axes, position_index_method,
-                lambda allocate, stored=False: _compute_pixel_geometry(
+                lambda allocate=_allocate, stored=False: _compute_pixel_geometry(
                     projection, (axes, position_index_method), allocate, stored))
             _GEOMETRY_CACHE.put(geometry_key, geometry)
             cached = VisualField(geometry, axes, position_index_method, maps)
